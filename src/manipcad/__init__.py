@@ -1,0 +1,23 @@
+"""manipcad: computer-aided design of high-accuracy control for robot manipulators.
+
+The main names are re-exported here; see the sub-packages for the rest.
+"""
+
+from manipcad.dynamics import (
+    forward_dynamics,
+    inverse_dynamics,
+    mass_matrix,
+    operation_counts,
+    torque_components,
+)
+from manipcad.errors import InputError, ManipcadError, ModelError
+from manipcad.model import Drive, Robot, catalog_names, load_robot
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Robot", "Drive", "load_robot", "catalog_names",
+    "inverse_dynamics", "mass_matrix", "forward_dynamics", "torque_components",
+    "operation_counts",
+    "ManipcadError", "ModelError", "InputError",
+]

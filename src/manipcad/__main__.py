@@ -1,0 +1,3 @@
+from manipcad.cli import main
+
+main()

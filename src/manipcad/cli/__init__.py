@@ -1,0 +1,15 @@
+"""The ``manipcad`` command.
+
+Each sub-command lives in its own module and registers itself on :data:`app`;
+bad input raises :class:`manipcad.errors.ManipcadError`, which :func:`main`
+turns into one line on stderr and exit status 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+from manipcad.cli.app import app, main
+
+# sub-commands register on import
+from manipcad.cli import demo, robots  # noqa: E402,F401  isort: skip
+
+__all__ = ["app", "main"]

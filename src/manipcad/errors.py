@@ -1,0 +1,26 @@
+"""The errors manipcad raises for bad input; the CLI turns them into exit status 2."""
+
+from __future__ import annotations
+
+
+class ManipcadError(ValueError):
+    """Base of every error caused by bad input (a file, an argument, a value)."""
+
+
+class ModelError(ManipcadError):
+    """A robot description that is not physical or not consistent."""
+
+
+class InputError(ManipcadError):
+    """Bad input in a file or argument: names the source, the field and the reason.
+
+    Args:
+        source: the file path or argument name.
+        field: the dotted path of the offending field ("" for the whole source).
+        reason: why it is wrong, in words.
+    """
+
+    def __init__(self, source: str, field: str, reason: str) -> None:
+        self.source, self.field, self.reason = str(source), field, reason
+        where = f"{self.source}: {field}" if field else self.source
+        super().__init__(f"{where}: {reason}")

@@ -1,0 +1,64 @@
+"""``load_robot``: one entry for catalog names, YAML files and URDF files."""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+from manipcad.errors import InputError
+from manipcad.model.robot import Robot
+
+CATALOG = resources.files("manipcad.model") / "catalog"
+
+
+def catalog_names(kind: str = "robots") -> list[str]:
+    """Names of the built-in catalog entries of a kind: "robots", "motors" or "gears"."""
+    folder = CATALOG / kind
+    return sorted(p.name.rsplit(".", 1)[0] for p in folder.iterdir()
+                  if p.name.endswith((".yaml", ".urdf")))
+
+
+def load_robot(source: str | Path | Robot) -> Robot:
+    """Load a robot from a built-in catalog name, a YAML file or a URDF file.
+
+    Args:
+        source: a catalog name (see ``manipcad robots list``), a path ending in
+            .yaml/.yml (the DH schema of docs/robot-yaml.md) or .urdf, or a
+            :class:`Robot` (returned as it is).
+
+    Returns:
+        The validated :class:`Robot`.
+
+    Raises:
+        InputError: naming the file, the field and the reason.
+
+    Example:
+        >>> import manipcad
+        >>> manipcad.load_robot("puma560").n
+        6
+    """
+    if isinstance(source, Robot):
+        return source
+    text = str(source)
+    path = Path(text)
+    if path.suffix.lower() in (".yaml", ".yml", ".urdf") or path.exists():
+        if not path.is_file():
+            raise InputError(text, "", "no such file")
+        return _load_path(path)
+    for ext in (".yaml", ".urdf"):
+        entry = CATALOG / "robots" / f"{text}{ext}"
+        if entry.is_file():
+            with resources.as_file(entry) as p:
+                return _load_path(Path(p))
+    raise InputError(text, "", "not a file and not a catalog robot; catalog robots: "
+                     + ", ".join(catalog_names()))
+
+
+def _load_path(path: Path) -> Robot:
+    if path.suffix.lower() == ".urdf":
+        from manipcad.model.urdf import load_urdf
+
+        return load_urdf(path)
+    from manipcad.model.yaml_robot import load_yaml_robot
+
+    return load_yaml_robot(path)

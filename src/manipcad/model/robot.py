@@ -1,0 +1,371 @@
+"""The manipulator model: a kinematic tree of revolute and prismatic joints.
+
+Every joint ``i`` is a fixed placement ``(R_i, p_i)`` relative to its parent's
+body frame (the base frame when ``parent[i] == -1``) followed by a motion about
+the local z axis: a rotation by ``q_i + offset_i`` (revolute) or a translation
+by ``q_i + offset_i`` (prismatic). The body frame of link ``i`` is the frame
+after that motion, so
+
+    T_parent_i(q) = [R_i, p_i] · Rot_z(q_i + offset_i)        (revolute)
+    T_parent_i(q) = [R_i, p_i] · Trans_z(q_i + offset_i)      (prismatic)
+
+This is the modified Denavit-Hartenberg frame the paper uses (section 4.1);
+standard DH and URDF are mapped onto it by the loaders.
+
+The model holds the description only; the compiled algorithms read one packed
+table (:attr:`Robot.table`) so a call passes few arrays and allocates little.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from manipcad.errors import ModelError
+
+REVOLUTE = "revolute"
+PRISMATIC = "prismatic"
+JOINT_TYPES = (REVOLUTE, PRISMATIC)
+
+# Column layout of the packed model table read by the compiled kernels.
+COL_R = 0  # 9: placement rotation, row-major (parent <- joint)
+COL_P = 9  # 3: placement translation in the parent body frame, m
+COL_OFFSET = 12  # joint offset added to q, rad or m
+COL_TYPE = 13  # 0 revolute, 1 prismatic
+COL_PARENT = 14  # parent index, -1 for the base
+COL_MASS = 15  # kg
+COL_COM = 16  # 3: centre of mass in the body frame, m
+COL_IC = 19  # 9: inertia about the centre of mass in the body frame, kg·m²
+COL_JR = 28  # J·i_r², joint-referred rotor inertia, kg·m² (or kg for prismatic)
+COL_BV = 29  # k_v·i_r², joint-referred viscous friction, N·m·s/rad
+COL_FCP = 30  # |i_r|·M_f+, joint-referred dry friction in positive motion, N·m
+COL_FCN = 31  # |i_r|·M_f-, joint-referred dry friction magnitude in negative motion, N·m
+TABLE_COLS = 32
+
+
+@dataclass(frozen=True)
+class Drive:
+    """A DC servo drive of one joint: motor, power amplifier and gearbox (paper 3.1).
+
+    All motor quantities are on the motor side of the gearbox; the joint sees
+    the rotor inertia as ``J·i_r²``, the viscous friction as ``k_v·i_r²·qd`` and
+    the dry friction as ``|i_r|·M_f·sign(qd)``.
+
+    Attributes:
+        J: rotor plus gearbox inertia on the motor shaft, kg·m².
+        ratio: gear ratio i_r = motor angle / joint coordinate (rad/rad, or rad/m
+            for a prismatic joint); its sign gives the direction.
+        k_v: viscous friction on the motor shaft, N·m·s/rad.
+        M_f: dry (Coulomb) friction on the motor shaft as (positive motion,
+            negative motion) magnitudes, N·m.
+        R: armature resistance, Ω.
+        L: armature inductance, H.
+        k_m: torque constant, N·m/A.
+        k_w: back-EMF constant, V·s/rad.
+        k_u: power amplifier gain, V/V.
+        u_max: amplifier output limit (the edge of its linear zone), V.
+        name: catalog name of the motor, or "".
+        gear: catalog name of the gearbox, or "".
+        rated_torque: continuous motor torque, N·m (nan if unknown).
+        peak_torque: peak motor torque, N·m (nan if unknown).
+        max_speed: maximum motor speed, rad/s (nan if unknown).
+        rated_voltage: rated armature voltage, V (nan if unknown).
+        rated_current: continuous armature current, A (nan if unknown).
+    """
+
+    J: float = 0.0
+    ratio: float = 1.0
+    k_v: float = 0.0
+    M_f: tuple[float, float] = (0.0, 0.0)
+    R: float = float("nan")
+    L: float = float("nan")
+    k_m: float = float("nan")
+    k_w: float = float("nan")
+    k_u: float = 1.0
+    u_max: float = float("inf")
+    name: str = ""
+    gear: str = ""
+    rated_torque: float = float("nan")
+    peak_torque: float = float("nan")
+    max_speed: float = float("nan")
+    rated_voltage: float = float("nan")
+    rated_current: float = float("nan")
+
+    def __post_init__(self) -> None:
+        mf = self.M_f
+        if np.ndim(mf) == 0:
+            mf = (float(mf), float(mf))
+        elif len(mf) != 2:
+            raise ModelError("drive M_f must be one value or a [positive, negative] pair")
+        # the negative-motion value may be given signed, as Corke's Tc-
+        object.__setattr__(self, "M_f", (abs(float(mf[0])), abs(float(mf[1]))))
+        for name in ("J", "k_v", "R", "L", "k_m", "k_w", "u_max"):
+            v = float(getattr(self, name))
+            if v < 0:
+                raise ModelError(f"drive {name} must be >= 0, got {v}")
+        if self.ratio == 0:
+            raise ModelError("drive ratio must be non-zero")
+
+    @property
+    def has_electrics(self) -> bool:
+        """True when R, L, k_m and k_w are all known (the drive can be simulated)."""
+        return all(np.isfinite([self.R, self.L, self.k_m, self.k_w]))
+
+    def replace(self, **changes) -> Drive:
+        """A copy with some fields changed."""
+        return dataclasses.replace(self, **changes)
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A manipulator: kinematic tree, link inertias, drives and gravity.
+
+    Build one with :func:`manipcad.load_robot` or :meth:`Robot.from_arrays`.
+
+    Attributes:
+        name: the robot's name.
+        joint_names: one name per joint, length n.
+        joint_types: "revolute" or "prismatic" per joint.
+        parent: parent joint index per joint, -1 for the base; parents precede children.
+        placement_R: (n, 3, 3) rotation of each joint frame in its parent body frame.
+        placement_p: (n, 3) origin of each joint frame in its parent body frame, m.
+        offset: (n,) added to q before the joint motion, rad or m.
+        mass: (n,) link masses, kg.
+        com: (n, 3) centres of mass in the body frames, m.
+        inertia: (n, 3, 3) inertia tensors about the centres of mass, body axes, kg·m².
+        drives: one :class:`Drive` or None per joint.
+        gravity: (3,) gravity in the base frame, m/s².
+        limits: (n, 2) lower and upper joint limits, rad or m (±inf if none).
+        link_names: one name per moving link.
+        tool_R, tool_p: the tool (gripper) frame in the last link's body frame.
+    """
+
+    name: str
+    joint_names: tuple[str, ...]
+    joint_types: tuple[str, ...]
+    parent: np.ndarray
+    placement_R: np.ndarray
+    placement_p: np.ndarray
+    offset: np.ndarray
+    mass: np.ndarray
+    com: np.ndarray
+    inertia: np.ndarray
+    drives: tuple[Drive | None, ...]
+    gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    limits: np.ndarray | None = None
+    link_names: tuple[str, ...] = ()
+    tool_R: np.ndarray = field(default_factory=lambda: np.eye(3))
+    tool_p: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    source: str = ""
+
+    # ------------------------------------------------------------------ build
+    @classmethod
+    def from_arrays(
+        cls,
+        name: str,
+        joint_types: Sequence[str],
+        parent: Sequence[int],
+        placement_R: np.ndarray,
+        placement_p: np.ndarray,
+        mass: Sequence[float],
+        com: np.ndarray,
+        inertia: np.ndarray,
+        *,
+        offset: Sequence[float] | None = None,
+        joint_names: Sequence[str] | None = None,
+        drives: Sequence[Drive | None] | None = None,
+        gravity: Sequence[float] = (0.0, 0.0, -9.81),
+        limits: np.ndarray | None = None,
+        link_names: Sequence[str] | None = None,
+        tool_R: np.ndarray | None = None,
+        tool_p: np.ndarray | None = None,
+        source: str = "",
+    ) -> Robot:
+        """Build and validate a robot from per-joint arrays (see the class docstring)."""
+        n = len(joint_types)
+        f = np.asarray
+        robot = cls(
+            name=name,
+            joint_names=tuple(joint_names or (f"q{i + 1}" for i in range(n))),
+            joint_types=tuple(joint_types),
+            parent=f(parent, dtype=np.int64).reshape(-1),
+            placement_R=f(placement_R, dtype=float).reshape(-1, 3, 3),
+            placement_p=f(placement_p, dtype=float).reshape(-1, 3),
+            offset=np.zeros(n) if offset is None else f(offset, dtype=float).reshape(-1),
+            mass=f(mass, dtype=float).reshape(-1),
+            com=f(com, dtype=float).reshape(-1, 3),
+            inertia=f(inertia, dtype=float).reshape(-1, 3, 3),
+            drives=tuple(drives) if drives is not None else (None,) * n,
+            gravity=f(gravity, dtype=float).reshape(3),
+            limits=(
+                np.tile([-np.inf, np.inf], (n, 1)) if limits is None
+                else f(limits, dtype=float).reshape(-1, 2)
+            ),
+            link_names=tuple(link_names or (f"link{i + 1}" for i in range(n))),
+            tool_R=np.eye(3) if tool_R is None else f(tool_R, dtype=float).reshape(3, 3),
+            tool_p=np.zeros(3) if tool_p is None else f(tool_p, dtype=float).reshape(3),
+            source=source,
+        )
+        robot.validate()
+        return robot
+
+    def validate(self) -> None:
+        """Check shapes, tree order and physical values; raise :class:`ModelError`."""
+        n = self.n
+        shapes = {
+            "joint_names": (len(self.joint_names),), "parent": self.parent.shape,
+            "placement_R": self.placement_R.shape[:1], "placement_p": self.placement_p.shape[:1],
+            "offset": self.offset.shape, "mass": self.mass.shape, "com": self.com.shape[:1],
+            "inertia": self.inertia.shape[:1], "drives": (len(self.drives),),
+            "limits": self.limits.shape[:1], "link_names": (len(self.link_names),),
+        }
+        for key, shape in shapes.items():
+            if shape != (n,):
+                raise ModelError(f"{key} has {shape[0]} entries for {n} joints")
+        for i, t in enumerate(self.joint_types):
+            if t not in JOINT_TYPES:
+                raise ModelError(f"joint {self.joint_names[i]!r}: unknown joint type {t!r} "
+                                 f"(expected one of {', '.join(JOINT_TYPES)})")
+            if not -1 <= self.parent[i] < i:
+                raise ModelError(f"joint {self.joint_names[i]!r}: parent index {self.parent[i]} "
+                                 "must name an earlier joint or the base (-1)")
+        if len(set(self.joint_names)) != n:
+            raise ModelError("joint names must be unique")
+        for i in range(n):
+            where = f"link of joint {self.joint_names[i]!r}"
+            if not np.isfinite(self.mass[i]) or self.mass[i] < 0:
+                raise ModelError(f"{where}: mass must be >= 0 kg, got {self.mass[i]}")
+            I = self.inertia[i]
+            if not np.allclose(I, I.T, atol=1e-12 * max(1.0, np.abs(I).max())):
+                raise ModelError(f"{where}: inertia tensor is not symmetric")
+            if np.linalg.eigvalsh(I).min() < -1e-12 * max(1.0, np.abs(I).max()):
+                raise ModelError(f"{where}: inertia tensor is not positive semi-definite "
+                                 f"(eigenvalues {np.linalg.eigvalsh(I)})")
+            Rp = self.placement_R[i]
+            if not np.allclose(Rp @ Rp.T, np.eye(3), atol=1e-9) or np.linalg.det(Rp) < 0:
+                raise ModelError(f"joint {self.joint_names[i]!r}: placement is not a rotation")
+
+    # ------------------------------------------------------------ properties
+    @property
+    def n(self) -> int:
+        """Number of joints (degrees of freedom)."""
+        return len(self.joint_types)
+
+    @property
+    def has_drives(self) -> bool:
+        """True when at least one joint has a drive."""
+        return any(d is not None for d in self.drives)
+
+    @property
+    def table(self) -> np.ndarray:
+        """The packed (n, TABLE_COLS) model table the compiled kernels read."""
+        cached = self.__dict__.get("_table")
+        if cached is None:
+            cached = _pack(self)
+            object.__setattr__(self, "_table", cached)
+        return cached
+
+    def drive(self, joint: int | str) -> Drive:
+        """The drive of a joint (index or name); raises if the joint has none."""
+        i = self.joint_index(joint)
+        d = self.drives[i]
+        if d is None:
+            raise ModelError(f"joint {self.joint_names[i]!r} has no drive")
+        return d
+
+    def joint_index(self, joint: int | str) -> int:
+        """Index of a joint given by index or name."""
+        if isinstance(joint, str):
+            try:
+                return self.joint_names.index(joint)
+            except ValueError:
+                raise ModelError(f"no joint named {joint!r}; joints are "
+                                 f"{', '.join(self.joint_names)}") from None
+        if not -self.n <= int(joint) < self.n:
+            raise ModelError(f"joint index {joint} out of range for {self.n} joints")
+        return int(joint) % self.n
+
+    # ---------------------------------------------------------- new robots
+    def replace(self, **changes) -> Robot:
+        """A validated copy with some fields changed."""
+        new = dataclasses.replace(self, **changes)
+        new.__dict__.pop("_table", None)
+        new.validate()
+        return new
+
+    def with_payload(self, mass: float, com: Sequence[float] = (0.0, 0.0, 0.0),
+                     inertia: np.ndarray | None = None, *, link: int | str = -1) -> Robot:
+        """A new robot carrying a rigid payload on one link (default the last).
+
+        Args:
+            mass: payload mass, kg (>= 0).
+            com: payload centre of mass in the link's body frame, m.
+            inertia: (3, 3) payload inertia about its own centre of mass, body
+                axes, kg·m²; None for a point mass.
+            link: joint index or name of the carrying link.
+
+        Returns:
+            A new :class:`Robot`; this one is unchanged.
+
+        Example:
+            >>> import manipcad
+            >>> puma = manipcad.load_robot("puma560")
+            >>> loaded = puma.with_payload(2.0, com=(0, 0, 0.1))
+        """
+        i = self.joint_index(link)
+        m_p = float(mass)
+        if not np.isfinite(m_p) or m_p < 0:
+            raise ModelError(f"payload mass must be >= 0 kg, got {mass}")
+        c_p = np.asarray(com, dtype=float).reshape(3)
+        I_p = np.zeros((3, 3)) if inertia is None else np.asarray(inertia, float).reshape(3, 3)
+        m, c, Ic = combine_bodies(self.mass[i], self.com[i], self.inertia[i], m_p, c_p, I_p)
+        mass_new, com_new, in_new = self.mass.copy(), self.com.copy(), self.inertia.copy()
+        mass_new[i], com_new[i], in_new[i] = m, c, Ic
+        return self.replace(mass=mass_new, com=com_new, inertia=in_new)
+
+    def without_drives(self) -> Robot:
+        """The same robot with no drives (pure rigid body)."""
+        return self.replace(drives=(None,) * self.n)
+
+    def __repr__(self) -> str:
+        kinds = "".join("R" if t == REVOLUTE else "P" for t in self.joint_types)
+        return f"Robot({self.name!r}, n={self.n}, joints={kinds})"
+
+
+def combine_bodies(m1: float, c1: np.ndarray, I1: np.ndarray,
+                   m2: float, c2: np.ndarray, I2: np.ndarray):
+    """Merge two rigid bodies given in one frame (masses kg, centres m, inertias
+    about their own centres kg·m²) into one: (mass, centre, inertia about it)."""
+    m = m1 + m2
+    if m <= 0:
+        return 0.0, np.zeros(3), I1 + I2
+    c = (m1 * c1 + m2 * c2) / m
+    return m, c, I1 + I2 + _shift(m1, c1 - c) + _shift(m2, c2 - c)
+
+
+def _shift(m: float, d: np.ndarray) -> np.ndarray:
+    """Parallel-axis term m(|d|²E - d dᵀ), kg·m²."""
+    return m * (d @ d * np.eye(3) - np.outer(d, d))
+
+
+def _pack(robot: Robot) -> np.ndarray:
+    t = np.zeros((robot.n, TABLE_COLS))
+    t[:, COL_R:COL_R + 9] = robot.placement_R.reshape(-1, 9)
+    t[:, COL_P:COL_P + 3] = robot.placement_p
+    t[:, COL_OFFSET] = robot.offset
+    t[:, COL_TYPE] = [0.0 if jt == REVOLUTE else 1.0 for jt in robot.joint_types]
+    t[:, COL_PARENT] = robot.parent
+    t[:, COL_MASS] = robot.mass
+    t[:, COL_COM:COL_COM + 3] = robot.com
+    t[:, COL_IC:COL_IC + 9] = robot.inertia.reshape(-1, 9)
+    for i, d in enumerate(robot.drives):
+        if d is not None:
+            t[i, COL_JR] = d.J * d.ratio**2
+            t[i, COL_BV] = d.k_v * d.ratio**2
+            t[i, COL_FCP] = abs(d.ratio) * d.M_f[0]
+            t[i, COL_FCN] = abs(d.ratio) * d.M_f[1]
+    t.setflags(write=False)
+    return t

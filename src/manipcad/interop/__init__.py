@@ -1,0 +1,1 @@
+"""Bridges to other robotics libraries (optional dependencies, imported on use)."""

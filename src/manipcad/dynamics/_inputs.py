@@ -12,33 +12,28 @@ _NO_FEXT = np.zeros((1, 1, 6))
 def as_states(n: int, **arrays) -> tuple[list[np.ndarray], bool]:
     """Coerce joint arrays to (N, n) float64; return them and whether the input was one state.
 
-    Raises ManipcadError naming the argument when a shape is wrong or values are not finite.
+    Raises ManipcadError naming the argument when a shape is wrong. NaN propagates
+    to the result as in numpy (no per-call scan: this runs on every call).
     """
     out = []
-    single = None
     shape = None
     for name, x in arrays.items():
-        a = np.asarray(x, dtype=np.float64)
+        a = x if type(x) is np.ndarray and x.dtype == np.float64 else np.asarray(x, np.float64)
         if a.ndim == 1:
             a = a.reshape(1, -1)
-            is_single = True
-        elif a.ndim == 2:
-            is_single = False
-        else:
+        elif a.ndim != 2:
             raise ManipcadError(f"{name} must have shape (n,) or (N, n) with n = {n}, "
                                 f"got {np.shape(x)}")
         if a.shape[1] != n:
             raise ManipcadError(f"{name} must have n = {n} columns (one per joint), "
                                 f"got shape {np.shape(x)}")
         if shape is None:
-            shape, single = a.shape, is_single
-        elif a.shape != shape or is_single != single:
-            raise ManipcadError(f"{name} has shape {np.shape(x)}, the other arguments "
-                                f"{shape if not single else shape[1:]}")
-        if not np.isfinite(a).all():
-            raise ManipcadError(f"{name} holds NaN or infinite values")
-        out.append(np.ascontiguousarray(a))
-    return out, bool(single)
+            shape, single = a.shape, np.ndim(x) == 1
+        elif a.shape != shape or (np.ndim(x) == 1) != single:
+            raise ManipcadError(f"{name} has shape {np.shape(x)}, the first argument "
+                                f"{shape[1:] if single else shape}")
+        out.append(a if a.flags.c_contiguous else np.ascontiguousarray(a))
+    return out, single
 
 
 def as_gravity(robot, gravity) -> np.ndarray:
@@ -47,7 +42,8 @@ def as_gravity(robot, gravity) -> np.ndarray:
         return robot.gravity
     g = np.asarray(gravity, dtype=np.float64)
     if g.shape != (3,) or not np.isfinite(g).all():
-        raise ManipcadError(f"gravity must be a finite vector of shape (3,), got {np.shape(gravity)}")
+        raise ManipcadError("gravity must be a finite vector of shape (3,), "
+                            f"got {np.shape(gravity)}")
     return g
 
 

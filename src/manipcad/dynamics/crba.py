@@ -123,7 +123,8 @@ def _add_to_parent(wc, wp, tmp):
     M = tmp[5:8]
     for a in range(3):
         for s in range(3):
-            M[a, s] = I[3 * a] * R[3 * s] + I[3 * a + 1] * R[3 * s + 1] + I[3 * a + 2] * R[3 * s + 2]
+            M[a, s] = (I[3 * a] * R[3 * s] + I[3 * a + 1] * R[3 * s + 1]
+                       + I[3 * a + 2] * R[3 * s + 2])
     Ip = wp[C_I:C_I + 9]
     for r in range(3):
         for s in range(r, 3):

@@ -18,8 +18,9 @@ def random_tree(seed: int, n: int = 7, *, chain: bool = False, drives: bool = Fa
     inertia = A @ A.transpose(0, 2, 1) * 0.05 + 0.001 * np.eye(3)
     drv = None
     if drives:
-        drv = [Drive(J=rng.uniform(1e-5, 1e-4), ratio=rng.uniform(-100, 100), k_v=rng.uniform(0, 1e-3),
-                     M_f=(rng.uniform(0, 0.05), rng.uniform(0, 0.05))) for _ in range(n)]
+        drv = [Drive(J=rng.uniform(1e-5, 1e-4), ratio=rng.uniform(-100, 100),
+                     k_v=rng.uniform(0, 1e-3), M_f=(rng.uniform(0, 0.05), rng.uniform(0, 0.05)))
+               for _ in range(n)]
     return Robot.from_arrays(
         f"tree{seed}", types, parent, Rotation.random(n, random_state=seed).as_matrix(),
         rng.normal(size=(n, 3)) * 0.3, rng.uniform(0.5, 3.0, n), rng.normal(size=(n, 3)) * 0.1,

@@ -24,3 +24,8 @@ class InputError(ManipcadError):
         self.source, self.field, self.reason = str(source), field, reason
         where = f"{self.source}: {field}" if field else self.source
         super().__init__(f"{where}: {reason}")
+
+
+class ManipcadWarning(UserWarning):
+    """Input that is usable but questionable, e.g. an inertia tensor that is positive
+    semi-definite but breaks the triangle inequality (the published PUMA 560 link 1)."""

@@ -16,12 +16,12 @@ import math
 import numba as nb
 import numpy as np
 
-from manipcad.dynamics.aba import ABA_WORK, aba_one
-from manipcad.dynamics.crba import CRBA_WORK, crba_one
-from manipcad.dynamics.rnea import RNEA_WORK, rnea_one
 from manipcad.drives.coupling import drive_rates
 from manipcad.drives.dc import static_current
 from manipcad.drives.params import KIND_ELASTIC, KIND_RIGID, KIND_RIGID_STATIC, P_KIND, P_RATIO
+from manipcad.dynamics.aba import ABA_WORK, aba_one
+from manipcad.dynamics.crba import CRBA_WORK, crba_one
+from manipcad.dynamics.rnea import RNEA_WORK, rnea_one
 from manipcad.sim.regulators import (
     NSIG,
     S_HI,

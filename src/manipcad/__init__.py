@@ -3,6 +3,10 @@
 The main names are re-exported here; see the sub-packages for the rest.
 """
 
+from manipcad._numba_cache import configure as _configure_numba_cache
+
+_configure_numba_cache()
+
 from manipcad.dynamics import (
     forward_dynamics,
     inverse_dynamics,

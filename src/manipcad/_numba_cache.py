@@ -1,0 +1,43 @@
+"""Key numba's on-disk cache to the source of all compiled kernels.
+
+numba's ``cache=True`` checks only the file of the function it compiles, so a
+kernel whose callee (in another file) changed would run stale machine code.
+We hash every module of the package that uses numba and point
+``NUMBA_CACHE_DIR`` at a folder named after that hash; a change anywhere
+recompiles everything once. A user-set ``NUMBA_CACHE_DIR`` is respected.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import sys
+from pathlib import Path
+
+
+def configure() -> None:
+    """Set NUMBA_CACHE_DIR to ~/.cache/manipcad/numba-<hash of the kernel sources>."""
+    if "NUMBA_CACHE_DIR" in os.environ:
+        return
+    root = Path(__file__).parent
+    digest = hashlib.sha1()
+    for path in sorted(root.rglob("*.py")):
+        text = path.read_bytes()
+        if b"numba" in text:
+            digest.update(path.relative_to(root).as_posix().encode())
+            digest.update(text)
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "manipcad"
+    here = base / f"numba-{digest.hexdigest()[:16]}"
+    try:
+        here.mkdir(parents=True, exist_ok=True)
+        for old in base.glob("numba-*"):
+            if old != here:
+                shutil.rmtree(old, ignore_errors=True)
+    except OSError:
+        return  # read-only home: numba's default (next to the sources) applies
+    os.environ["NUMBA_CACHE_DIR"] = str(here)
+    if "numba" in sys.modules:
+        from numba.core import config
+
+        config.reload_config()

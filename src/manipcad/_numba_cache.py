@@ -13,6 +13,7 @@ import hashlib
 import os
 import shutil
 import sys
+import time
 from pathlib import Path
 
 
@@ -32,7 +33,8 @@ def configure() -> None:
     try:
         here.mkdir(parents=True, exist_ok=True)
         for old in base.glob("numba-*"):
-            if old != here:
+            # stale versions go after a day (another process may still be using a fresh one)
+            if old != here and time.time() - old.stat().st_mtime > 86400:
                 shutil.rmtree(old, ignore_errors=True)
     except OSError:
         return  # read-only home: numba's default (next to the sources) applies

@@ -14,7 +14,7 @@ from manipcad.dynamics import (
     operation_counts,
     torque_components,
 )
-from manipcad.errors import InputError, ManipcadError, ModelError
+from manipcad.errors import InputError, ManipcadError, ManipcadWarning, ModelError
 from manipcad.model import Drive, Robot, catalog_names, load_robot
 
 __version__ = "0.1.0"
@@ -23,5 +23,5 @@ __all__ = [
     "Robot", "Drive", "load_robot", "catalog_names",
     "inverse_dynamics", "mass_matrix", "forward_dynamics", "torque_components",
     "operation_counts",
-    "ManipcadError", "ModelError", "InputError",
+    "ManipcadError", "ModelError", "InputError", "ManipcadWarning",
 ]

@@ -16,12 +16,13 @@ from manipcad.dynamics import (
 )
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning, ModelError
 from manipcad.model import Drive, Robot, catalog_names, load_robot
+from manipcad.trajectories import load_trajectory, save_trajectory
 
 __version__ = "0.1.0"
 
 __all__ = [
     "Robot", "Drive", "load_robot", "catalog_names",
     "inverse_dynamics", "mass_matrix", "forward_dynamics", "torque_components",
-    "operation_counts",
+    "operation_counts", "load_trajectory", "save_trajectory",
     "ManipcadError", "ModelError", "InputError", "ManipcadWarning",
 ]

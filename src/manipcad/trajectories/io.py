@@ -1,0 +1,338 @@
+"""Trajectory files: YAML load and save, validated with pydantic.
+
+A file is one mapping with a ``type`` key and that type's fields, SI units
+(joint values in rad or m, times in s). Examples::
+
+    type: cosine            # q = q0 + A(1 - cos ωt), the paper's laws (2)
+    amplitude: [0.5, 0.0, 0.25]   # A per joint, rad or m (one number: all joints)
+    omega: [4.0, 0.0, 16.0]       # ω per joint, rad/s
+    duration: 1.6                 # s (optional: one period of the slowest joint)
+    q0: [0.0, 0.0, 0.0]           # start, rad or m (optional, default 0)
+
+    type: quintic           # q_start, q_end (rad or m), duration (s)
+    type: trapezoidal       # q_start, q_end, v_max (rad/s or m/s), a_max (rad/s² or m/s²)
+    type: spline            # times (s, strictly increasing), points (one row per time)
+    type: line              # robot, p_start, p_end (m), duration (s), q0,
+                            #   profile (quintic|cubic|linear), orientation (free|fixed)
+    type: circle            # robot, center (m), radius (m), normal, duration (s), q0,
+                            #   angle (rad, default 2π), start, profile, orientation
+
+``robot`` is a catalog name or a robot file path (relative paths are taken
+from the trajectory file's folder). Unknown fields, wrong types, wrong
+lengths and non-physical values raise :class:`manipcad.errors.InputError`
+naming the file, the field (dotted, with [i] for list entries) and the reason.
+Saving writes a temporary file beside the target and renames it over the
+target, so an interrupted or failed save leaves any earlier file intact.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import yaml
+from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
+
+from manipcad.errors import InputError, ManipcadError
+from manipcad.model.robot import Robot
+from manipcad.trajectories.base import Trajectory
+from manipcad.trajectories.cartesian import circle, line
+from manipcad.trajectories.cosine import cosine
+from manipcad.trajectories.quintic import quintic
+from manipcad.trajectories.spline import spline
+from manipcad.trajectories.trapezoidal import trapezoidal
+
+
+def _listify(v: Any) -> Any:
+    """Let a single number stand for a one-entry list (broadcast to every joint later)."""
+    if isinstance(v, int | float) and not isinstance(v, bool):
+        return [v]
+    return v
+
+
+Numbers = list[float]
+NumbersOrOne = Annotated[list[float], BeforeValidator(_listify)]
+Profile = Literal["quintic", "cubic", "linear"]
+Orientation = Literal["free", "fixed"]
+
+
+class _Schema(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
+
+
+class CosineFile(_Schema):
+    """Fields of ``type: cosine`` (see :func:`manipcad.trajectories.cosine`)."""
+
+    type: Literal["cosine"]
+    amplitude: NumbersOrOne
+    omega: NumbersOrOne
+    duration: float | None = None
+    q0: NumbersOrOne = [0.0]
+
+
+class QuinticFile(_Schema):
+    """Fields of ``type: quintic`` (see :func:`manipcad.trajectories.quintic`)."""
+
+    type: Literal["quintic"]
+    q_start: Numbers
+    q_end: Numbers
+    duration: float
+
+
+class TrapezoidalFile(_Schema):
+    """Fields of ``type: trapezoidal`` (see :func:`manipcad.trajectories.trapezoidal`)."""
+
+    type: Literal["trapezoidal"]
+    q_start: Numbers
+    q_end: Numbers
+    v_max: NumbersOrOne
+    a_max: NumbersOrOne
+
+
+class SplineFile(_Schema):
+    """Fields of ``type: spline`` (see :func:`manipcad.trajectories.spline`)."""
+
+    type: Literal["spline"]
+    times: Numbers
+    points: list[Numbers]
+
+
+class LineFile(_Schema):
+    """Fields of ``type: line`` (see :func:`manipcad.trajectories.line`)."""
+
+    type: Literal["line"]
+    robot: str | None = None
+    p_start: Numbers
+    p_end: Numbers
+    duration: float
+    q0: Numbers
+    profile: Profile = "quintic"
+    orientation: Orientation = "free"
+
+
+class CircleFile(_Schema):
+    """Fields of ``type: circle`` (see :func:`manipcad.trajectories.circle`)."""
+
+    type: Literal["circle"]
+    robot: str | None = None
+    center: Numbers
+    radius: float
+    normal: Numbers
+    duration: float
+    q0: Numbers
+    angle: float = 2.0 * math.pi
+    start: Numbers | None = None
+    profile: Profile = "quintic"
+    orientation: Orientation = "free"
+
+
+SCHEMAS: dict[str, type[_Schema]] = {
+    "cosine": CosineFile, "quintic": QuinticFile, "trapezoidal": TrapezoidalFile,
+    "spline": SplineFile, "line": LineFile, "circle": CircleFile,
+}
+
+
+def _field_path(loc: tuple[Any, ...]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += f".{part}" if out else str(part)
+    return out
+
+
+def _pydantic_error(source: str, kind: str, exc: ValidationError) -> InputError:
+    errors = exc.errors()
+    first = errors[0]
+    field = _field_path(first["loc"])
+    if first["type"] == "extra_forbidden":
+        allowed = ", ".join(SCHEMAS[kind].model_fields)
+        reason = f"unknown field for a {kind!r} trajectory (fields: {allowed})"
+    elif first["type"] == "missing":
+        reason = f"missing (required for a {kind!r} trajectory)"
+    else:
+        reason = f"{first['msg']} (got {first.get('input')!r})"
+    if len(errors) > 1:
+        reason += f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})"
+    return InputError(source, field, reason)
+
+
+def trajectory_from_dict(data: Any, source: str = "<dict>", *, robot: Robot | None = None,
+                         base_dir: Path | None = None) -> Trajectory:
+    """Build a trajectory from its YAML mapping (as :meth:`Trajectory.to_dict` gives).
+
+    Args:
+        data: the mapping; its ``type`` picks the law.
+        source: the name used in errors (usually the file path).
+        robot: for line and circle paths, the robot to use instead of the
+            mapping's ``robot`` field.
+        base_dir: folder that relative robot file paths are taken from.
+
+    Returns:
+        The :class:`Trajectory`.
+
+    Raises:
+        InputError: naming ``source``, the dotted field and the reason.
+
+    Example:
+        >>> traj = trajectory_from_dict({"type": "quintic", "q_start": [0.0],
+        ...                              "q_end": [1.0], "duration": 2.0})
+        >>> traj.duration
+        2.0
+    """
+    if not isinstance(data, dict):
+        raise InputError(source, "", "expected a mapping of trajectory fields with a 'type', "
+                         f"got {type(data).__name__}")
+    if "type" not in data:
+        raise InputError(source, "type", f"missing; one of {', '.join(SCHEMAS)}")
+    kind = data["type"]
+    if not isinstance(kind, str) or kind not in SCHEMAS:
+        raise InputError(source, "type", f"unknown trajectory type {kind!r}; expected one of "
+                         f"{', '.join(SCHEMAS)}")
+    try:
+        spec = SCHEMAS[kind].model_validate(data)
+    except ValidationError as exc:
+        raise _pydantic_error(source, kind, exc) from None
+    fields = spec.model_dump(exclude={"type"})
+    try:
+        if kind in ("line", "circle"):
+            fields["robot"] = _resolve_robot(source, fields.pop("robot"), robot, base_dir)
+            make = line if kind == "line" else circle
+            return make(**fields)
+        return {"cosine": cosine, "quintic": quintic, "trapezoidal": trapezoidal,
+                "spline": spline}[kind](**fields)
+    except InputError as exc:
+        if exc.source == source:
+            raise
+        if exc.source == kind:  # raised by the constructor: name the file
+            raise InputError(source, exc.field, exc.reason) from None
+        raise InputError(source, "", str(exc)) from None
+    except ManipcadError as exc:
+        raise InputError(source, "", f"the {kind} path cannot be followed: {exc}") from None
+
+
+def _resolve_robot(source: str, ref: str | None, robot: Robot | None,
+                   base_dir: Path | None) -> Robot:
+    from manipcad.model.load import load_robot
+
+    if robot is not None:
+        return robot
+    if not ref:
+        raise InputError(source, "robot", "missing: a catalog robot name or a robot file path")
+    path = Path(ref)
+    if base_dir is not None and not path.is_absolute() and (
+            path.suffix.lower() in (".yaml", ".yml", ".urdf") or len(path.parts) > 1):
+        path = base_dir / path
+        ref = str(path)
+    try:
+        return load_robot(ref)
+    except ManipcadError as exc:
+        raise InputError(source, "robot", f"cannot load robot {ref!r}: {exc}") from None
+
+
+def load_trajectory(path: str | Path, *, robot: Robot | None = None) -> Trajectory:
+    """Load a trajectory from a YAML file.
+
+    Args:
+        path: the file (schema in this module's docstring; SI units).
+        robot: for line and circle paths, use this robot instead of the file's
+            ``robot`` field (which may then be left out).
+
+    Returns:
+        The :class:`Trajectory`.
+
+    Raises:
+        InputError: naming the file, the dotted field and the reason (no such
+            file, YAML syntax, unknown type or field, wrong lengths, negative
+            duration, times not increasing, an unreachable path...).
+
+    Example:
+        >>> from manipcad.trajectories import load_trajectory
+        >>> traj = load_trajectory("examples/fig3_laws.yaml")  # doctest: +SKIP
+        >>> traj.n, traj.duration  # doctest: +SKIP
+        (3, 1.6)
+    """
+    p = Path(path)
+    src = str(path)
+    if not p.exists():
+        raise InputError(src, "", "no such file")
+    if not p.is_file():
+        raise InputError(src, "", "not a file")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise InputError(src, "", "not a UTF-8 text file") from None
+    except OSError as exc:
+        raise InputError(src, "", f"cannot read: {exc.strerror}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise InputError(src, "", f"YAML syntax error{where}: {problem}") from None
+    if data is None:
+        raise InputError(src, "", "empty file; expected a mapping with a 'type'")
+    return trajectory_from_dict(data, src, robot=robot, base_dir=p.parent)
+
+
+def save_trajectory(trajectory: Trajectory, path: str | Path) -> Path:
+    """Save a trajectory as YAML, atomically.
+
+    The text is written to a temporary file in the target's folder, flushed to
+    disk and renamed over the target; if anything fails (or the run is
+    interrupted) the temporary file is removed and an existing file at
+    ``path`` is left as it was.
+
+    Args:
+        trajectory: any :class:`Trajectory`.
+        path: the target file (its folder must exist).
+
+    Returns:
+        The path written.
+
+    Raises:
+        InputError: the folder does not exist or cannot be written.
+
+    Example:
+        >>> from manipcad.trajectories import cosine, save_trajectory
+        >>> save_trajectory(cosine([0.5], [4.0], 1.6), "/tmp/q1.yaml")  # doctest: +SKIP
+        PosixPath('/tmp/q1.yaml')
+    """
+    p = Path(path)
+    src = str(path)
+    text = ("# manipcad trajectory; SI units: joint values rad or m, times s\n"
+            + yaml.safe_dump(trajectory.to_dict(), sort_keys=False, default_flow_style=None,
+                             width=100))
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError(src, "", f"folder {str(folder)!r} does not exist")
+    if p.is_dir():
+        raise InputError(src, "", "is a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise InputError(src, "", f"cannot write in {str(folder)!r}: {exc.strerror}") from None
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        if p.exists():
+            os.chmod(tmp, p.stat().st_mode & 0o777)
+        else:
+            os.chmod(tmp, 0o644)
+        os.replace(tmp, p)
+    except BaseException as exc:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        if isinstance(exc, OSError):
+            raise InputError(src, "", f"cannot write: {exc.strerror or exc}") from None
+        raise
+    return p

@@ -1,0 +1,101 @@
+"""Quintic point-to-point moves: zero velocity and acceleration at both ends.
+
+With τ = t / T and D = q_end - q_start, for 0 <= t <= T:
+
+    s(τ)  = 10τ³ - 15τ⁴ + 6τ⁵,  s' = 30τ²(1 - τ)²,  s'' = 60τ(1 - τ)(1 - 2τ)
+    q   = q_start + D s,   qd = D s' / T,   qdd = D s'' / T²
+
+The peak velocity is 1.875 |D| / T (at τ = 1/2) and the peak acceleration
+10 / √3 · |D| / T² ≈ 5.774 |D| / T² (at τ = 1/2 ∓ √3/6).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from manipcad.trajectories.base import Trajectory, floats, positive, vector
+
+
+def quintic_profile(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The normalised quintic s(τ) and its derivatives ds/dτ, d²s/dτ² for τ in [0, 1].
+
+    Example:
+        >>> import numpy as np
+        >>> [float(v[0]) for v in quintic_profile(np.array([0.5]))]
+        [0.5, 1.875, 0.0]
+    """
+    tau = np.asarray(tau, dtype=float)
+    s = tau**3 * (10.0 + tau * (-15.0 + 6.0 * tau))
+    sd = 30.0 * tau**2 * (1.0 - tau) ** 2
+    sdd = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau)
+    return s, sd, sdd
+
+
+class QuinticTrajectory(Trajectory):
+    """A quintic move from q_start to q_end in ``duration``; build it with :func:`quintic`.
+
+    Attributes:
+        q_start, q_end: (n,) end positions, rad or m.
+
+    Example:
+        >>> traj = quintic([0.0, 0.0], [1.0, -0.5], 2.0)
+        >>> traj.sample(2.0)[0].tolist()
+        [1.0, -0.5]
+    """
+
+    kind = "quintic"
+
+    def __init__(self, q_start: np.ndarray, q_end: np.ndarray, duration: float) -> None:
+        self.q_start, self.q_end = q_start, q_end
+        self._duration = duration
+
+    @property
+    def n(self) -> int:
+        """Number of joints."""
+        return self.q_start.shape[0]
+
+    @property
+    def duration(self) -> float:
+        """Length of the move, s."""
+        return self._duration
+
+    def _evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        T = self._duration
+        s, sd, sdd = quintic_profile(t / T)
+        D = self.q_end - self.q_start
+        return (self.q_start + s[:, None] * D, (sd / T)[:, None] * D,
+                (sdd / T**2)[:, None] * D)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The YAML mapping: type, q_start, q_end (rad or m), duration (s)."""
+        return {"type": self.kind, "q_start": floats(self.q_start),
+                "q_end": floats(self.q_end), "duration": float(self._duration)}
+
+
+def quintic(q_start: Sequence[float], q_end: Sequence[float], duration: float,
+            ) -> QuinticTrajectory:
+    """A quintic point-to-point move with zero end velocities and accelerations.
+
+    Args:
+        q_start: (n,) start position, rad or m.
+        q_end: (n,) end position, rad or m.
+        duration: time of the move, s, > 0.
+
+    Returns:
+        A :class:`QuinticTrajectory`.
+
+    Raises:
+        InputError: different lengths, a duration <= 0, non-finite values.
+
+    Example:
+        >>> traj = quintic([0.0, 0.1], [1.0, 0.3], 1.5)
+        >>> traj.duration
+        1.5
+    """
+    src = "quintic"
+    qs = vector(q_start, "q_start", src)
+    qe = vector(q_end, "q_end", src, qs.shape[0])
+    return QuinticTrajectory(qs, qe, positive(duration, "duration", src))

@@ -1,0 +1,188 @@
+"""``manipcad robots``: list the catalog and show one robot.
+
+``manipcad robots list`` prints the catalog's robots, motors and gears;
+``manipcad robots show NAME_OR_FILE [--json]`` prints a robot's joints (type,
+parent, limits, mass, drive) and totals. Bad input exits with status 2 and one
+line on stderr.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from manipcad.cli.app import app, console, guarded
+from manipcad.errors import ManipcadWarning
+
+robots_app = typer.Typer(
+    help="List the built-in catalog; show a robot's joints, links and drives.",
+    no_args_is_help=True,
+)
+app.add_typer(robots_app, name="robots")
+
+
+def _num(x: float, fmt: str = ".4g") -> str:
+    """A number for a table cell; nan/inf print as '-' / '±inf'."""
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "-"
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    return format(x, fmt)
+
+
+def _jsonable(x: Any) -> Any:
+    """Plain JSON values: arrays to lists, nan to null, ±inf to the strings "inf"/"-inf"."""
+    if isinstance(x, np.ndarray):
+        return [_jsonable(v) for v in x.tolist()]
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, float | np.floating):
+        x = float(x)
+        if math.isnan(x):
+            return None
+        if math.isinf(x):
+            return "inf" if x > 0 else "-inf"
+        return x
+    if isinstance(x, np.integer):
+        return int(x)
+    return x
+
+
+@robots_app.command("list")
+@guarded
+def list_catalog() -> None:
+    """List the catalog robots, motors and gears (SI units)."""
+    from manipcad.model.load import catalog_names, load_robot
+    from manipcad.model.yaml_robot import load_gear, load_motor
+
+    robots = Table(title="robots (manipcad robots show NAME)")
+    for col in ("name", "title", "joints", "mass kg", "drives"):
+        robots.add_column(col, justify="right" if col == "mass kg" else "left",
+                          no_wrap=col == "name")
+    for name in catalog_names("robots"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ManipcadWarning)
+            robot = load_robot(name)
+        kinds = "".join("R" if t == "revolute" else "P" for t in robot.joint_types)
+        n_drv = sum(d is not None for d in robot.drives)
+        robots.add_row(name, robot.name, kinds, _num(float(robot.mass.sum())), f"{n_drv}/{robot.n}")
+    console.print(robots)
+
+    motors = Table(title="motors (drive: {motor: NAME}); V, N·m/A, Ω, mH, g·cm², N·m, rpm")
+    for col in ("name", "U_N", "k_m", "R", "L", "J", "M_N", "M_peak", "n_max"):
+        motors.add_column(col, justify="left" if col == "name" else "right", no_wrap=True)
+    for name in catalog_names("motors"):
+        m = load_motor(name)
+        motors.add_row(
+            name, _num(m.rated_voltage or math.nan), _num(m.k_m, ".3g"), _num(m.R, ".3g"),
+            _num(m.L * 1e3, ".3g"), _num(m.J * 1e7, ".3g"),
+            _num(m.rated_torque or math.nan, ".3g"), _num(m.peak_torque or math.nan, ".3g"),
+            _num((m.max_speed or math.nan) * 60 / (2 * math.pi), ".0f"))
+    console.print(motors)
+
+    gears = Table(title="gears (drive: {gear: NAME or [NAME, ...]}); "
+                        "ratio rad/rad (rad/m linear), J g·cm², max N·m (N)")
+    for col in ("name", "type", "ratio", "J", "eff.", "max cont."):
+        gears.add_column(col, justify="left" if col in ("name", "type") else "right",
+                         no_wrap=True)
+    for name in catalog_names("gears"):
+        g = load_gear(name)
+        gears.add_row(name, g.type, f"{g.direction * g.ratio:.5g}", _num(g.J * 1e7, ".4g"),
+                      _num(g.efficiency or math.nan, ".2f"),
+                      _num(g.max_continuous_torque or math.nan))
+    console.print(gears)
+
+
+def robot_summary(robot: Any) -> dict[str, Any]:
+    """A JSON-ready description of a robot: joints, links, drives and totals (SI units)."""
+    joints = []
+    for i in range(robot.n):
+        d = robot.drives[i]
+        drive = None
+        if d is not None:
+            drive = {
+                "motor": d.name, "gear": d.gear, "J": d.J, "ratio": d.ratio, "k_v": d.k_v,
+                "M_f": list(d.M_f), "R": d.R, "L": d.L, "k_m": d.k_m, "k_w": d.k_w,
+                "k_u": d.k_u, "u_max": d.u_max, "rated_torque": d.rated_torque,
+                "peak_torque": d.peak_torque, "max_speed": d.max_speed,
+                "rated_voltage": d.rated_voltage, "rated_current": d.rated_current,
+                "J_joint": d.J * d.ratio**2,
+            }
+        p = int(robot.parent[i])
+        joints.append({
+            "name": robot.joint_names[i], "type": robot.joint_types[i],
+            "parent": "base" if p < 0 else robot.joint_names[p],
+            "limits": robot.limits[i], "offset": float(robot.offset[i]),
+            "placement_R": robot.placement_R[i], "placement_p": robot.placement_p[i],
+            "mass": float(robot.mass[i]), "com": robot.com[i], "inertia": robot.inertia[i],
+            "drive": drive,
+        })
+    return _jsonable({
+        "name": robot.name, "n": robot.n, "gravity": robot.gravity,
+        "source": robot.source, "tool_R": robot.tool_R, "tool_p": robot.tool_p,
+        "total_mass": float(robot.mass.sum()),
+        "joints": joints,
+    })
+
+
+@robots_app.command("show")
+@guarded
+def show(
+    name_or_file: Annotated[str, typer.Argument(
+        help="A catalog robot name (see 'manipcad robots list') or a .yaml/.urdf file.")],
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
+    = False,
+) -> None:
+    """Show a robot: joints (type, parent, limits, mass, drive) and totals, SI units."""
+    from manipcad.model.load import load_robot
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ManipcadWarning)
+        robot = load_robot(name_or_file)
+    notes = [str(w.message) for w in caught if issubclass(w.category, ManipcadWarning)]
+
+    if as_json:
+        data = robot_summary(robot)
+        data["warnings"] = notes
+        typer.echo(json.dumps(data, indent=2))
+        return
+
+    kinds = "".join("R" if t == "revolute" else "P" for t in robot.joint_types)
+    table = Table(title=f"{robot.name} — {robot.n} joints ({kinds})")
+    for col in ("#", "joint", "type", "parent", "limits", "mass kg", "drive (motor + gears)",
+                "ratio", "J·i_r²"):
+        table.add_column(col, justify="right" if col in ("#", "mass kg", "ratio") else "left",
+                         no_wrap=col in ("#", "joint", "type", "mass kg", "ratio"))
+    for i in range(robot.n):
+        p = int(robot.parent[i])
+        lo, hi = robot.limits[i]
+        unit = "rad" if robot.joint_types[i] == "revolute" else "m"
+        limits = "-" if np.isinf(lo) and np.isinf(hi) else f"{_num(lo)}..{_num(hi)} {unit}"
+        d = robot.drives[i]
+        if d is None:
+            drive, ratio, jref = "-", "-", "-"
+        else:
+            drive = " + ".join(x for x in (d.name, d.gear) if x) or "(explicit)"
+            unit = "kg·m²" if robot.joint_types[i] == "revolute" else "kg"
+            ratio, jref = _num(d.ratio, ".5g"), f"{_num(d.J * d.ratio**2, '.4g')} {unit}"
+        table.add_row(str(i + 1), robot.joint_names[i], robot.joint_types[i][0].upper(),
+                      "base" if p < 0 else robot.joint_names[p], limits,
+                      _num(float(robot.mass[i])), drive, ratio, jref)
+    console.print(table)
+    n_drv = sum(d is not None for d in robot.drives)
+    n_el = sum(d is not None and d.has_electrics for d in robot.drives)
+    console.print(f"total mass {robot.mass.sum():.4g} kg; drives on {n_drv} of {robot.n} joints "
+                  f"({n_el} with electrical data); gravity {robot.gravity.tolist()} m/s²",
+                  highlight=False)
+    if robot.source:
+        console.print(f"source: {robot.source}", highlight=False, soft_wrap=True)
+    for note in notes:
+        console.print(f"[yellow]warning:[/] {note}", highlight=False, soft_wrap=True)

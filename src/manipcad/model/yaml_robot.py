@@ -1,0 +1,771 @@
+"""Robot descriptions in YAML: parse, validate and map onto :class:`Robot`.
+
+The schema is documented in docs/robot-yaml.md. In short (SI units throughout):
+
+.. code-block:: yaml
+
+    name: two-link arm
+    convention: modified          # or standard (default modified, the paper's)
+    gravity: [0, 0, -9.81]        # m/s², base frame
+    source: where the numbers come from
+    tool: {xyz: [0.1, 0, 0], rpy: [0, 0, 0]}   # in the last link frame, m, rad
+    joints:
+      - name: shoulder
+        type: revolute            # or prismatic
+        parent: base              # a joint name; default the previous joint
+        dh: {a: 0, alpha: 0, d: 0, theta: 0}    # m, rad
+        limits: [-pi, pi]         # rad or m
+        link:
+          mass: 2.0               # kg
+          com: [0.2, 0, 0]        # m, in the link frame
+          inertia: {ixx: 0.001, iyy: 0.03, izz: 0.03}   # kg·m², about the centre of mass
+        drive: {motor: maxon_re40_148877, gear: harmonic_csf20_100}
+
+Every number may also be written as a small arithmetic expression over the
+constants ``pi``, ``deg`` (pi/180), ``rpm`` (2·pi/60 rad/s), ``inch``
+(0.0254 m), ``mm`` (0.001 m) and ``gcm2`` (1e-7 kg·m², i.e. g·cm²), e.g.
+``alpha: -pi/2``, ``limits: [-160*deg, 160*deg]``, ``J: 137*gcm2``.
+
+Mapping onto the internal tree (see :mod:`manipcad.model.dh`):
+
+* modified DH, row (a, alpha, d, theta):
+  ``T = Rot_x(alpha)·Trans_x(a)·Rot_z(theta)·Trans_z(d)``. A revolute joint gets
+  the placement ``Rot_x(alpha)·Trans_x(a)·Trans_z(d)`` (Rot_z and Trans_z
+  commute) and the offset ``theta``; a prismatic joint gets
+  ``Rot_x(alpha)·Trans_x(a)·Rot_z(theta)`` and the offset ``d``. Link data are
+  in the link (proximal) frame already.
+* standard DH, row (a, alpha, d, theta): ``T = Rot_z(theta)·Trans_z(d)·Trans_x(a)·Rot_x(alpha)``
+  with link data in the distal frame. The joint's placement is its parent's
+  distal part ``Trans_x(a_p)·Rot_x(alpha_p)`` (identity at the base) followed by
+  the fixed part of its own motion (``Trans_z(d)`` revolute, ``Rot_z(theta)``
+  prismatic); the link's centre and inertia are carried into the body frame;
+  the last row's distal part becomes the tool frame (composed with ``tool:``).
+
+Drives: explicit fields ``J, ratio, k_v, M_f, R, L, k_m, k_w, k_u, u_max`` (and
+the ratings), or ``motor:`` and/or ``gear:`` names from the catalog (a gear may
+be a list, a chain from the motor outwards), with any explicit field
+overriding the composed value. Composition: ``J = J_motor + sum_k J_gear_k /
+(i_1···i_{k-1})²`` on the motor shaft, ``ratio = prod_k direction_k·i_k``, the
+electrical data and friction from the motor, ``u_max`` defaulting to the
+motor's rated voltage.
+
+Every bad input raises :class:`~manipcad.errors.InputError` naming the file,
+the dotted field (``joints[2].link.mass``) and the reason.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+import operator
+import typing
+import warnings
+from collections.abc import Callable
+from functools import lru_cache
+from importlib import resources
+from importlib.abc import Traversable
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+
+from manipcad.errors import InputError, ManipcadWarning, ModelError
+from manipcad.model import dh
+from manipcad.model.robot import PRISMATIC, REVOLUTE, Drive, Robot
+
+CATALOG: Traversable = resources.files("manipcad.model") / "catalog"
+
+# --------------------------------------------------------------------------- numbers
+
+#: Named constants usable in numeric fields (SI values).
+CONSTANTS: dict[str, float] = {
+    "pi": math.pi,
+    "deg": math.pi / 180.0,  # rad per degree
+    "rpm": 2.0 * math.pi / 60.0,  # rad/s per rev/min
+    "inch": 0.0254,  # m
+    "mm": 1e-3,  # m
+    "gcm2": 1e-7,  # kg·m² per g·cm²
+}
+_BINOPS: dict[type, Callable[[float, float], float]] = {
+    ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
+    ast.Div: operator.truediv, ast.Pow: operator.pow,
+}
+_UNARY: dict[type, Callable[[float], float]] = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+
+
+def evaluate(text: str) -> float:
+    """Evaluate a numeric field written as text: a number or an arithmetic
+    expression over numbers and :data:`CONSTANTS` with ``+ - * / **`` and
+    parentheses (e.g. ``"-pi/2"``, ``"26.45*inch"``). Raises ValueError."""
+    allowed = (f"only numbers, + - * / ** ( ) and the constants "
+               f"{', '.join(CONSTANTS)} are allowed")
+
+    def fail(detail: str) -> ValueError:
+        return ValueError(f"expected a number, got {text!r}: {detail}")
+
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError:
+        raise fail(allowed) from None
+
+    def ev(node: ast.AST) -> float:
+        if isinstance(node, ast.Constant) and type(node.value) in (int, float):
+            return float(node.value)
+        if isinstance(node, ast.Name) and node.id in CONSTANTS:
+            return CONSTANTS[node.id]
+        if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
+            return _UNARY[type(node.op)](ev(node.operand))
+        if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
+            left, right = ev(node.left), ev(node.right)
+            if isinstance(node.op, ast.Pow) and abs(right) > 64:
+                raise fail("exponent too large")
+            try:
+                return _BINOPS[type(node.op)](left, right)
+            except ZeroDivisionError:
+                raise fail("division by zero") from None
+            except OverflowError:
+                raise fail("overflow") from None
+        if isinstance(node, ast.Name):
+            raise fail(f"unknown name {node.id!r} ({allowed})")
+        raise fail(allowed)
+
+    value = ev(tree.body)
+    if isinstance(value, complex):  # e.g. (-1)**0.5
+        raise fail("not a real number")
+    return float(value)
+
+
+def _to_float(v: Any) -> float:
+    if isinstance(v, bool) or v is None:
+        raise ValueError(f"expected a number, got {v!r}")
+    if isinstance(v, int | float):
+        x = float(v)
+    elif isinstance(v, str):
+        x = evaluate(v)
+    else:
+        raise ValueError(f"expected a number, got {type(v).__name__} {v!r}")
+    if math.isnan(x):
+        raise ValueError("expected a number, got nan")
+    return x
+
+
+def _opt_float(v: Any) -> float | None:
+    return None if v is None else _to_float(v)
+
+
+def _vector(n: int, what: str) -> Callable[[Any], tuple[float, ...]]:
+    def convert(v: Any) -> tuple[float, ...]:
+        if not isinstance(v, list | tuple) or len(v) != n:
+            raise ValueError(f"expected a list of {n} numbers {what}, got {v!r}")
+        out = []
+        for k, x in enumerate(v):
+            try:
+                out.append(_to_float(x))
+            except ValueError as exc:
+                raise ValueError(f"item {k}: {exc}") from None
+        return tuple(out)
+
+    return convert
+
+
+def _opt_pair(v: Any) -> tuple[float, ...] | None:
+    return None if v is None else _vector(2, "[lower, upper]")(v)
+
+
+def _friction(v: Any) -> tuple[float, float] | None:
+    """M_f: one number (both directions) or a [positive, negative] pair, N·m."""
+    if v is None:
+        return None
+    if isinstance(v, list | tuple):
+        if len(v) != 2:
+            raise ValueError(f"expected one number or a [positive, negative] pair, got {v!r}")
+        return _to_float(v[0]), _to_float(v[1])
+    x = _to_float(v)
+    return x, x
+
+
+def _names(v: Any) -> list[str] | None:
+    if v is None:
+        return None
+    if isinstance(v, str):
+        return [v]
+    if isinstance(v, list) and v and all(isinstance(x, str) for x in v):
+        return list(v)
+    raise ValueError(f"expected a catalog name or a list of names, got {v!r}")
+
+
+Num = Annotated[float, BeforeValidator(_to_float)]
+OptNum = Annotated[float | None, BeforeValidator(_opt_float)]
+Vec3 = Annotated[tuple[float, float, float], BeforeValidator(_vector(3, "[x, y, z]"))]
+OptPair = Annotated[tuple[float, float] | None, BeforeValidator(_opt_pair)]
+Friction = Annotated[tuple[float, float] | None, BeforeValidator(_friction)]
+NameList = Annotated[list[str] | None, BeforeValidator(_names)]
+
+# --------------------------------------------------------------------------- schema
+
+
+class _Spec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class DHSpec(_Spec):
+    """One Denavit-Hartenberg row: a (m), alpha (rad), d (m), theta (rad); missing ones are 0."""
+
+    a: Num = 0.0
+    alpha: Num = 0.0
+    d: Num = 0.0
+    theta: Num = 0.0
+
+
+class InertiaSpec(_Spec):
+    """Inertia tensor elements about the centre of mass, link axes, kg·m² (as URDF)."""
+
+    ixx: Num = 0.0
+    iyy: Num = 0.0
+    izz: Num = 0.0
+    ixy: Num = 0.0
+    ixz: Num = 0.0
+    iyz: Num = 0.0
+
+    def matrix(self) -> np.ndarray:
+        """The symmetric (3, 3) tensor, kg·m²."""
+        return np.array([[self.ixx, self.ixy, self.ixz],
+                         [self.ixy, self.iyy, self.iyz],
+                         [self.ixz, self.iyz, self.izz]])
+
+
+class LinkSpec(_Spec):
+    """A link: mass (kg), centre of mass (m, link frame), inertia about it (kg·m²)."""
+
+    mass: Num
+    com: Vec3 = (0.0, 0.0, 0.0)
+    inertia: InertiaSpec = InertiaSpec()
+
+
+class DriveSpec(_Spec):
+    """A joint drive: catalog motor/gear names and/or explicit fields (SI units,
+    motor side: J kg·m², ratio rad/rad or rad/m, k_v N·m·s/rad, M_f N·m, R Ω, L H,
+    k_m N·m/A, k_w V·s/rad, k_u V/V, u_max V, rated/peak torque N·m, max_speed
+    rad/s, rated_voltage V, rated_current A)."""
+
+    motor: str | None = None
+    gear: NameList = None
+    J: OptNum = None
+    ratio: OptNum = None
+    k_v: OptNum = None
+    M_f: Friction = None
+    R: OptNum = None
+    L: OptNum = None
+    k_m: OptNum = None
+    k_w: OptNum = None
+    k_u: OptNum = None
+    u_max: OptNum = None
+    rated_torque: OptNum = None
+    peak_torque: OptNum = None
+    max_speed: OptNum = None
+    rated_voltage: OptNum = None
+    rated_current: OptNum = None
+
+
+class JointSpec(_Spec):
+    """One joint, its DH row, limits (rad or m), link and optional drive."""
+
+    name: str = Field(min_length=1)
+    type: Literal["revolute", "prismatic"]
+    parent: str | None = None
+    dh: DHSpec = DHSpec()
+    limits: OptPair = None
+    link: LinkSpec
+    drive: DriveSpec | None = None
+
+
+class ToolSpec(_Spec):
+    """Tool frame in the last link frame: xyz (m) and roll-pitch-yaw (rad, fixed axes x, y, z)."""
+
+    xyz: Vec3 = (0.0, 0.0, 0.0)
+    rpy: Vec3 = (0.0, 0.0, 0.0)
+
+
+class RobotSpec(_Spec):
+    """A whole robot file."""
+
+    name: str = Field(min_length=1)
+    convention: Literal["modified", "standard"] = "modified"
+    gravity: Vec3 = (0.0, 0.0, -9.81)
+    source: str = ""
+    description: str = ""
+    tool: ToolSpec | None = None
+    joints: list[JointSpec] = Field(min_length=1)
+
+
+class MotorSpec(_Spec):
+    """A catalog DC servo motor (motor side, SI units): rotor inertia J kg·m²,
+    R Ω, L H, k_m N·m/A, k_w V·s/rad, viscous k_v N·m·s/rad, dry friction M_f N·m,
+    ratings (N·m, rad/s, V, A), data-sheet extras and the source."""
+
+    source: str = Field(min_length=1)
+    description: str = ""
+    order_number: str = ""
+    J: Num
+    R: Num
+    L: Num
+    k_m: Num
+    k_w: Num
+    k_v: Num = 0.0
+    M_f: Friction = (0.0, 0.0)
+    rated_torque: OptNum = None
+    peak_torque: OptNum = None
+    max_speed: OptNum = None
+    rated_voltage: OptNum = None
+    rated_current: OptNum = None
+    no_load_speed: OptNum = None
+    no_load_current: OptNum = None
+    stall_current: OptNum = None
+    mass: OptNum = None
+
+    def drive_fields(self) -> dict[str, Any]:
+        """The :class:`Drive` fields this motor sets (u_max = rated voltage if known)."""
+        out: dict[str, Any] = {k: getattr(self, k) for k in
+                               ("J", "R", "L", "k_m", "k_w", "k_v", "M_f")}
+        for k in ("rated_torque", "peak_torque", "max_speed", "rated_voltage",
+                  "rated_current"):
+            if getattr(self, k) is not None:
+                out[k] = getattr(self, k)
+        if self.rated_voltage is not None:
+            out["u_max"] = self.rated_voltage
+        return out
+
+
+class GearSpec(_Spec):
+    """A catalog transmission: ratio i (input rad per output rad, or per output m
+    for screws, racks and belts), direction ±1, input-side inertia J kg·m²,
+    efficiency, output torque limits (N·m, or N for linear ones), max input speed
+    rad/s, mass kg, and the source."""
+
+    source: str = Field(min_length=1)
+    description: str = ""
+    order_number: str = ""
+    type: Literal["planetary", "harmonic", "spur", "ball_screw", "rack_pinion", "belt"]
+    ratio: Num
+    direction: Literal[1, -1] = 1
+    J: Num = 0.0
+    efficiency: OptNum = None
+    stages: int | None = None
+    max_continuous_torque: OptNum = None
+    max_intermittent_torque: OptNum = None
+    max_input_speed: OptNum = None
+    mass: OptNum = None
+
+    @property
+    def linear(self) -> bool:
+        """True when the output is a translation (ratio in rad/m)."""
+        return self.type in ("ball_screw", "rack_pinion", "belt")
+
+
+# --------------------------------------------------------------------------- reading
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that rejects duplicate mapping keys (PyYAML keeps the last silently)."""
+
+
+def _construct_mapping(loader: _UniqueKeyLoader, node: yaml.MappingNode,
+                       deep: bool = False) -> dict[Any, Any]:
+    seen: set[Any] = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r}", key_node.start_mark)
+        seen.add(key)
+    return loader.construct_mapping(node, deep=deep)
+
+
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG,
+                                 _construct_mapping)
+
+
+def read_yaml(source: str | Path | Traversable, label: str | None = None) -> Any:
+    """Read a YAML file; syntax errors become :class:`InputError` with the line.
+
+    Args:
+        source: the file.
+        label: how to name the file in errors (default its path).
+    """
+    name = label or str(source)
+    try:
+        text = source.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(name, "", "no such file") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(name, "", f"not a UTF-8 text file ({exc.reason})") from None
+    except OSError as exc:
+        raise InputError(name, "", f"cannot read: {exc.strerror or exc}") from None
+    try:
+        return yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 (SafeLoader subclass)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        what = exc.problem or exc.context or "invalid YAML"
+        raise InputError(name, "", f"YAML syntax error{where}: {what}") from None
+    except yaml.YAMLError as exc:
+        raise InputError(name, "", f"YAML syntax error: {exc}") from None
+
+
+def _dotted(loc: tuple[Any, ...]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
+
+
+def _inner_model(annotation: Any) -> type[BaseModel] | None:
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in typing.get_args(annotation):
+        found = _inner_model(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def _model_at(root: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | None:
+    model: type[BaseModel] | None = root
+    for part in loc:
+        if isinstance(part, int):
+            continue
+        if model is None or part not in model.model_fields:
+            return None
+        model = _inner_model(model.model_fields[part].annotation)
+    return model
+
+
+def _reason(err: dict[str, Any], root: type[BaseModel]) -> str:
+    kind, value = err["type"], err.get("input")
+    if kind == "missing":
+        return "required field is missing"
+    if kind == "extra_forbidden":
+        model = _model_at(root, err["loc"][:-1])
+        allowed = f"; allowed keys: {', '.join(model.model_fields)}" if model else ""
+        return f"unknown key {err['loc'][-1]!r}{allowed}"
+    if kind == "literal_error":
+        return f"unknown value {value!r}; expected {err['ctx']['expected']}"
+    if kind in ("model_type", "dict_type", "model_attributes_type"):
+        return f"expected a mapping of keys to values, got {value!r}"
+    if kind == "list_type":
+        return f"expected a list, got {value!r}"
+    if kind == "string_type":
+        return f"expected text, got {value!r}"
+    if kind == "int_type" or kind.startswith("int_"):
+        return f"expected a whole number, got {value!r}"
+    msg = str(err["msg"])
+    return msg.removeprefix("Value error, ")
+
+
+def validate(model: type[BaseModel], data: Any, label: str, prefix: str = "") -> Any:
+    """Validate parsed YAML against a schema model; the first problem becomes an
+    :class:`InputError` (file ``label``, dotted field under ``prefix``)."""
+    if not isinstance(data, dict):
+        raise InputError(label, prefix, "expected a mapping of keys to values "
+                         f"(see docs/robot-yaml.md), got {type(data).__name__}")
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        errors = exc.errors(include_url=False)
+        err = errors[0]
+        field = _dotted(err["loc"])
+        if prefix:
+            field = f"{prefix}.{field}" if field else prefix
+        reason = _reason(err, model)
+        loc = err["loc"]
+        if len(loc) >= 2 and loc[0] == "joints" and isinstance(loc[1], int):
+            joints = data.get("joints")
+            if isinstance(joints, list) and loc[1] < len(joints):
+                j = joints[loc[1]]
+                if isinstance(j, dict) and isinstance(j.get("name"), str):
+                    reason += f" (joint {j['name']!r})"
+        if len(errors) > 1:
+            more = len(errors) - 1
+            reason += f" (and {more} more problem{'s' if more > 1 else ''})"
+        raise InputError(label, field, reason) from None
+
+
+# --------------------------------------------------------------------------- catalog
+
+
+def catalog_entry(kind: str, name: str) -> Traversable | None:
+    """The catalog file of a motor, gear or robot name, or None."""
+    entry = CATALOG / kind / f"{name}.yaml"
+    return entry if entry.is_file() else None
+
+
+def _catalog_names(kind: str) -> list[str]:
+    return sorted(p.name[:-5] for p in (CATALOG / kind).iterdir() if p.name.endswith(".yaml"))
+
+
+@lru_cache(maxsize=256)
+def _load_spec(kind: str, file: str) -> MotorSpec | GearSpec:
+    model = MotorSpec if kind == "motors" else GearSpec
+    path = Path(file)
+    spec = validate(model, read_yaml(path), file)
+    if isinstance(spec, GearSpec):
+        if spec.ratio <= 0:
+            raise InputError(file, "ratio", f"must be > 0, got {spec.ratio}")
+        if spec.efficiency is not None and not 0 < spec.efficiency <= 1:
+            raise InputError(file, "efficiency", f"must be in (0, 1], got {spec.efficiency}")
+    for key in ("J", "R", "L", "k_m", "k_w", "k_v"):
+        v = getattr(spec, key, None)
+        if v is not None and v < 0:
+            raise InputError(file, key, f"must be >= 0, got {v}")
+    return spec
+
+
+def _resolve(kind: str, name: str, base_dir: Path | None) -> Path | None:
+    if name.endswith((".yaml", ".yml")):
+        p = Path(name)
+        if not p.is_absolute() and base_dir is not None:
+            p = base_dir / p
+        return p if p.is_file() else None
+    entry = catalog_entry(kind, name)
+    if entry is None:
+        return None
+    with resources.as_file(entry) as p:
+        return Path(p)
+
+
+def load_motor(name: str, base_dir: Path | None = None) -> MotorSpec:
+    """A motor by catalog name (``manipcad robots list``) or by a .yaml path
+    (relative to ``base_dir``). Raises :class:`InputError`."""
+    path = _resolve("motors", name, base_dir)
+    if path is None:
+        raise InputError(name, "", "unknown motor; catalog motors: "
+                         + ", ".join(_catalog_names("motors")))
+    spec = _load_spec("motors", str(path))
+    assert isinstance(spec, MotorSpec)
+    return spec
+
+
+def load_gear(name: str, base_dir: Path | None = None) -> GearSpec:
+    """A gear (transmission) by catalog name or .yaml path. Raises :class:`InputError`."""
+    path = _resolve("gears", name, base_dir)
+    if path is None:
+        raise InputError(name, "", "unknown gear; catalog gears: "
+                         + ", ".join(_catalog_names("gears")))
+    spec = _load_spec("gears", str(path))
+    assert isinstance(spec, GearSpec)
+    return spec
+
+
+# --------------------------------------------------------------------------- building
+
+
+def load_yaml_robot(path: str | Path) -> Robot:
+    """Load a robot from a YAML description (docs/robot-yaml.md).
+
+    Args:
+        path: the .yaml file (SI units: m, rad, kg, kg·m², and the drive units of
+            :class:`~manipcad.model.robot.Drive`).
+
+    Returns:
+        The validated :class:`Robot`.
+
+    Raises:
+        InputError: naming the file, the dotted field and the reason, for YAML
+            syntax errors, unknown keys, wrong types, missing fields, negative
+            masses, inertias that are not positive semi-definite, unknown joint
+            types, parents, motors or gears, and inconsistent models.
+
+    Warns:
+        ManipcadWarning: for an inertia that is positive semi-definite but breaks
+            the triangle inequality (loaded as given).
+
+    Example:
+        >>> from manipcad.model.yaml_robot import load_yaml_robot
+        >>> robot = load_yaml_robot("examples/two_link.yaml")  # doctest: +SKIP
+    """
+    path = Path(path)
+    label = str(path)
+    if path.is_dir():
+        raise InputError(label, "", "is a directory, not a robot file")
+    spec = validate(RobotSpec, read_yaml(path, label), label)
+    return build_robot(spec, label, base_dir=path.parent)
+
+
+def build_robot(spec: RobotSpec, label: str, base_dir: Path | None = None) -> Robot:
+    """Map a validated :class:`RobotSpec` onto a :class:`Robot` (``label`` names
+    the file in errors; ``base_dir`` resolves motor/gear paths)."""
+    joints = spec.joints
+    n = len(joints)
+    index: dict[str, int] = {}
+    parents: list[int] = []
+    for i, j in enumerate(joints):
+        if j.name == "base":
+            raise InputError(label, f"joints[{i}].name",
+                             "the name 'base' is reserved for the robot base")
+        if j.name in index:
+            raise InputError(label, f"joints[{i}].name", f"duplicate joint name {j.name!r}")
+        index[j.name] = i
+    for i, j in enumerate(joints):
+        if j.parent is None:
+            parents.append(i - 1)
+        elif j.parent == "base":
+            parents.append(-1)
+        elif j.parent in index and index[j.parent] < i:
+            parents.append(index[j.parent])
+        elif j.parent in index:
+            raise InputError(label, f"joints[{i}].parent",
+                             f"parent {j.parent!r} must be listed before joint {j.name!r} "
+                             "(parents first)")
+        else:
+            raise InputError(label, f"joints[{i}].parent",
+                             f"unknown parent {j.parent!r}; expected 'base' or one of "
+                             + ", ".join(repr(x.name) for x in joints[:i]))
+
+    standard = spec.convention == "standard"
+    R_pl = np.zeros((n, 3, 3))
+    p_pl = np.zeros((n, 3))
+    offset = np.zeros(n)
+    mass = np.zeros(n)
+    com = np.zeros((n, 3))
+    inertia = np.zeros((n, 3, 3))
+    limits = np.tile([-np.inf, np.inf], (n, 1))
+    drives: list[Drive | None] = []
+    for i, j in enumerate(joints):
+        where = f"joints[{i}]"
+        row = j.dh
+        if standard:
+            prow = joints[parents[i]].dh if parents[i] >= 0 else DHSpec()
+            a_p, alpha_p = prow.a, prow.alpha
+        else:
+            a_p, alpha_p = row.a, row.alpha
+        R0, p0 = dh.modified_placement(a_p, alpha_p)
+        if j.type == REVOLUTE:
+            R_pl[i], p_pl[i], offset[i] = R0, p0 + R0 @ np.array([0.0, 0.0, row.d]), row.theta
+        else:
+            R_pl[i], p_pl[i], offset[i] = R0 @ dh.rot_z(row.theta), p0, row.d
+
+        m, c, I = _check_link(j.link, label, f"{where}.link")
+        if standard:
+            Rd, pd = dh.standard_distal(row.a, row.alpha)
+            c, I = dh.distal_to_body(Rd, pd, c, I)
+            I = 0.5 * (I + I.T)
+        mass[i], com[i], inertia[i] = m, c, I
+
+        if j.limits is not None:
+            lo, hi = j.limits
+            if lo > hi:
+                raise InputError(label, f"{where}.limits",
+                                 f"lower limit {lo} is above upper limit {hi}")
+            limits[i] = lo, hi
+        drives.append(None if j.drive is None
+                      else build_drive(j.drive, label, f"{where}.drive", base_dir))
+
+    tool_R, tool_p = np.eye(3), np.zeros(3)
+    if spec.tool is not None:
+        tool_R, tool_p = rpy_to_matrix(*spec.tool.rpy), np.array(spec.tool.xyz)
+    if standard:
+        Rd, pd = dh.standard_distal(joints[-1].dh.a, joints[-1].dh.alpha)
+        tool_R, tool_p = Rd @ tool_R, pd + Rd @ tool_p
+
+    try:
+        return Robot.from_arrays(
+            spec.name, [j.type for j in joints], parents, R_pl, p_pl, mass, com, inertia,
+            offset=offset, joint_names=[j.name for j in joints], drives=drives,
+            gravity=spec.gravity, limits=limits, tool_R=tool_R, tool_p=tool_p,
+            source=spec.source.strip(),
+        )
+    except ModelError as exc:
+        raise InputError(label, "", str(exc)) from None
+
+
+def _check_link(link: LinkSpec, label: str, where: str) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass (kg), centre (m) and inertia (kg·m²) of a link, checked physically."""
+    if link.mass < 0 or not math.isfinite(link.mass):
+        raise InputError(label, f"{where}.mass", f"mass must be >= 0 kg, got {link.mass}")
+    c = np.array(link.com, dtype=float)
+    if not np.all(np.isfinite(c)):
+        raise InputError(label, f"{where}.com", "centre of mass must be finite")
+    I = link.inertia.matrix()
+    if not np.all(np.isfinite(I)):
+        raise InputError(label, f"{where}.inertia", "inertia must be finite")
+    eig = np.linalg.eigvalsh(I)
+    tol = 1e-12 * max(1.0, float(np.abs(I).max()))
+    if eig[0] < -tol:
+        raise InputError(label, f"{where}.inertia",
+                         "inertia tensor is not positive semi-definite: principal moments "
+                         f"{np.array2string(eig, precision=6)} kg·m² (one is negative)")
+    if eig[0] + eig[1] < eig[2] - tol:
+        warnings.warn(
+            f"{label}: {where}.inertia: principal moments "
+            f"{np.array2string(eig, precision=6)} kg·m² break the triangle inequality "
+            "(I1 + I2 >= I3), so no rigid body has them; loaded as given",
+            ManipcadWarning, stacklevel=4)
+    return float(link.mass), c, I
+
+
+def build_drive(spec: DriveSpec, label: str, where: str, base_dir: Path | None = None) -> Drive:
+    """Compose a :class:`Drive` from catalog motor/gear names and explicit fields
+    (see the module docstring); errors name ``label`` and ``where``."""
+    fields: dict[str, Any] = {}
+    motor_name = gear_name = ""
+    if spec.motor is not None:
+        try:
+            motor = load_motor(spec.motor, base_dir)
+        except InputError as exc:
+            if exc.field:  # a bad catalog motor file: name that file
+                raise
+            raise InputError(label, f"{where}.motor", f"unknown motor {spec.motor!r}; "
+                             + exc.reason.removeprefix("unknown motor; ")) from None
+        fields.update(motor.drive_fields())
+        motor_name = spec.motor
+    if spec.gear is not None:
+        J_ref, ratio = 0.0, 1.0
+        for k, g in enumerate(spec.gear):
+            try:
+                gear = load_gear(g, base_dir)
+            except InputError as exc:
+                if exc.field:
+                    raise
+                sub = f"{where}.gear" + (f"[{k}]" if len(spec.gear) > 1 else "")
+                raise InputError(label, sub, f"unknown gear {g!r}; "
+                                 + exc.reason.removeprefix("unknown gear; ")) from None
+            J_ref += gear.J / ratio**2
+            ratio *= gear.direction * gear.ratio
+        fields["J"] = fields.get("J", 0.0) + J_ref
+        fields["ratio"] = ratio
+        gear_name = " + ".join(spec.gear)
+    explicit = spec.model_dump(exclude={"motor", "gear"}, exclude_none=True)
+    fields.update(explicit)
+    if spec.motor is None and spec.gear is None and ("J" not in fields or "ratio" not in fields):
+        missing = "J" if "J" not in fields else "ratio"
+        raise InputError(label, f"{where}.{missing}", "required field is missing (a drive "
+                         "needs J and ratio, or a catalog motor:/gear:)")
+    for key in ("J", "k_v", "R", "L", "k_m", "k_w", "u_max", "k_u"):
+        if key in fields and fields[key] < 0:
+            raise InputError(label, f"{where}.{key}", f"must be >= 0, got {fields[key]}")
+    if "ratio" in fields and fields["ratio"] == 0:
+        raise InputError(label, f"{where}.ratio", "must be non-zero")
+    try:
+        return Drive(name=motor_name, gear=gear_name, **fields)
+    except ModelError as exc:
+        raise InputError(label, where, str(exc)) from None
+
+
+def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """Rotation Rot_z(yaw)·Rot_y(pitch)·Rot_x(roll) (fixed axes x, y, z; rad), as URDF."""
+    cy, sy = math.cos(pitch), math.sin(pitch)
+    Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    return dh.rot_z(yaw) @ Ry @ dh.rot_x(roll)
+
+
+__all__ = [
+    "load_yaml_robot", "build_robot", "build_drive", "load_motor", "load_gear",
+    "read_yaml", "validate", "evaluate", "catalog_entry", "rpy_to_matrix", "CONSTANTS",
+    "RobotSpec", "JointSpec", "LinkSpec", "DHSpec", "InertiaSpec", "DriveSpec", "ToolSpec",
+    "MotorSpec", "GearSpec", "PRISMATIC", "REVOLUTE",
+]

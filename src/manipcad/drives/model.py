@@ -229,7 +229,12 @@ class DriveModel:
         return dx
 
     def current(self, x: np.ndarray, U: float | np.ndarray) -> np.ndarray:
-        """Armature current of states x (N, nx) or (nx,), A."""
+        """Armature current, A: shape (N,) for states x of shape (N, nx), (1,) for one state.
+
+        Args:
+            x: states (N, nx) or (nx,).
+            U: amplifier input(s), V (the current is algebraic at order 2).
+        """
         X = np.atleast_2d(np.asarray(x, dtype=float))
         Us = np.broadcast_to(np.asarray(U, dtype=float), (X.shape[0],))
         if self.transmission is None:

@@ -16,6 +16,7 @@ from manipcad.dynamics import (
 )
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning, ModelError
 from manipcad.model import Drive, Robot, catalog_names, load_robot
+from manipcad.sizing import DriveRequirements, ratio_sweep, required_drive, torque_speed_plot
 from manipcad.trajectories import load_trajectory, save_trajectory
 
 __version__ = "0.1.0"
@@ -24,5 +25,6 @@ __all__ = [
     "Robot", "Drive", "load_robot", "catalog_names",
     "inverse_dynamics", "mass_matrix", "forward_dynamics", "torque_components",
     "operation_counts", "load_trajectory", "save_trajectory",
+    "required_drive", "DriveRequirements", "ratio_sweep", "torque_speed_plot",
     "ManipcadError", "ModelError", "InputError", "ManipcadWarning",
 ]

@@ -1,0 +1,157 @@
+"""``manipcad size``: the drive torques, currents, voltages and powers a trajectory needs.
+
+``manipcad size ROBOT --trajectory FILE [--json] [--plot out.png] [--dt 1e-3]
+[--payload KG] [--t-end S]`` loads the robot (catalog name or file) and the
+trajectory file, runs :func:`manipcad.sizing.required_drive` and prints two
+tables: what each drive must deliver (joint and motor side, SI units) and the
+check of each motor against its continuous and peak torque, speed and voltage
+limits (margins in % of the limit, green pass, red fail, grey unknown).
+``--json`` prints the same as JSON (``DriveRequirements.to_dict``);
+``--plot`` writes the torque-speed plot. A failed check is a result, not an
+error: the exit status is 0. Bad input (no such file, a bad trajectory file,
+a trajectory with the wrong number of joints, dt <= 0, a negative payload)
+exits with status 2 and one line on stderr.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich import box
+from rich.markup import escape
+from rich.table import Table
+
+from manipcad.cli.app import app, console, guarded
+from manipcad.errors import InputError, ManipcadWarning
+
+_COLOUR = {"pass": "green", "fail": "red", "unknown": "grey50"}
+
+
+def _fmt(x: float, unit: str = "", fmt: str = ".4g") -> str:
+    """A value with its unit for a table cell; nan prints as '-'."""
+    if x is None or not math.isfinite(x):
+        return "-" if x is None or math.isnan(x) else str(x)
+    return f"{x:{fmt}} {unit}".rstrip()
+
+
+@app.command("size")
+@guarded
+def size(
+    robot: Annotated[str, typer.Argument(
+        help="A catalog robot name (see 'manipcad robots list') or a .yaml/.urdf file.")],
+    trajectory: Annotated[Path, typer.Option(
+        "--trajectory", "-t", help="Trajectory YAML file (see docs/trajectories).")],
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
+    = False,
+    plot: Annotated[Path | None, typer.Option(
+        "--plot", help="Write the torque-speed plot to this image file (.png, .pdf, .svg).")]
+    = None,
+    dt: Annotated[float, typer.Option("--dt", help="Sampling step, s.")] = 1e-3,
+    payload: Annotated[float | None, typer.Option(
+        "--payload", help="Payload mass on the last link, kg (at its frame origin).")] = None,
+    t_end: Annotated[float | None, typer.Option(
+        "--t-end", help="End of the run, s (default the trajectory's duration).")] = None,
+) -> None:
+    """Size the drives: torques, currents, voltages and powers a trajectory needs, and the
+    motor checks (continuous and peak torque, speed, voltage) with margins."""
+    from manipcad.model.load import load_robot
+    from manipcad.sizing import required_drive, torque_speed_plot
+    from manipcad.trajectories import load_trajectory
+
+    with warnings.catch_warnings():  # published data sets with known quirks (robots show)
+        warnings.simplefilter("ignore", ManipcadWarning)
+        arm = load_robot(robot)
+    traj = load_trajectory(trajectory, robot=arm)
+    if traj.n != arm.n:
+        raise InputError(str(trajectory), "", f"has {traj.n} joints but robot {arm.name!r} "
+                         f"has {arm.n}")
+    if not math.isfinite(dt) or dt <= 0:
+        raise InputError("--dt", "", f"must be a number > 0 s, got {dt}")
+    if payload is not None and (not math.isfinite(payload) or payload < 0):
+        raise InputError("--payload", "", f"must be a mass >= 0 kg, got {payload}")
+    req = required_drive(arm, traj, t_end=t_end, dt=dt, payload=payload)
+    written = torque_speed_plot(req, plot) if plot is not None else None
+
+    if as_json:
+        out = req.to_dict()
+        out["trajectory"] = str(trajectory)
+        out["plot"] = str(written) if written is not None else None
+        typer.echo(json.dumps(out, indent=2, allow_nan=False))
+        return
+    _print_tables(req, str(trajectory))
+    if written is not None:
+        console.print(f"torque-speed plot written to {escape(str(written))}")
+
+
+def _print_tables(req, source: str) -> None:
+    title = (f"{escape(req.robot.name)}: drive requirements along {escape(source)} "
+             f"(t_end = {req.t_end:g} s, dt = {req.dt:.3g} s"
+             + (f", payload {req.payload_mass:g} kg" if req.payload_mass else "") + ")")
+    mixed = "prismatic" in req.robot.joint_types
+    need = Table(title=title, box=box.SIMPLE_HEAD,
+                 caption="T_m = k_m·i = P/i_r; peaks are max |x|, RMS and means over the run"
+                 + ("; units in brackets for prismatic joints (P)" if mixed else ""))
+    need.add_column("quantity")
+    need.add_column("unit")
+    for name, kind in zip(req.joint_names, req.robot.joint_types, strict=True):
+        need.add_column(escape(name) + (" (P)" if kind == "prismatic" else ""), justify="right")
+    ratios = [d.ratio if d is not None else math.nan for d in req.drives]
+    nm = "N·m (N)" if mixed else "N·m"
+    rad_s = "rad/s (m/s)" if mixed else "rad/s"
+    rows = [
+        ("gear ratio i_r", "rad/rad (rad/m)" if mixed else "rad/rad", ratios),
+        ("peak joint torque |P|", nm, req.peak_torque),
+        ("RMS joint torque", nm, req.rms_torque),
+        ("peak joint speed |q̇|", rad_s, req.peak_speed),
+        ("peak motor torque |T_m|", "N·m", req.peak_motor_torque),
+        ("RMS motor torque", "N·m", req.rms_motor_torque),
+        ("peak motor speed |ω_m|", "rad/s", req.peak_motor_speed),
+        ("peak current |i|", "A", req.peak_current),
+        ("RMS current", "A", req.rms_current),
+        ("peak voltage |u_a|", "V", req.peak_voltage),
+        ("peak amp. input |U|", "V", req.peak_input_voltage),
+        ("peak |P·q̇|", "W", req.peak_mech_power),
+        ("mean P·q̇", "W", req.mean_mech_power),
+        ("peak |u_a·i|", "W", req.peak_elec_power),
+        ("mean u_a·i", "W", req.mean_elec_power),
+    ]
+    for label, unit, values in rows:
+        need.add_row(label, unit, *(_fmt(float(v)) for v in values))
+    console.print(need)
+
+    check = Table(title="motor check (margin = 1 - required/rating; negative: over it)",
+                  box=box.SIMPLE_HEAD,
+                  caption="continuous: RMS T_m vs rated torque; peak: peak |T_m| vs peak "
+                  "torque; speed: peak |ω_m| vs max speed; voltage: peak |u_a| vs the "
+                  "amplifier limit (else the rated voltage)")
+    for col, just in (("joint / motor", "left"), ("limit", "left"), ("required", "right"),
+                      ("rating", "right"), ("unit", "left"), ("margin", "right"),
+                      ("status", "left")):
+        check.add_column(col, justify=just, no_wrap=True)
+    for j in range(req.n):
+        d = req.drives[j]
+        motor = "(no drive)" if d is None else (d.name or "(unnamed motor)")
+        first = [escape(req.joint_names[j]), f"[grey50]{escape(motor)}[/]", "", ""]
+        for k, c in enumerate(req.checks.values()):
+            st = c.status[j]
+            m = c.margin[j]
+            check.add_row(
+                first[k] if k < len(first) else "", c.name, _fmt(c.required[j]),
+                _fmt(c.limit[j]), c.unit,
+                f"[{_COLOUR[st]}]{m:+.0%}[/]" if st != "unknown" else "",
+                f"[{_COLOUR[st]}]{st}[/]", end_section=k == len(req.checks) - 1)
+    console.print(check)
+    fails = [req.joint_names[j] for j in range(req.n) if req.status[j] == "fail"]
+    unknown = [req.joint_names[j] for j in range(req.n) if req.status[j] == "unknown"]
+    if fails:
+        console.print(f"[red]over a limit:[/] {escape(', '.join(fails))}")
+    if unknown:
+        console.print(f"[grey50]not fully checked (a rating or the motor's electrical data "
+                      f"unknown):[/] {escape(', '.join(unknown))}")
+    if not fails and not unknown:
+        console.print("[green]every motor meets every limit[/]")

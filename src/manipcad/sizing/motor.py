@@ -1,0 +1,111 @@
+"""Motor-side quantities of one rigid-gear DC drive along a sampled motion (paper 3.1).
+
+With the gear ratio i_r (motor angle / joint coordinate) and the joint torque
+P (N·m, or N for a prismatic joint) that includes the drive terms,
+
+    ω_m = i_r·q̇                                   motor speed, rad/s
+    T_m = k_m·i = P / i_r                         motor (electromagnetic) torque, N·m
+        = P_rigid / i_r + J·ω̇_m + k_v·ω_m + M_f(ω_m)
+    i   = T_m / k_m                               armature current, A
+    u_a = R·i + L·di/dt + k_w·ω_m                 armature voltage, V
+    U   = u_a / k_u                               amplifier input, V
+
+The motor torque is the torque the air gap must produce: it covers the load
+referred to the shaft, the acceleration of the rotor and gear inertia J and
+the motor's own friction, so it is what a data sheet's torque limits and the
+current (through k_m) are compared with. di/dt is taken from the smooth part
+of T_m (everything but the dry-friction step, see
+:mod:`manipcad.sizing.motion`):
+
+    dT_m/dt = (dP_rigid/dt) / i_r + J·i_r·q⃛ + k_v·i_r·q̈
+
+The functions broadcast: ``ratio`` may be an array of shape (R, 1) against
+samples of shape (N,), giving (R, N) — this is how the ratio sweep evaluates
+every ratio in one pass.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from manipcad.model.robot import Drive
+
+
+@dataclass(frozen=True)
+class MotorSeries:
+    """Motor-side time series of one drive (shape (N,) or (R, N) for R ratios).
+
+    Attributes:
+        torque: motor torque T_m = k_m·i, N·m.
+        speed: motor speed ω_m, rad/s.
+        current: armature current i, A (nan if k_m is unknown).
+        current_rate: di/dt of the smooth part, A/s.
+        voltage: armature voltage u_a = R·i + L·di/dt + k_w·ω_m, V (nan if
+            R, L, k_m or k_w is unknown).
+    """
+
+    torque: np.ndarray
+    speed: np.ndarray
+    current: np.ndarray
+    current_rate: np.ndarray
+    voltage: np.ndarray
+
+
+def coulomb_direction(drive: Drive, qd: np.ndarray) -> np.ndarray:
+    """Motor-side dry friction M_f signed by the JOINT direction, N·m.
+
+    M_f+ where q̇ > 0, -M_f- where q̇ < 0, 0 at rest; the joint-side term is
+    |i_r| times this, the motor-side term sign(i_r) times this.
+
+    Example:
+        >>> import numpy as np
+        >>> from manipcad.model.robot import Drive
+        >>> coulomb_direction(Drive(M_f=(0.1, 0.3)), np.array([1.0, -1.0, 0.0])).tolist()
+        [0.1, -0.3, 0.0]
+    """
+    return np.where(qd > 0, drive.M_f[0], np.where(qd < 0, -drive.M_f[1], 0.0))
+
+
+def joint_torque(drive: Drive, ratio, tau_rigid: np.ndarray, qd: np.ndarray,
+                 qdd: np.ndarray) -> np.ndarray:
+    """Joint torque with this drive's terms at gear ratio ``ratio``, N·m (N).
+
+    P = P_rigid + J·i_r²·q̈ + k_v·i_r²·q̇ + |i_r|·M_f(q̇), the same sum as
+    ``inverse_dynamics(..., drives=True)`` for this joint.
+
+    Args:
+        drive: the drive (J, k_v, M_f are used; its own ratio is not).
+        ratio: i_r, rad/rad (rad/m); scalar or (R, 1).
+        tau_rigid, qd, qdd: (N,) rigid-body torque (N·m or N), q̇, q̈ of the joint.
+    """
+    r = np.asarray(ratio, dtype=float)
+    return (tau_rigid + (drive.J * qdd + drive.k_v * qd) * r * r
+            + np.abs(r) * coulomb_direction(drive, qd))
+
+
+def motor_series(drive: Drive, ratio, tau: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                 dtau_rigid: np.ndarray, jerk: np.ndarray) -> MotorSeries:
+    """Motor torque, speed, current and voltage of one drive (module docstring).
+
+    Args:
+        drive: the drive (R, L, k_m, k_w, J, k_v are used).
+        ratio: i_r, rad/rad (rad/m); scalar or (R, 1).
+        tau: joint torque with the drive terms at this ratio, N·m (N); (N,) or (R, N).
+        qd, qdd: (N,) joint velocity and acceleration (rad/s, rad/s² or m/s, m/s²).
+        dtau_rigid: (N,) d/dt of the rigid-body joint torque, N·m/s (N/s).
+        jerk: (N,) d(q̈)/dt, rad/s³ (m/s³).
+
+    Returns:
+        :class:`MotorSeries` with the broadcast shape.
+    """
+    r = np.asarray(ratio, dtype=float)
+    torque = tau / r
+    speed = r * qd
+    torque_rate = dtau_rigid / r + drive.J * r * jerk + drive.k_v * r * qdd
+    current = torque / drive.k_m
+    current_rate = torque_rate / drive.k_m
+    voltage = drive.R * current + drive.L * current_rate + drive.k_w * speed
+    return MotorSeries(torque=torque, speed=speed, current=current,
+                       current_rate=current_rate, voltage=voltage)

@@ -14,6 +14,8 @@ from manipcad.dynamics import (
     operation_counts,
     torque_components,
 )
+from manipcad.analysis import coupling_analysis, moment_components
+from manipcad.dynamics.identification import PayloadEstimate, identify_payload
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning, ModelError
 from manipcad.model import Drive, Robot, catalog_names, load_robot
 from manipcad.sizing import DriveRequirements, ratio_sweep, required_drive, torque_speed_plot
@@ -25,6 +27,7 @@ __all__ = [
     "Robot", "Drive", "load_robot", "catalog_names",
     "inverse_dynamics", "mass_matrix", "forward_dynamics", "torque_components",
     "operation_counts", "load_trajectory", "save_trajectory",
+    "identify_payload", "PayloadEstimate", "coupling_analysis", "moment_components",
     "required_drive", "DriveRequirements", "ratio_sweep", "torque_speed_plot",
     "ManipcadError", "ModelError", "InputError", "ManipcadWarning",
 ]

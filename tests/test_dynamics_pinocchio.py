@@ -129,3 +129,91 @@ def test_bad_shapes_name_the_argument():
                                   f_ext=np.zeros((3, 3)))
     with pytest.raises(manipcad.ManipcadError, match="method"):
         manipcad.forward_dynamics(robot, np.zeros(3), np.zeros(3), np.zeros(3), method="x")
+
+
+def test_fast_path_and_checked_path_agree():
+    """One-state calls of plain float64 vectors take a compiled fast path; any other
+    input (lists, ints, strided or readonly arrays) the checked path: same results."""
+    robot = random_tree(4, n=5, drives=True)
+    rng = np.random.default_rng(2)
+    q, qd, x = rng.normal(size=(3, robot.n))
+    ref = {
+        "tau": manipcad.inverse_dynamics(robot, q, qd, x),
+        "H": manipcad.mass_matrix(robot, q),
+        "aba": manipcad.forward_dynamics(robot, q, qd, x),
+        "crba": manipcad.forward_dynamics(robot, q, qd, x, method="crba"),
+    }
+    readonly = q.copy()
+    readonly.setflags(write=False)
+    strided = np.repeat(q, 2)[::2]
+    for qq in (list(q), readonly, strided):
+        assert np.array_equal(manipcad.inverse_dynamics(robot, qq, qd, x), ref["tau"])
+        assert np.array_equal(manipcad.mass_matrix(robot, qq), ref["H"])
+        assert np.array_equal(manipcad.forward_dynamics(robot, qq, qd, x), ref["aba"])
+        assert np.array_equal(manipcad.forward_dynamics(robot, qq, qd, x, method="crba"),
+                              ref["crba"])
+    ints = np.arange(robot.n)
+    assert np.array_equal(manipcad.inverse_dynamics(robot, ints, ints, ints),
+                          manipcad.inverse_dynamics(robot, ints * 1.0, ints * 1.0, ints * 1.0))
+    # the given gravity and external forces go the checked way too
+    assert np.array_equal(manipcad.inverse_dynamics(robot, q, qd, x, gravity=robot.gravity),
+                          ref["tau"])
+    assert np.array_equal(manipcad.inverse_dynamics(robot, q, qd, x, f_ext=np.zeros((5, 6))),
+                          ref["tau"])
+    # wrong lengths leave the fast path and get the message naming the argument
+    short = np.zeros(robot.n - 1)
+    with pytest.raises(manipcad.ManipcadError, match="qdd"):
+        manipcad.inverse_dynamics(robot, q, qd, short)
+    with pytest.raises(manipcad.ManipcadError, match="q must have"):
+        manipcad.mass_matrix(robot, short)
+    for method in ("aba", "crba"):
+        with pytest.raises(manipcad.ManipcadError, match="tau"):
+            manipcad.forward_dynamics(robot, q, qd, short, method=method)
+
+
+def test_parallel_batches_equal_serial_ones(monkeypatch):
+    """Large batches run in chunks on numba's threads: the same numbers as one by one."""
+    from manipcad.dynamics import _inputs
+    from manipcad.dynamics.aba import aba_batch, aba_batch_parallel
+    from manipcad.dynamics.crba import crba_batch, crba_batch_parallel
+    from manipcad.dynamics.forward_crba import crba_fd_batch, crba_fd_batch_parallel
+    from manipcad.dynamics.rnea import rnea_batch, rnea_batch_parallel
+
+    robot = random_tree(5, n=6, drives=True)
+    rng = np.random.default_rng(3)
+    N, n = 45, robot.n
+    Q, QD, X = rng.normal(size=(3, N, n))
+    F = rng.normal(size=(N, n, 6))
+    T, g = robot.table, robot.gravity
+    for use_f, FF in ((False, _inputs.NO_FEXT), (True, F)):
+        for serial, parallel, args, shape in (
+                (rnea_batch, rnea_batch_parallel, (T, g, Q, QD, X, FF, use_f, True), (N, n)),
+                (aba_batch, aba_batch_parallel, (T, g, Q, QD, X, FF, use_f, True), (N, n)),
+                (crba_fd_batch, crba_fd_batch_parallel, (T, g, Q, QD, X, FF, use_f, True),
+                 (N, n)),
+                (crba_batch, crba_batch_parallel, (T, Q, True), (N, n, n))):
+            a, b = np.empty(shape), np.empty(shape)
+            ra = serial(*args, a)
+            for chunks in (1, 4, 7):
+                rb = parallel(*args, b, chunks)
+                assert ra == rb and np.array_equal(a, b)
+    # through the public functions, with the threshold lowered
+    monkeypatch.setattr(_inputs, "PARALLEL_MIN_WORK", 0)
+    tau = manipcad.inverse_dynamics(robot, Q, QD, X, f_ext=F)
+    for k in (0, 22, 44):
+        assert np.array_equal(tau[k], manipcad.inverse_dynamics(robot, Q[k], QD[k], X[k],
+                                                                 f_ext=F[k]))
+    assert rel_err(manipcad.forward_dynamics(robot, Q, QD, tau, f_ext=F), X) < TOL
+    assert rel_err(manipcad.forward_dynamics(robot, Q, QD, tau, f_ext=F, method="crba"), X) < TOL
+    assert np.array_equal(manipcad.mass_matrix(robot, Q)[30], manipcad.mass_matrix(robot, Q[30]))
+
+
+def test_singular_mass_matrix_names_the_state():
+    """A joint that moves no mass makes H singular: the Cholesky path says at which state."""
+    robot = random_tree(6, n=3, chain=True).replace(mass=np.zeros(3),
+                                                     inertia=np.zeros((3, 3, 3)))
+    Q = np.zeros((5, 3))
+    with pytest.raises(manipcad.ManipcadError, match="state 0"):
+        manipcad.forward_dynamics(robot, Q[0], Q[0], Q[0], method="crba", drives=False)
+    with pytest.raises(manipcad.ManipcadError, match="state 0"):
+        manipcad.forward_dynamics(robot, Q, Q, Q, method="crba", drives=False)

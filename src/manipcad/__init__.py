@@ -7,6 +7,7 @@ from manipcad._numba_cache import configure as _configure_numba_cache
 
 _configure_numba_cache()
 
+from manipcad.analysis import coupling_analysis, moment_components
 from manipcad.dynamics import (
     forward_dynamics,
     inverse_dynamics,
@@ -14,7 +15,6 @@ from manipcad.dynamics import (
     operation_counts,
     torque_components,
 )
-from manipcad.analysis import coupling_analysis, moment_components
 from manipcad.dynamics.identification import PayloadEstimate, identify_payload
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning, ModelError
 from manipcad.model import Drive, Robot, catalog_names, load_robot

@@ -1,12 +1,16 @@
-"""Argument checks shared by the public dynamics functions (kept cheap: they run per call)."""
+"""Argument checks and fast paths shared by the public dynamics functions (they run per call)."""
 
 from __future__ import annotations
 
+import threading
+
+import numba as nb
 import numpy as np
 
 from manipcad.errors import ManipcadError
 
-_NO_FEXT = np.zeros((1, 1, 6))
+#: the dummy external wrenches of a call without them
+NO_FEXT = np.zeros((1, 1, 6))
 
 
 def as_states(n: int, **arrays) -> tuple[list[np.ndarray], bool]:
@@ -50,7 +54,7 @@ def as_gravity(robot, gravity) -> np.ndarray:
 def as_fext(n: int, N: int, single: bool, f_ext) -> tuple[np.ndarray, bool]:
     """External wrenches as (N, n, 6) [force N, moment N·m] per link, or a dummy when None."""
     if f_ext is None:
-        return _NO_FEXT, False
+        return NO_FEXT, False
     f = np.asarray(f_ext, dtype=np.float64)
     if f.shape == (n, 6):
         f = np.broadcast_to(f, (N, n, 6))
@@ -61,3 +65,70 @@ def as_fext(n: int, N: int, single: bool, f_ext) -> tuple[np.ndarray, bool]:
     if not np.isfinite(f).all():
         raise ManipcadError("f_ext holds NaN or infinite values")
     return np.ascontiguousarray(f), True
+
+
+# ------------------------------------------------------------------ fast paths
+
+#: batches with fewer joint-states (N·n) than this run on one thread (about a
+#: millisecond of work): a parallel region costs microseconds when cores are
+#: free, and up to a scheduler time slice when other processes hold them
+#: (see docs/performance.md)
+PARALLEL_MIN_WORK = 20000
+_parallel_lock = threading.Lock()
+
+
+def batch_runner(serial, parallel, states_arg: int):
+    """A caller of a batch kernel that runs large batches on numba's threads.
+
+    ``serial(*args)`` and ``parallel(*args, chunks)`` take the same arguments,
+    the model table first and the (N, n) states at position ``states_arg``.
+    One parallel batch runs at a time (numba's fallback thread pool does not
+    allow concurrent launches); a call that finds one running goes serial.
+    """
+
+    def run(*args):
+        N, n = args[states_arg].shape
+        threads = nb.get_num_threads()
+        if threads > 1 and N >= 2 * threads and N * n >= PARALLEL_MIN_WORK:
+            if _parallel_lock.acquire(blocking=False):
+                old = nb.set_parallel_chunksize(1)  # each chunk to whichever thread is free
+                try:
+                    return parallel(*args, min(N, 8 * threads))
+                finally:
+                    nb.set_parallel_chunksize(old)
+                    _parallel_lock.release()
+        return serial(*args)
+
+    return run
+
+
+def vector_kernel(store: dict, name: str):
+    """The compiled one-state kernel ``name`` (rnea, mass, aba, crba), made on first use.
+
+    Fixed argument types, those the batch path passes, so that both run one
+    compiled loop: the (readonly) model table, C-contiguous float64 vectors,
+    the drives flag, a float64 output made by the caller, and (dynamics only)
+    the external wrenches and their flag, passed as ``NO_FEXT, False`` (from
+    Python, so that numba does not compile the loop again for a literal).
+    Other types (readonly or strided vectors too) raise TypeError at the call,
+    lengths other than n ValueError: the caller then takes the checked path.
+    """
+    from numba import types as nt
+
+    from manipcad.dynamics.aba import aba_vector
+    from manipcad.dynamics.crba import crba_vector
+    from manipcad.dynamics.forward_crba import crba_fd_vector
+    from manipcad.dynamics.rnea import rnea_vector
+
+    table = nt.Array(nt.float64, 2, "C", readonly=True)
+    vec = nt.float64[::1]
+    state = (table, vec, vec, vec, vec, nt.boolean, vec, nt.float64[:, :, ::1], nt.boolean)
+    func, sig = {
+        "rnea": (rnea_vector, nt.void(*state)),
+        "aba": (aba_vector, nt.void(*state)),
+        "crba": (crba_fd_vector, nt.int64(*state)),
+        "mass": (crba_vector, nt.void(table, vec, nt.boolean, nt.float64[:, ::1])),
+    }[name]
+    kernel = nb.njit([sig], cache=True, nogil=True)(func)
+    store[name] = kernel
+    return kernel

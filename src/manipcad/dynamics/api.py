@@ -1,16 +1,43 @@
-"""The public dynamics functions: one state (n,) or a batch (N, n) in, matching shape out."""
+"""The public dynamics functions: one state (n,) or a batch (N, n) in, matching shape out.
+
+Each function has a fast path for the common call, one state given as 1-D
+float64 arrays with the robot's own gravity and no external forces: a compiled
+kernel with fixed argument types checks the lengths itself, and any other
+input (lists, other dtypes, wrong lengths) falls back to the checked path of
+:mod:`manipcad.dynamics._inputs`, which converts it or raises the error that
+names the argument. Large batches run on numba's threads (see
+:func:`manipcad.dynamics._inputs.batch_runner`).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from manipcad.dynamics._inputs import as_fext, as_gravity, as_states
-from manipcad.dynamics.aba import aba_batch
-from manipcad.dynamics.crba import crba_batch
-from manipcad.dynamics.forward_crba import crba_fd_batch
-from manipcad.dynamics.rnea import rnea_batch
+from manipcad.dynamics._inputs import (
+    NO_FEXT,
+    as_fext,
+    as_gravity,
+    as_states,
+    batch_runner,
+    vector_kernel,
+)
+from manipcad.dynamics.aba import aba_batch, aba_batch_parallel
+from manipcad.dynamics.crba import crba_batch, crba_batch_parallel
+from manipcad.dynamics.forward_crba import crba_fd_batch, crba_fd_batch_parallel
+from manipcad.dynamics.rnea import rnea_batch, rnea_batch_parallel
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
+
+_run_rnea = batch_runner(rnea_batch, rnea_batch_parallel, 2)
+_run_crba = batch_runner(crba_batch, crba_batch_parallel, 1)
+_run_aba = batch_runner(aba_batch, aba_batch_parallel, 2)
+_run_crba_fd = batch_runner(crba_fd_batch, crba_fd_batch_parallel, 2)
+_vectors: dict = {}  # name -> compiled one-state kernel, made on first use
+
+
+def _not_pd(state: int) -> ManipcadError:
+    return ManipcadError(f"the mass matrix is not positive definite at state {state}: "
+                         "a joint moves no mass (add inertia or a drive)")
 
 
 def inverse_dynamics(robot: Robot, q, qd, qdd, *, gravity=None, f_ext=None,
@@ -39,10 +66,18 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, *, gravity=None, f_ext=None,
         >>> tau.shape
         (6,)
     """
+    if gravity is None and f_ext is None and type(q) is np.ndarray and q.ndim == 1:
+        tau = np.empty(q.shape[0])
+        try:
+            (_vectors.get("rnea") or vector_kernel(_vectors, "rnea"))(
+                robot.table, robot.gravity, q, qd, qdd, drives, tau, NO_FEXT, False)
+            return tau
+        except (TypeError, ValueError):
+            pass  # not float64 vectors of length n: the checked path converts or explains
     (Q, QD, QDD), single = as_states(robot.n, q=q, qd=qd, qdd=qdd)
     F, use_f = as_fext(robot.n, Q.shape[0], single, f_ext)
-    tau = np.empty_like(Q)
-    rnea_batch(robot.table, as_gravity(robot, gravity), Q, QD, QDD, F, use_f, drives, tau)
+    tau = np.empty(Q.shape)
+    _run_rnea(robot.table, as_gravity(robot, gravity), Q, QD, QDD, F, use_f, drives, tau)
     return tau[0] if single else tau
 
 
@@ -62,9 +97,16 @@ def mass_matrix(robot: Robot, q, *, drives: bool = True) -> np.ndarray:
         >>> import numpy as np, manipcad
         >>> H = manipcad.mass_matrix(manipcad.load_robot("puma560"), np.zeros(6))
     """
+    if type(q) is np.ndarray and q.ndim == 1:
+        H = np.empty((robot.n, robot.n))
+        try:
+            (_vectors.get("mass") or vector_kernel(_vectors, "mass"))(robot.table, q, drives, H)
+            return H
+        except (TypeError, ValueError):
+            pass  # not a float64 vector of length n: the checked path converts or explains
     (Q,), single = as_states(robot.n, q=q)
     H = np.empty((Q.shape[0], robot.n, robot.n))
-    crba_batch(robot.table, Q, drives, H)
+    _run_crba(robot.table, Q, drives, H)
     return H[0] if single else H
 
 
@@ -88,17 +130,28 @@ def forward_dynamics(robot: Robot, q, qd, tau, *, method: str = "aba", gravity=N
         >>> puma = manipcad.load_robot("puma560")
         >>> qdd = manipcad.forward_dynamics(puma, np.zeros(6), np.zeros(6), np.zeros(6))
     """
+    if (gravity is None and f_ext is None and type(q) is np.ndarray and q.ndim == 1
+            and (method == "aba" or method == "crba")):
+        qdd = np.empty(q.shape[0])
+        try:
+            bad = (_vectors.get(method) or vector_kernel(_vectors, method))(
+                robot.table, robot.gravity, q, qd, tau, drives, qdd, NO_FEXT, False)
+        except (TypeError, ValueError):
+            pass  # not float64 vectors of length n: the checked path converts or explains
+        else:
+            if bad is not None and bad >= 0:
+                raise _not_pd(bad)
+            return qdd
     (Q, QD, T), single = as_states(robot.n, q=q, qd=qd, tau=tau)
     F, use_f = as_fext(robot.n, Q.shape[0], single, f_ext)
     g = as_gravity(robot, gravity)
-    qdd = np.empty_like(Q)
+    qdd = np.empty(Q.shape)
     if method == "aba":
-        aba_batch(robot.table, g, Q, QD, T, F, use_f, drives, qdd)
+        _run_aba(robot.table, g, Q, QD, T, F, use_f, drives, qdd)
     elif method == "crba":
-        bad = crba_fd_batch(robot.table, g, Q, QD, T, F, use_f, drives, qdd)
+        bad = _run_crba_fd(robot.table, g, Q, QD, T, F, use_f, drives, qdd)
         if bad >= 0:
-            raise ManipcadError(f"the mass matrix is not positive definite at state {bad}: "
-                                "a joint moves no mass (add inertia or a drive)")
+            raise _not_pd(bad)
     else:
         raise ManipcadError(f"method must be 'aba' or 'crba', got {method!r}")
     return qdd[0] if single else qdd

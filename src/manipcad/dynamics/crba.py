@@ -17,7 +17,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from manipcad.dynamics._kernels_common import cross, jit, joint_transform, parent_of, rot
+from manipcad.dynamics._kernels_common import cross, jit, joint_pose, parent_of, rot
 from manipcad.model.robot import COL_COM, COL_IC, COL_JR, COL_MASS, COL_TYPE
 
 # per-body work row: R(9) p(3) m(1) h(3) I_O(9, about the body origin)
@@ -27,133 +27,161 @@ CRBA_WORK = 25
 
 @jit
 def crba_one(table, q, drives, work, tmp, H):
-    """Joint-space inertia matrix H (n, n) at q (kg·m², kg, kg·m for mixed)."""
+    """Joint-space inertia matrix H (n, n) at q (kg·m², kg, kg·m for mixed).
+
+    work is (n, CRBA_WORK) and tmp (at least 8 rows of 3 columns) scratch.
+    """
     n = table.shape[0]
-    t0 = tmp[0]
-    t1 = tmp[1]
-    f = tmp[2]
-    nn = tmp[3]
     for i in range(n):
         for j in range(n):
             H[i, j] = 0.0  # pairs on different branches of a tree stay zero
     for i in range(n):
-        w = work[i]
-        joint_transform(table, i, q[i], w[C_R:C_R + 9], w[C_P:C_P + 3])
+        joint_pose(table, i, q[i], work, C_R, C_P)
         m = table[i, COL_MASS]
-        c = table[i, COL_COM:COL_COM + 3]
-        Ic = table[i, COL_IC:COL_IC + 9]
-        w[C_M] = m
-        h = w[C_H:C_H + 3]
-        for k in range(3):
-            h[k] = m * c[k]
+        c0 = table[i, COL_COM]
+        c1 = table[i, COL_COM + 1]
+        c2 = table[i, COL_COM + 2]
+        work[i, C_M] = m
+        h0 = m * c0
+        h1 = m * c1
+        h2 = m * c2
+        work[i, C_H] = h0
+        work[i, C_H + 1] = h1
+        work[i, C_H + 2] = h2
         # I_O = I_c + m (|c|² E - c cᵀ)
-        hc0 = h[0] * c[0]
-        hc1 = h[1] * c[1]
-        hc2 = h[2] * c[2]
-        I = w[C_I:C_I + 9]
-        I[0] = Ic[0] + hc1 + hc2
-        I[4] = Ic[4] + hc0 + hc2
-        I[8] = Ic[8] + hc0 + hc1
-        I[1] = Ic[1] - h[0] * c[1]
-        I[2] = Ic[2] - h[0] * c[2]
-        I[5] = Ic[5] - h[1] * c[2]
-        I[3] = I[1]
-        I[6] = I[2]
-        I[7] = I[5]
+        hc0 = h0 * c0
+        hc1 = h1 * c1
+        hc2 = h2 * c2
+        work[i, C_I] = table[i, COL_IC] + hc1 + hc2
+        work[i, C_I + 4] = table[i, COL_IC + 4] + hc0 + hc2
+        work[i, C_I + 8] = table[i, COL_IC + 8] + hc0 + hc1
+        i01 = table[i, COL_IC + 1] - h0 * c1
+        i02 = table[i, COL_IC + 2] - h0 * c2
+        i12 = table[i, COL_IC + 5] - h1 * c2
+        work[i, C_I + 1] = i01
+        work[i, C_I + 2] = i02
+        work[i, C_I + 5] = i12
+        work[i, C_I + 3] = i01
+        work[i, C_I + 6] = i02
+        work[i, C_I + 7] = i12
     # composite bodies, leaves first
     for i in range(n - 1, 0, -1):
         par = parent_of(table, i)
         if par < 0:
             continue
-        _add_to_parent(work[i], work[par], tmp)
+        _add_to_parent(work, i, par, tmp)
     for i in range(n):
-        w = work[i]
-        h = w[C_H:C_H + 3]
-        I = w[C_I:C_I + 9]
         if table[i, COL_TYPE] == 0.0:
             # unit rotation about z: f = z × h, n = I_O z
-            f[0] = -h[1]
-            f[1] = h[0]
-            f[2] = 0.0
-            nn[0] = I[2]
-            nn[1] = I[5]
-            nn[2] = I[8]
-            H[i, i] = nn[2]
+            fx = -work[i, C_H + 1]
+            fy = work[i, C_H]
+            fz = 0.0
+            nx = work[i, C_I + 2]
+            ny = work[i, C_I + 5]
+            nz = work[i, C_I + 8]
+            hii = nz
         else:
             # unit translation along z: f = m z, n = h × z
-            f[0] = 0.0
-            f[1] = 0.0
-            f[2] = w[C_M]
-            nn[0] = h[1]
-            nn[1] = -h[0]
-            nn[2] = 0.0
-            H[i, i] = f[2]
+            fx = 0.0
+            fy = 0.0
+            fz = work[i, C_M]
+            nx = work[i, C_H + 1]
+            ny = -work[i, C_H]
+            nz = 0.0
+            hii = fz
         if drives:
-            H[i, i] = H[i, i] + table[i, COL_JR]
+            hii = hii + table[i, COL_JR]
+        H[i, i] = hii
         j = i
         par = parent_of(table, j)
         while par >= 0:
-            wj = work[j]
-            R = wj[C_R:C_R + 9]
-            rot(R, f, t0)
-            rot(R, nn, t1)
-            cross(wj[C_P:C_P + 3], t0, nn)
-            for k in range(3):
-                f[k] = t0[k]
-                nn[k] = nn[k] + t1[k]
+            # the force screw in the parent's axes: f' = R f, n' = R n + p × R f
+            fx, fy, fz = rot(work, j, C_R, fx, fy, fz)
+            rx, ry, rz = rot(work, j, C_R, nx, ny, nz)
+            nx, ny, nz = cross(work[j, C_P], work[j, C_P + 1], work[j, C_P + 2], fx, fy, fz)
+            nx = nx + rx
+            ny = ny + ry
+            nz = nz + rz
             j = par
-            if table[j, COL_TYPE] == 0.0:
-                H[i, j] = nn[2]
-            else:
-                H[i, j] = f[2]
-            H[j, i] = H[i, j]
+            hij = nz if table[j, COL_TYPE] == 0.0 else fz
+            H[i, j] = hij
+            H[j, i] = hij
             par = parent_of(table, j)
 
 
 @jit
-def _add_to_parent(wc, wp, tmp):
+def _add_to_parent(work, c, par, tmp):
     """Add composite body c (in its own axes) to its parent's, through (R, p) of c."""
-    R = wc[C_R:C_R + 9]
-    p = wc[C_P:C_P + 3]
-    m = wc[C_M]
-    hr = tmp[4]
-    rot(R, wc[C_H:C_H + 3], hr)
-    # R I_O Rᵀ, upper triangle: M = I_O Rᵀ, then R M
-    I = wc[C_I:C_I + 9]
-    M = tmp[5:8]
+    m = work[c, C_M]
+    hr0, hr1, hr2 = rot(work, c, C_R, work[c, C_H], work[c, C_H + 1], work[c, C_H + 2])
+    # R I_O Rᵀ, upper triangle: M = I_O Rᵀ (in tmp rows 5-7), then R M
     for a in range(3):
         for s in range(3):
-            M[a, s] = (I[3 * a] * R[3 * s] + I[3 * a + 1] * R[3 * s + 1]
-                       + I[3 * a + 2] * R[3 * s + 2])
-    Ip = wp[C_I:C_I + 9]
+            tmp[5 + a, s] = (work[c, C_I + 3 * a] * work[c, C_R + 3 * s]
+                             + work[c, C_I + 3 * a + 1] * work[c, C_R + 3 * s + 1]
+                             + work[c, C_I + 3 * a + 2] * work[c, C_R + 3 * s + 2])
     for r in range(3):
         for s in range(r, 3):
-            Ip[3 * r + s] = (Ip[3 * r + s] + R[3 * r] * M[0, s] + R[3 * r + 1] * M[1, s]
-                             + R[3 * r + 2] * M[2, s])
+            work[par, C_I + 3 * r + s] = (work[par, C_I + 3 * r + s]
+                                          + work[c, C_R + 3 * r] * tmp[5, s]
+                                          + work[c, C_R + 3 * r + 1] * tmp[6, s]
+                                          + work[c, C_R + 3 * r + 2] * tmp[7, s])
     # parallel axis with the origin moved by p: - [p][h'] - [h'][p] - m [p]²
     #  = (p·h')E·2 - p h'ᵀ - h' pᵀ + m(|p|²E - p pᵀ), with h' = R h
-    ph = p[0] * hr[0] + p[1] * hr[1] + p[2] * hr[2]
-    pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
+    p0 = work[c, C_P]
+    p1 = work[c, C_P + 1]
+    p2 = work[c, C_P + 2]
+    ph = p0 * hr0 + p1 * hr1 + p2 * hr2
+    pp = p0 * p0 + p1 * p1 + p2 * p2
     for r in range(3):
+        pr = work[c, C_P + r]
+        hrr = hr0 if r == 0 else (hr1 if r == 1 else hr2)
         for s in range(r, 3):
-            v = -(p[r] * hr[s] + hr[r] * p[s]) - m * p[r] * p[s]
+            ps = work[c, C_P + s]
+            hrs = hr0 if s == 0 else (hr1 if s == 1 else hr2)
+            v = -(pr * hrs + hrr * ps) - m * pr * ps
             if r == s:
                 v = v + 2.0 * ph + m * pp
-            Ip[3 * r + s] = Ip[3 * r + s] + v
-    for r in range(3):
-        for s in range(r):
-            Ip[3 * r + s] = Ip[3 * s + r]
-    hp = wp[C_H:C_H + 3]
-    for k in range(3):
-        hp[k] = hp[k] + hr[k] + m * p[k]
-    wp[C_M] = wp[C_M] + m
+            work[par, C_I + 3 * r + s] = work[par, C_I + 3 * r + s] + v
+    work[par, C_I + 3] = work[par, C_I + 1]
+    work[par, C_I + 6] = work[par, C_I + 2]
+    work[par, C_I + 7] = work[par, C_I + 5]
+    work[par, C_H] = work[par, C_H] + hr0 + m * p0
+    work[par, C_H + 1] = work[par, C_H + 1] + hr1 + m * p1
+    work[par, C_H + 2] = work[par, C_H + 2] + hr2 + m * p2
+    work[par, C_M] = work[par, C_M] + m
 
 
-@nb.njit(cache=True, nogil=True)
+#: the same source inlined into the loop over states (see ``rnea_state``)
+crba_state = nb.njit(nogil=True, inline="always")(crba_one.py_func)
+
+
+@jit
 def crba_batch(table, Q, drives, HOUT):
-    """Inertia matrices of N configurations: Q (N, n) -> HOUT (N, n, n)."""
+    """Inertia matrices of N configurations: Q (N, n) -> HOUT (N, n, n).
+
+    The one loop over states (see :func:`manipcad.dynamics.rnea.rnea_batch`).
+    """
     n = table.shape[0]
     work = np.empty((n, CRBA_WORK))
     tmp = np.zeros((8, 3))
     for k in range(Q.shape[0]):
-        crba_one(table, Q[k], drives, work, tmp, HOUT[k])
+        crba_state(table, Q[k], drives, work, tmp, HOUT[k])
+
+
+@nb.njit(cache=True, nogil=True, parallel=True)
+def crba_batch_parallel(table, Q, drives, HOUT, chunks):
+    """:func:`crba_batch` on ``chunks`` chunks of rows, run on numba's threads."""
+    N = Q.shape[0]
+    for c in nb.prange(chunks):
+        a = c * N // chunks
+        b = (c + 1) * N // chunks
+        crba_batch(table, Q[a:b], drives, HOUT[a:b])
+
+
+def crba_vector(table, q, drives, H):
+    """One configuration: the fast path of the public function (see ``rnea_vector``)."""
+    n = table.shape[0]
+    if q.shape[0] != n or H.shape[0] != n or H.shape[1] != n:
+        raise ValueError("q's length is not the number of joints")
+    crba_batch(table, q.reshape((1, n)), drives, H.reshape((1, n, n)))

@@ -13,8 +13,8 @@ import numba as nb
 import numpy as np
 
 from manipcad.dynamics._kernels_common import jit
-from manipcad.dynamics.crba import CRBA_WORK, crba_one
-from manipcad.dynamics.rnea import RNEA_WORK, rnea_one
+from manipcad.dynamics.crba import CRBA_WORK, crba_state
+from manipcad.dynamics.rnea import RNEA_WORK, rnea_state
 
 
 @jit
@@ -47,10 +47,13 @@ def cholesky_solve(H, b, x):
     return True
 
 
-@nb.njit(cache=True, nogil=True)
+@jit
 def crba_fd_batch(table, g, Q, QD, TAU, FEXT, use_fext, drives, QDD):
     """Forward dynamics of N states by H q̈ = tau - ĥ; returns the index of the
-    first state whose H is not positive definite, or -1."""
+    first state whose H is not positive definite, or -1.
+
+    The one loop over states (see :func:`manipcad.dynamics.rnea.rnea_batch`).
+    """
     n = table.shape[0]
     rwork = np.empty((n, RNEA_WORK))
     cwork = np.empty((n, CRBA_WORK))
@@ -59,11 +62,38 @@ def crba_fd_batch(table, g, Q, QD, TAU, FEXT, use_fext, drives, QDD):
     zero = np.zeros(n)
     bias = np.empty(n)
     for k in range(Q.shape[0]):
-        rnea_one(table, g, Q[k], QD[k], zero, FEXT[k if use_fext else 0],
-                 use_fext, drives, rwork, tmp, bias)
-        crba_one(table, Q[k], drives, cwork, tmp, H)
+        rnea_state(table, g, Q[k], QD[k], zero, FEXT[k if use_fext else 0],
+                   use_fext, drives, rwork, tmp, bias)
+        crba_state(table, Q[k], drives, cwork, tmp, H)
         for i in range(n):
             bias[i] = TAU[k, i] - bias[i]
         if not cholesky_solve(H, bias, QDD[k]):
             return k
     return -1
+
+
+@nb.njit(cache=True, nogil=True, parallel=True)
+def crba_fd_batch_parallel(table, g, Q, QD, TAU, FEXT, use_fext, drives, QDD, chunks):
+    """:func:`crba_fd_batch` on ``chunks`` chunks of rows, run on numba's threads."""
+    N = Q.shape[0]
+    bad = np.empty(chunks, dtype=np.int64)
+    for c in nb.prange(chunks):
+        a = c * N // chunks
+        b = (c + 1) * N // chunks
+        k = crba_fd_batch(table, g, Q[a:b], QD[a:b], TAU[a:b], FEXT[a:b] if use_fext else FEXT,
+                          use_fext, drives, QDD[a:b])
+        bad[c] = k + a if k >= 0 else -1
+    for c in range(chunks):
+        if bad[c] >= 0:
+            return bad[c]
+    return -1
+
+
+def crba_fd_vector(table, g, q, qd, tau, drives, qdd, fext, use_fext):
+    """One state: the fast path of the public function; returns -1, or 0 when H is
+    not positive definite (see ``manipcad.dynamics.rnea.rnea_vector``)."""
+    n = table.shape[0]
+    if q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or qdd.shape[0] != n:
+        raise ValueError("a vector's length is not the number of joints")
+    return crba_fd_batch(table, g, q.reshape((1, n)), qd.reshape((1, n)), tau.reshape((1, n)),
+                         fext, use_fext, drives, qdd.reshape((1, n)))

@@ -24,7 +24,7 @@ from manipcad.dynamics._kernels_common import (
     cross,
     drive_friction,
     jit,
-    joint_transform,
+    joint_pose,
     parent_of,
     rot,
     rot_t,
@@ -40,112 +40,159 @@ RNEA_WORK = 27
 def rnea_one(table, g, q, qd, qdd, fext, use_fext, drives, work, tmp, tau):
     """Inverse dynamics of one state: tau (n,) from q, qd, qdd (SI units).
 
-    work is (n, RNEA_WORK) and tmp (6, 3) scratch; fext (n, 6) is read when
-    use_fext is true: [force, moment about the body origin] on each link, body axes.
+    work is (n, RNEA_WORK) scratch; tmp is unused (kept for the callers'
+    signature); fext (n, 6) is read when use_fext is true: [force, moment about
+    the body origin] on each link, body axes.
     """
     n = table.shape[0]
-    t0 = tmp[0]
-    t1 = tmp[1]
-    t2 = tmp[2]
-    t3 = tmp[3]
     for i in range(n):
-        w = work[i]
-        R = w[W_R:W_R + 9]
-        p = w[W_P:W_P + 3]
-        om = w[W_W:W_W + 3]
-        omd = w[W_WD:W_WD + 3]
-        acc = w[W_A:W_A + 3]
-        joint_transform(table, i, q[i], R, p)
+        joint_pose(table, i, q[i], work, W_R, W_P)
         par = parent_of(table, i)
         if par < 0:
             # the base is at rest and accelerates by -g (gravity as an inertial force)
-            om[0] = 0.0
-            om[1] = 0.0
-            om[2] = 0.0
-            omd[0] = 0.0
-            omd[1] = 0.0
-            omd[2] = 0.0
-            t0[0] = -g[0]
-            t0[1] = -g[1]
-            t0[2] = -g[2]
-            rot_t(R, t0, acc)
+            wx = 0.0
+            wy = 0.0
+            wz = 0.0
+            dx = 0.0
+            dy = 0.0
+            dz = 0.0
+            ax, ay, az = rot_t(work, i, W_R, -g[0], -g[1], -g[2])
         else:
-            wp = work[par]
-            omp = wp[W_W:W_W + 3]
-            omdp = wp[W_WD:W_WD + 3]
-            rot_t(R, omp, om)
-            rot_t(R, omdp, omd)
+            opx = work[par, W_W]
+            opy = work[par, W_W + 1]
+            opz = work[par, W_W + 2]
+            dpx = work[par, W_WD]
+            dpy = work[par, W_WD + 1]
+            dpz = work[par, W_WD + 2]
+            px = work[i, W_P]
+            py = work[i, W_P + 1]
+            pz = work[i, W_P + 2]
+            wx, wy, wz = rot_t(work, i, W_R, opx, opy, opz)
+            dx, dy, dz = rot_t(work, i, W_R, dpx, dpy, dpz)
             # a_p + ω̇_p × p + ω_p × (ω_p × p), then into body axes
-            cross(omdp, p, t0)
-            cross(omp, p, t1)
-            cross(omp, t1, t2)
-            ap = wp[W_A:W_A + 3]
-            t3[0] = ap[0] + t0[0] + t2[0]
-            t3[1] = ap[1] + t0[1] + t2[1]
-            t3[2] = ap[2] + t0[2] + t2[2]
-            rot_t(R, t3, acc)
+            bx, by, bz = cross(dpx, dpy, dpz, px, py, pz)
+            cx, cy, cz = cross(opx, opy, opz, px, py, pz)
+            ex, ey, ez = cross(opx, opy, opz, cx, cy, cz)
+            ax, ay, az = rot_t(work, i, W_R, work[par, W_A] + bx + ex,
+                               work[par, W_A + 1] + by + ey, work[par, W_A + 2] + bz + ez)
+        qdi = qd[i]
+        qddi = qdd[i]
         if table[i, COL_TYPE] == 0.0:
             # (A ω_p) × l q̇ + l q̈, with l = z
-            omd[0] = omd[0] + om[1] * qd[i]
-            omd[1] = omd[1] - om[0] * qd[i]
-            omd[2] = omd[2] + qdd[i]
-            om[2] = om[2] + qd[i]
+            dx = dx + wy * qdi
+            dy = dy - wx * qdi
+            dz = dz + qddi
+            wz = wz + qdi
         else:
             # 2 q̇ ω × l + l q̈
-            acc[0] = acc[0] + 2.0 * om[1] * qd[i]
-            acc[1] = acc[1] - 2.0 * om[0] * qd[i]
-            acc[2] = acc[2] + qdd[i]
+            ax = ax + 2.0 * wy * qdi
+            ay = ay - 2.0 * wx * qdi
+            az = az + qddi
+        work[i, W_W] = wx
+        work[i, W_W + 1] = wy
+        work[i, W_W + 2] = wz
+        work[i, W_WD] = dx
+        work[i, W_WD + 1] = dy
+        work[i, W_WD + 2] = dz
+        work[i, W_A] = ax
+        work[i, W_A + 1] = ay
+        work[i, W_A + 2] = az
         # acceleration of the centre of mass r̈ = a + ω̇ × r* + ω × (ω × r*)
-        c = table[i, COL_COM:COL_COM + 3]
         m = table[i, COL_MASS]
-        cross(omd, c, t0)
-        cross(om, c, t1)
-        cross(om, t1, t2)
-        f = w[W_F:W_F + 3]
-        nn = w[W_N:W_N + 3]
-        for k in range(3):
-            f[k] = m * (acc[k] + t0[k] + t2[k])
+        c0 = table[i, COL_COM]
+        c1 = table[i, COL_COM + 1]
+        c2 = table[i, COL_COM + 2]
+        t0x, t0y, t0z = cross(dx, dy, dz, c0, c1, c2)
+        t1x, t1y, t1z = cross(wx, wy, wz, c0, c1, c2)
+        t2x, t2y, t2z = cross(wx, wy, wz, t1x, t1y, t1z)
+        fx = m * (ax + t0x + t2x)
+        fy = m * (ay + t0y + t2y)
+        fz = m * (az + t0z + t2z)
         # τ ω̇ + ω × τ ω + r* × m r̈
-        Ic = table[i, COL_IC:COL_IC + 9]
-        rot(Ic, om, t1)
-        cross(om, t1, t2)
-        rot(Ic, omd, t1)
-        cross(c, f, t0)
-        for k in range(3):
-            nn[k] = t1[k] + t2[k] + t0[k]
+        ix, iy, iz = rot(table, i, COL_IC, wx, wy, wz)
+        t2x, t2y, t2z = cross(wx, wy, wz, ix, iy, iz)
+        t1x, t1y, t1z = rot(table, i, COL_IC, dx, dy, dz)
+        t0x, t0y, t0z = cross(c0, c1, c2, fx, fy, fz)
+        nx = t1x + t2x + t0x
+        ny = t1y + t2y + t0y
+        nz = t1z + t2z + t0z
         if use_fext:
-            for k in range(3):
-                f[k] = f[k] - fext[i, k]
-                nn[k] = nn[k] - fext[i, 3 + k]
+            fx = fx - fext[i, 0]
+            fy = fy - fext[i, 1]
+            fz = fz - fext[i, 2]
+            nx = nx - fext[i, 3]
+            ny = ny - fext[i, 4]
+            nz = nz - fext[i, 5]
+        work[i, W_F] = fx
+        work[i, W_F + 1] = fy
+        work[i, W_F + 2] = fz
+        work[i, W_N] = nx
+        work[i, W_N + 1] = ny
+        work[i, W_N + 2] = nz
     for i in range(n - 1, -1, -1):
-        w = work[i]
-        f = w[W_F:W_F + 3]
-        nn = w[W_N:W_N + 3]
-        if table[i, COL_TYPE] == 0.0:
-            tau[i] = nn[2]
-        else:
-            tau[i] = f[2]
+        fx = work[i, W_F]
+        fy = work[i, W_F + 1]
+        fz = work[i, W_F + 2]
+        nx = work[i, W_N]
+        ny = work[i, W_N + 1]
+        nz = work[i, W_N + 2]
+        t = nz if table[i, COL_TYPE] == 0.0 else fz
         if drives:
-            tau[i] = tau[i] + table[i, COL_JR] * qdd[i] + drive_friction(table, i, qd[i])
+            t = t + table[i, COL_JR] * qdd[i] + drive_friction(table, i, qd[i])
+        tau[i] = t
         par = parent_of(table, i)
         if par >= 0:
-            wp = work[par]
-            R = w[W_R:W_R + 9]
-            p = w[W_P:W_P + 3]
-            rot(R, f, t0)
-            rot(R, nn, t1)
-            cross(p, t0, t2)
-            for k in range(3):
-                wp[W_F + k] = wp[W_F + k] + t0[k]
-                wp[W_N + k] = wp[W_N + k] + t1[k] + t2[k]
+            # f_p += R f, n_p += R n + p × R f
+            rfx, rfy, rfz = rot(work, i, W_R, fx, fy, fz)
+            rnx, rny, rnz = rot(work, i, W_R, nx, ny, nz)
+            cx, cy, cz = cross(work[i, W_P], work[i, W_P + 1], work[i, W_P + 2], rfx, rfy, rfz)
+            work[par, W_F] = work[par, W_F] + rfx
+            work[par, W_F + 1] = work[par, W_F + 1] + rfy
+            work[par, W_F + 2] = work[par, W_F + 2] + rfz
+            work[par, W_N] = work[par, W_N] + rnx + cx
+            work[par, W_N + 1] = work[par, W_N + 1] + rny + cy
+            work[par, W_N + 2] = work[par, W_N + 2] + rnz + cz
 
 
-@nb.njit(cache=True, nogil=True)
+#: the same source inlined into the loop over states (saves a call and the
+#: reference counting of its nine array arguments per state)
+rnea_state = nb.njit(nogil=True, inline="always")(rnea_one.py_func)
+
+
+@jit
 def rnea_batch(table, g, Q, QD, QDD, FEXT, use_fext, drives, TAU):
-    """Inverse dynamics of N states: rows of Q, QD, QDD (N, n) -> TAU (N, n)."""
+    """Inverse dynamics of N states: rows of Q, QD, QDD (N, n) -> TAU (N, n).
+
+    The one loop over states: the parallel batch runs it on chunks of rows and
+    the one-state fast path on a batch of one, so all share one compiled kernel.
+    """
     n = table.shape[0]
     work = np.empty((n, RNEA_WORK))
-    tmp = np.empty((6, 3))
     for k in range(Q.shape[0]):
-        rnea_one(table, g, Q[k], QD[k], QDD[k], FEXT[k if use_fext else 0],
-                 use_fext, drives, work, tmp, TAU[k])
+        rnea_state(table, g, Q[k], QD[k], QDD[k], FEXT[k if use_fext else 0],
+                   use_fext, drives, work, work, TAU[k])
+
+
+@nb.njit(cache=True, nogil=True, parallel=True)
+def rnea_batch_parallel(table, g, Q, QD, QDD, FEXT, use_fext, drives, TAU, chunks):
+    """:func:`rnea_batch` on ``chunks`` chunks of rows, run on numba's threads."""
+    N = Q.shape[0]
+    for c in nb.prange(chunks):
+        a = c * N // chunks
+        b = (c + 1) * N // chunks
+        rnea_batch(table, g, Q[a:b], QD[a:b], QDD[a:b], FEXT[a:b] if use_fext else FEXT,
+                   use_fext, drives, TAU[a:b])
+
+
+def rnea_vector(table, g, q, qd, qdd, drives, tau, fext, use_fext):
+    """One state: the fast path of the public function, :func:`rnea_batch` on a batch of one.
+
+    Compiled on first use with fixed argument types, those of the batch path
+    (see :func:`manipcad.dynamics._inputs.vector_kernel`); raises ValueError
+    when a length is not n, so the caller can fall back to the checked path.
+    """
+    n = table.shape[0]
+    if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or tau.shape[0] != n:
+        raise ValueError("a vector's length is not the number of joints")
+    rnea_batch(table, g, q.reshape((1, n)), qd.reshape((1, n)), qdd.reshape((1, n)),
+               fext, use_fext, drives, tau.reshape((1, n)))

@@ -19,6 +19,7 @@ from manipcad.dynamics.identification import PayloadEstimate, identify_payload
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning, ModelError
 from manipcad.model import Drive, Robot, catalog_names, load_robot
 from manipcad.sizing import DriveRequirements, ratio_sweep, required_drive, torque_speed_plot
+from manipcad.synthesis import synthesize
 from manipcad.trajectories import load_trajectory, save_trajectory
 
 __version__ = "0.1.0"
@@ -28,6 +29,6 @@ __all__ = [
     "inverse_dynamics", "mass_matrix", "forward_dynamics", "torque_components",
     "operation_counts", "load_trajectory", "save_trajectory",
     "identify_payload", "PayloadEstimate", "coupling_analysis", "moment_components",
-    "required_drive", "DriveRequirements", "ratio_sweep", "torque_speed_plot",
+    "synthesize", "required_drive", "DriveRequirements", "ratio_sweep", "torque_speed_plot",
     "ManipcadError", "ModelError", "InputError", "ManipcadWarning",
 ]

@@ -12,7 +12,9 @@ drive (or with ``drives=False``) it is the joint torque (N·m or N).
 
 To add a method (the synthesis issue does): give it a new ``KIND_*`` code,
 write its compiled update below and dispatch to it in :func:`regulator_update`,
-and a :class:`Regulator` subclass that packs its parameters.
+and a :class:`Regulator` subclass that packs its parameters. The synthesis
+methods' updates live in :mod:`manipcad.synthesis.kernels` and are imported at
+the end of this module (they read the signal indices defined here).
 """
 
 from __future__ import annotations
@@ -28,9 +30,10 @@ from manipcad.errors import ManipcadError
 # signal vector filled by the simulator at every sample of a joint's regulator
 S_T, S_QREF, S_QDREF, S_QDDREF, S_Q, S_QD, S_I, S_HII, S_HI, S_QI = range(10)
 NSIG = 10
-#: parameter and state vector lengths every regulator is packed to
-NPARAM = 16
-NSTATE = 8
+#: parameter and state vector lengths every regulator is packed to (the
+#: synthesis methods need room for the packed drive and a gain table)
+NPARAM = 256
+NSTATE = 16
 
 KIND_NONE = 0
 KIND_PID = 1
@@ -67,6 +70,18 @@ def regulator_update(kind, p, s, sig, Ts):
     """One control period of a regulator of the given kind; returns its output."""
     if kind == KIND_PID:
         return pid_update(p, s, sig, Ts)
+    if kind == KIND_ACE_DE:
+        return ace_de_update(p, s, sig, Ts)
+    if kind == KIND_ACE_TF:
+        return ace_tf_update(p, s, sig, Ts)
+    if kind == KIND_ASVS:
+        return asvs_update(p, s, sig, Ts)
+    if kind == KIND_LQR:
+        return lqr_update(p, s, sig, Ts)
+    if kind == KIND_CT:
+        return computed_torque_update(p, s, sig, Ts)
+    if kind == KIND_SCE:
+        return sce_update(p, s, sig, Ts)
     return 0.0
 
 
@@ -140,3 +155,20 @@ class _PID(Regulator):
         p = self.params
         return (f"pid: U = {p[PID_KP]:g}·e + {p[PID_KI]:g}·∫e + {p[PID_KD]:g}·ė + "
                 f"{p[PID_FF]:g}·q̇_ref (|U| ≤ {p[PID_ULIM]:g}), T = {self.period:g} s")
+
+
+# the synthesis methods' compiled updates (imported last: they read the S_* above)
+from manipcad.synthesis.kernels import (  # noqa: E402
+    KIND_ACE_DE,
+    KIND_ACE_TF,
+    KIND_ASVS,
+    KIND_CT,
+    KIND_LQR,
+    KIND_SCE,
+    ace_de_update,
+    ace_tf_update,
+    asvs_update,
+    computed_torque_update,
+    lqr_update,
+    sce_update,
+)

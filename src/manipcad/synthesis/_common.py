@@ -1,0 +1,265 @@
+"""What every synthesis method shares: the regulator class, the load range, the SCE design.
+
+SI units: V, rad (m), s, kg·m² (kg), N·m (N). Loads are joint side unless
+marked ``*`` (motor side, divided by i_r²).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import control as ct
+import numpy as np
+
+from manipcad.drives.params import check_electrics, pack_drive
+from manipcad.errors import ManipcadError, ModelError
+from manipcad.model.robot import Drive, Robot
+from manipcad.sim.regulators import NPARAM, Regulator
+
+#: default control period of the synthesized regulators, s
+DEFAULT_PERIOD = 1e-4
+
+
+@dataclass
+class SynthesizedRegulator(Regulator):
+    """A regulator made by :func:`manipcad.synthesize`.
+
+    Attributes (beyond :class:`~manipcad.sim.regulators.Regulator`):
+        method: the method name ("ace_de", "lqr_gs", ...).
+        law: the control law with its numbers (what :meth:`describe` returns).
+        complexity: realization complexity: ``gains_stored`` (numbers the
+            controller keeps), ``ops_per_period`` (arithmetic operations per
+            control period, counted from the compiled update), ``signals``
+            (measured or computed each period), ``period`` (s).
+        design: the design numbers (load range, spec, gains, poles ...).
+        linear: the linear parts as python-control objects (e.g. ``"sce"``,
+            ``"plant"``, ``"closed_loop"``).
+    """
+
+    method: str = ""
+    law: str = ""
+    complexity: dict = field(default_factory=dict)
+    design: dict = field(default_factory=dict)
+    linear: dict = field(default_factory=dict)
+
+    def describe(self) -> str:
+        """The law with its numbers filled in."""
+        return self.law
+
+    def realization_complexity(self) -> dict:
+        """Gains stored, operations per control period, signals measured, period."""
+        return dict(self.complexity)
+
+
+def joint_drive(robot: Robot, joint: int | str) -> tuple[int, Drive]:
+    """The joint index and its drive; clear errors for a missing or incomplete drive."""
+    try:
+        j = robot.joint_index(joint)
+    except (KeyError, IndexError, ValueError) as exc:
+        raise ManipcadError(f"robot {robot.name!r} has no joint {joint!r}") from exc
+    d = robot.drives[j] if robot.drives is not None else None
+    if d is None:
+        raise ManipcadError(f"joint {robot.joint_names[j]!r} of {robot.name!r} has no drive; "
+                            "the synthesis methods design for a drive")
+    try:
+        check_electrics(d, need_L=False)
+    except ModelError as exc:
+        raise ManipcadError(f"joint {robot.joint_names[j]!r}: missing drive parameters: "
+                            f"{exc}") from exc
+    if not d.ratio:
+        raise ManipcadError(f"joint {robot.joint_names[j]!r}: the drive has no gear ratio")
+    return j, d
+
+
+def packed(drive: Drive, order: int) -> np.ndarray:
+    """A parameter vector of length NPARAM starting with the packed drive."""
+    p = np.zeros(NPARAM)
+    try:
+        dp = pack_drive(drive, order=order)
+    except ModelError as exc:
+        raise ManipcadError(f"drive {drive.name or ''!r}: {exc}") from exc
+    p[:len(dp)] = dp
+    return p
+
+
+def check_period(period: float) -> float:
+    period = float(period)
+    if not (math.isfinite(period) and period > 0):
+        raise ManipcadError(f"period must be > 0 s, got {period}")
+    return period
+
+
+def load_range(robot: Robot, j: int, given=None, *, samples: int = 256,
+               seed: int = 0) -> tuple[float, float]:
+    """Range of the rigid-body inertia H_ii of joint j over the workspace, kg·m² (kg).
+
+    Args:
+        robot: the robot.
+        j: joint index.
+        given: (H_min, H_max) to use instead, kg·m².
+        samples: random configurations within the joint limits (plus the
+            corners of the limit box when n <= 10); an infinite limit is taken
+            as ±π.
+        seed: random seed.
+
+    Returns:
+        (H_min, H_max), kg·m².
+    """
+    if given is not None:
+        try:
+            lo, hi = (float(v) for v in given)
+        except (TypeError, ValueError) as exc:
+            raise ManipcadError(f"load_range must be a pair (H_min, H_max) in kg·m², "
+                                f"got {given!r}") from exc
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi):
+            raise ManipcadError(f"load_range must satisfy 0 <= H_min <= H_max, got {given!r}")
+        return lo, hi
+    from manipcad.dynamics import mass_matrix
+
+    lim = (np.tile([-math.inf, math.inf], (robot.n, 1)) if robot.limits is None
+           else np.array(robot.limits, dtype=float))
+    lim = np.where(np.isfinite(lim), lim, np.array([-math.pi, math.pi]))
+    rng = np.random.default_rng(seed)
+    qs = lim[:, 0] + rng.random((samples, robot.n)) * (lim[:, 1] - lim[:, 0])
+    if robot.n <= 10:
+        corners = np.array(np.meshgrid(*lim)).reshape(robot.n, -1).T
+        qs = np.vstack([qs, corners])
+    H = np.array([mass_matrix(robot, q, drives=False)[j, j] for q in qs])
+    return float(H.min()), float(H.max())
+
+
+_SPEC_KEYS = {"bandwidth", "damping"}
+
+
+def parse_spec(spec, *, bandwidth: float, damping: float,
+               accuracy: bool = False) -> tuple[float, float]:
+    """(ω_n rad/s, ζ) of the closed loop asked, from ``spec`` or the defaults.
+
+    ``accuracy=True`` also admits the key ``max_error`` (read by :func:`max_error_of`).
+    """
+    spec = dict(spec or {})
+    keys = _SPEC_KEYS | ({"max_error"} if accuracy else set())
+    unknown = set(spec) - keys
+    if unknown:
+        raise ManipcadError(f"unknown spec keys {sorted(unknown)}; known: {sorted(keys)}")
+    wn = float(spec.get("bandwidth", bandwidth))
+    zeta = float(spec.get("damping", damping))
+    if not (math.isfinite(wn) and wn > 0):
+        raise ManipcadError(f"spec bandwidth must be > 0 rad/s, got {wn}")
+    if not (math.isfinite(zeta) and 0 < zeta <= 5):
+        raise ManipcadError(f"spec damping must be in (0, 5], got {zeta}")
+    return wn, zeta
+
+
+def design_pd(plant: ct.TransferFunction, K: float, T: float, wn: float, zeta: float,
+              period: float, *, what: str) -> tuple[float, float, ct.TransferFunction]:
+    """PD U = k_p·e + k_d·ė placing the poles of K/(s·(T·s + 1)) at ω_n, ζ; checked on ``plant``.
+
+    The characteristic polynomial T·s² + (1 + K·k_d)·s + K·k_p gives
+    k_p = T·ω_n²/K (V/rad), k_d = (2ζω_n·T − 1)/K (V·s/rad). The loop is then
+    closed on the full ``plant`` (3rd order with the inductance) with
+    python-control; the design is refused if it is unstable, if its slowest
+    pole's damping is below half of ζ, or if ω_n·T_s > 0.5 (the sampled
+    realization could not follow).
+
+    Returns:
+        (k_p, k_d, closed-loop transfer function q/q*).
+    """
+    if wn * period > 0.5:
+        raise ManipcadError(f"{what}: bandwidth {wn:g} rad/s is unreachable with the control "
+                            f"period {period:g} s (need ω_n·T_s <= 0.5)")
+    kp = T * wn * wn / K
+    kd = (2.0 * zeta * wn * T - 1.0) / K
+    C = ct.tf([kd, kp], [1.0])
+    cl = ct.feedback(C * plant, 1)
+    poles = np.asarray(cl.poles())
+    if not np.all(poles.real < 0):
+        raise ManipcadError(f"{what}: the spec (ω_n = {wn:g} rad/s, ζ = {zeta:g}) is "
+                            f"unreachable: the loop with the drive's inductance is unstable "
+                            f"(poles {np.round(poles, 3).tolist()})")
+    slow = poles[np.argmin(np.abs(poles))]
+    zs = -slow.real / abs(slow)
+    if zs < 0.5 * zeta:
+        raise ManipcadError(f"{what}: the spec (ω_n = {wn:g} rad/s, ζ = {zeta:g}) is "
+                            f"unreachable: with the inductance the slowest poles have "
+                            f"damping {zs:.3g}")
+    return kp, kd, cl
+
+
+def max_error_of(spec, reference, joint: int) -> tuple[float | None, tuple | None]:
+    """The accuracy asked (``spec["max_error"]``, rad or m) and the joint's reference.
+
+    Args:
+        spec: the spec mapping.
+        reference: a trajectory (``.sample(t)``, ``.duration``) of the robot's
+            joints, or a pair (t s, q_ref rad) of arrays for this joint.
+        joint: joint index.
+
+    Returns:
+        (max_error or None, (t, q_ref) or None).
+    """
+    e = (spec or {}).get("max_error")
+    if e is None:
+        return None, None
+    e = float(e)
+    if not (math.isfinite(e) and e > 0):
+        raise ManipcadError(f"spec max_error must be > 0, got {e}")
+    if reference is None:
+        raise ManipcadError("spec max_error needs reference= (the joint's reference motion "
+                            "the accuracy is asked on)")
+    if hasattr(reference, "sample"):
+        T = float(getattr(reference, "duration", 0.0)) or 1.0
+        tt = np.linspace(0.0, 1.25 * T, 8001)
+        q = np.asarray(reference.sample(tt)[0])[:, joint]
+    else:
+        try:
+            tt, q = (np.asarray(a, dtype=float) for a in reference)
+        except (TypeError, ValueError) as exc:
+            raise ManipcadError("reference must be a trajectory or a pair (t, q_ref)") from exc
+        if tt.ndim != 1 or tt.shape != q.shape or len(tt) < 3:
+            raise ManipcadError("reference (t, q_ref) must be two 1-D arrays of equal length")
+    return e, (tt, q)
+
+
+def nominal_error(plant: ct.TransferFunction, kp: float, kd: float, kfv: float, kfa: float,
+                  t: np.ndarray, q_ref: np.ndarray) -> float:
+    """max |q* − q| of the nominal linear loop with the SCE and its feed-forward, rad.
+
+    E(s)/Q*(s) = (d − n·F)/(d + n·C) with plant n/d, C = k_d·s + k_p,
+    F = k_fa·s² + k_fv·s; python-control ``forced_response`` on the reference.
+    """
+    n = np.asarray(plant.num[0][0], dtype=float)
+    d = np.asarray(plant.den[0][0], dtype=float)
+    num = np.polysub(d, np.polymul(n, [kfa, kfv, 0.0]))
+    den = np.polyadd(d, np.polymul(n, [kd, kp]))
+    E = ct.tf(np.trim_zeros(num, "f") if np.any(num) else [0.0], den)
+    resp = ct.forced_response(E, T=t, U=q_ref - q_ref[0])
+    return float(np.abs(np.asarray(resp.outputs)).max())
+
+
+def design_for_accuracy(plant, K: float, T: float, wn: float, zeta: float, period: float,
+                        ff: tuple[float, float], max_error: float, ref, *, what: str):
+    """The smallest ω_n >= the spec's that meets ``max_error`` on the reference.
+
+    Searches 40 geometric steps from ω_n up to 0.5/T_s; the PD of each is
+    checked by :func:`design_pd` (stops at the first unstable or badly damped
+    one). Returns (k_p, k_d, closed loop, ω_n, max error reached).
+
+    Raises:
+        ManipcadError: "unreachable accuracy" with the best error found.
+    """
+    best = (math.inf, wn)
+    for w in np.geomspace(wn, max(wn, 0.5 / period), 40):
+        try:
+            kp, kd, cl = design_pd(plant, K, T, float(w), zeta, period, what=what)
+        except ManipcadError:
+            break
+        err = nominal_error(plant, kp, kd, ff[0], ff[1], *ref)
+        if err <= max_error:
+            return kp, kd, cl, float(w), err
+        if err < best[0]:
+            best = (err, float(w))
+    raise ManipcadError(f"{what}: unreachable accuracy: max error {max_error:g} asked, the best "
+                        f"the nominal loop gives on the reference is {best[0]:.3g} "
+                        f"(ω_n = {best[1]:.4g} rad/s, ζ = {zeta:g}, T_s = {period:g} s)")

@@ -1,0 +1,411 @@
+"""``lqr`` and ``lqr_gs``: the quadratic-criterion method (6)-(7).
+
+The drive at a frozen load (H_ii, h_i) is linear, ε̇ = A·ε + B·U (+ F(ε) + W:
+dry friction, amplifier limit and the load torque, which the linear design
+leaves out), with ε = (q, q̇, i) at order 3 (:func:`manipcad.drives.linearize`).
+python-control's ``lqr`` minimizes ∫(εᵀQε + R·U²)dt with Bryson weights
+``Q = diag(1/e_max², 1/ė_max², 1/i_max²)``, ``R = 1/U_max²``; the regulator is
+
+    U = D_e·(q* − q) + D_v·(q̇* − q̇) − D_i·i + U_ff         (V)
+
+with the model-inverse feed-forward (L neglected; J_q = H_ii + J·i_r²)
+U_ff = (D_i + R/k_u)·(J_q·q̈* + k_v·i_r²·q̇* + τ_w)/(k_m·i_r) + k_w·i_r·q̇*/k_u,
+which keeps e = ė = 0 along the reference; τ_w = c_i + Q_i is the measured
+velocity torque and gravity (the W of (6)) when compensated.
+
+- ``lqr``: one gain (D_e, D_v, D_i) and the feed-forward computed at the
+  nominal load; no load signal measured.
+- ``lqr_gs``: the gains computed ahead over a grid of (H_ii, h_i) and kept as a
+  table (:class:`GainTable`); the compiled loop interpolates it bilinearly at
+  the current H_ii and h_i = Ḣ_ii (backward difference) each period, clamped to
+  the grid's edges, and the feed-forward at the current H_ii with τ_w
+  compensated. Gravity Q_i enters the drive's linear model only as the
+  disturbance W (it changes neither A nor B), so the table has no Q_i axis: the
+  gains would be the same along it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import control as ct
+import numpy as np
+
+from manipcad.drives.linear import linearize
+from manipcad.errors import ManipcadError, ModelError
+from manipcad.model.robot import Drive, Robot
+from manipcad.synthesis._common import (
+    DEFAULT_PERIOD,
+    SynthesizedRegulator,
+    check_period,
+    joint_drive,
+    load_range,
+    packed,
+)
+from manipcad.synthesis.kernels import (
+    KIND_LQR,
+    LQ_ADAPT,
+    LQ_DH,
+    LQ_DV,
+    LQ_FF,
+    LQ_H0,
+    LQ_HFIX,
+    LQ_MAXCELLS,
+    LQ_NH,
+    LQ_NV,
+    LQ_TAB,
+    LQ_ULIM,
+    LQ_V0,
+    LQ_W,
+)
+
+_SPEC = {"e_max", "ed_max", "i_max", "u_max"}
+
+
+@dataclass(frozen=True)
+class Weights:
+    """Bryson weights: largest acceptable error e_max (rad), velocity error ė_max (rad/s),
+    current i_max (A) and input U_max (V)."""
+
+    e_max: float
+    ed_max: float
+    i_max: float
+    u_max: float
+
+    def matrices(self, order: int) -> tuple[np.ndarray, np.ndarray]:
+        q = [1 / self.e_max ** 2, 1 / self.ed_max ** 2]
+        if order == 3:
+            q.append(1 / self.i_max ** 2)
+        return np.diag(q), np.array([[1 / self.u_max ** 2]])
+
+
+def weights_from_spec(spec, drive: Drive) -> Weights:
+    spec = dict(spec or {})
+    unknown = set(spec) - _SPEC
+    if unknown:
+        raise ManipcadError(f"unknown spec keys {sorted(unknown)}; known: {sorted(_SPEC)}")
+    ulim = drive.u_max / drive.k_u if math.isfinite(drive.u_max) else 10.0
+    rated = drive.rated_current
+    i_def = 10.0 * rated if math.isfinite(rated) and rated > 0 else ulim / drive.R
+    w = Weights(float(spec.get("e_max", 0.01)), float(spec.get("ed_max", 0.3)),
+                float(spec.get("i_max", i_def)), float(spec.get("u_max", ulim)))
+    for name in ("e_max", "ed_max", "i_max", "u_max"):
+        v = getattr(w, name)
+        if not (math.isfinite(v) and v > 0):
+            raise ManipcadError(f"lqr spec {name} must be > 0, got {v}")
+    return w
+
+
+def lqr_gains(drive: Drive, H_ii: float, h_i: float, weights: Weights,
+              order: int = 3) -> np.ndarray:
+    """(D_e V/rad, D_v V·s/rad, D_i V/A) of the LQR at a frozen load (D_i = 0 at order 2).
+
+    Args:
+        drive: the drive.
+        H_ii: joint-side load inertia, kg·m²; h_i: velocity coefficient, N·m·s/rad.
+        weights: :class:`Weights`.
+        order: 3 (states q, q̇, i) or 2 (q, q̇).
+    """
+    try:
+        lin = linearize(drive, H_ii, h_i, order=order)
+    except ModelError as exc:
+        raise ManipcadError(f"lqr: {exc}") from exc
+    Q, R = weights.matrices(order)
+    K, _, _ = ct.lqr(lin.A, lin.B, Q, R)
+    K = np.asarray(K).ravel()
+    return np.array([K[0], K[1], K[2] if order == 3 else 0.0])
+
+
+def closed_loop_poles(drive: Drive, H_ii: float, h_i: float, gains, order: int = 3) -> np.ndarray:
+    """Poles of the frozen-load drive with U = −D·ε (rad/s)."""
+    lin = linearize(drive, H_ii, h_i, order=order)
+    K = np.asarray(gains, dtype=float)[: lin.A.shape[0]].reshape(1, -1)
+    return np.linalg.eigvals(lin.A - lin.B @ K)
+
+
+@dataclass
+class GainTable:
+    """LQR gains tabulated over (H_ii kg·m², h_i N·m·s/rad).
+
+    Attributes:
+        H: (nH,) grid of H_ii; h: (nV,) grid of h_i.
+        gains: (nH, nV, 3) D_e, D_v, D_i.
+    """
+
+    H: np.ndarray
+    h: np.ndarray
+    gains: np.ndarray
+
+    def interpolator(self):
+        """A scipy ``RegularGridInterpolator`` (linear) over the axes with more than one point."""
+        from scipy.interpolate import RegularGridInterpolator
+
+        axes = [a for a in (self.H, self.h) if len(a) > 1]
+        g = self.gains
+        if len(self.h) == 1:
+            g = g[:, 0, :]
+        if len(self.H) == 1:
+            g = g[0]
+        if not axes:
+            return lambda pts: np.broadcast_to(g, (len(np.atleast_2d(pts)), 3))
+        return RegularGridInterpolator(axes, g, method="linear", bounds_error=True)
+
+    def at(self, H_ii: float, h_i: float = 0.0) -> np.ndarray:
+        """Interpolated (D_e, D_v, D_i) at a load inside the table.
+
+        Raises:
+            ManipcadError: the load is outside the table.
+        """
+        for v, ax, name in ((H_ii, self.H, "H_ii"), (h_i, self.h, "h_i")):
+            lo, hi = ax[0], ax[-1]
+            tol = 1e-12 * max(1.0, abs(lo), abs(hi))
+            if not (lo - tol <= v <= hi + tol):
+                raise ManipcadError(f"load outside the gain table: {name} = {v:g} not in "
+                                    f"[{lo:g}, {hi:g}]")
+        pt = [v for v, ax in ((H_ii, self.H), (h_i, self.h)) if len(ax) > 1]
+        pt = [min(max(v, ax[0]), ax[-1]) for v, ax in
+              zip(pt, [a for a in (self.H, self.h) if len(a) > 1], strict=True)]
+        return np.asarray(self.interpolator()(np.array([pt]))).reshape(3)
+
+
+    def fit(self, degree: int = 2):
+        """Fit each gain by a polynomial in (H_ii, h_i) of total degree ``degree`` (least squares).
+
+        The "fitted functions" alternative to the table: fewer numbers stored.
+
+        Returns:
+            (f, max_rel_err): ``f(H_ii, h_i) -> (D_e, D_v, D_i)`` and the largest
+            relative error of the fit at the grid points.
+        """
+        degree = int(degree)
+        if degree < 0:
+            raise ManipcadError(f"fit degree must be >= 0, got {degree}")
+        HH, hh = np.meshgrid(self.H, self.h, indexing="ij")
+        Hs = (HH.ravel() - self.H.mean()) / (np.ptp(self.H) or 1.0)
+        vs = (hh.ravel() - self.h.mean()) / (np.ptp(self.h) or 1.0)
+        terms = [(a, b) for a in range(degree + 1) for b in range(degree + 1 - a)
+                 if (a == 0 or len(self.H) > a) and (b == 0 or len(self.h) > b)]
+
+        def basis(x, y):
+            return np.stack([x ** a * y ** b for a, b in terms], axis=-1)
+
+        A = basis(Hs, vs)
+        G = self.gains.reshape(-1, 3)
+        coef, *_ = np.linalg.lstsq(A, G, rcond=None)
+        err = float(np.max(np.abs(A @ coef - G) / np.maximum(np.abs(G), 1e-300)))
+        H0, Hw = self.H.mean(), (np.ptp(self.H) or 1.0)
+        v0, vw = self.h.mean(), (np.ptp(self.h) or 1.0)
+
+        def f(H_ii: float, h_i: float = 0.0) -> np.ndarray:
+            return basis(np.asarray((H_ii - H0) / Hw), np.asarray((h_i - v0) / vw)) @ coef
+
+        return f, err
+
+
+def _gains_at(args) -> np.ndarray:
+    drive, H, h, weights, order = args
+    return lqr_gains(drive, H, h, weights, order)
+
+
+def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *,
+               progress: bool = False, n_jobs: int = 1) -> GainTable:
+    """Compute the LQR gains at every grid point.
+
+    Args:
+        drive: the drive; H_grid, h_grid: the axes (kg·m², N·m·s/rad).
+        weights: :class:`Weights`; order: 3 or 2.
+        progress: show a progress bar (rich) while computing.
+        n_jobs: worker processes (local; 1 computes in this process).
+
+    Returns:
+        :class:`GainTable`.
+    """
+    H_grid = np.asarray(H_grid, dtype=float)
+    h_grid = np.asarray(h_grid, dtype=float)
+    n_jobs = int(n_jobs)
+    if n_jobs < 1:
+        raise ManipcadError(f"n_jobs must be >= 1, got {n_jobs}")
+    idx = [(a, b) for a in range(len(H_grid)) for b in range(len(h_grid))]
+    args = [(drive, H_grid[a], h_grid[b], weights, order) for a, b in idx]
+    g = np.empty((len(H_grid), len(h_grid), 3))
+
+    def run(results):
+        if not progress:
+            return list(results)
+        from rich.progress import track
+
+        return list(track(results, total=len(args), description="lqr_gs gain table"))
+
+    if n_jobs == 1:
+        rows = run(map(_gains_at, args))
+    else:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=n_jobs) as pool:
+            rows = run(pool.map(_gains_at, args, chunksize=max(1, len(args) // (4 * n_jobs))))
+    for (a, b), row in zip(idx, rows, strict=True):
+        g[a, b] = row
+    return GainTable(H_grid, h_grid, g)
+
+
+def _pack_table(p: np.ndarray, table: GainTable, ulim: float) -> None:
+    nH, nV = len(table.H), len(table.h)
+    if nH * nV > LQ_MAXCELLS:
+        raise ManipcadError(f"gain table {nH}×{nV} too large for the compiled regulator "
+                            f"(at most {LQ_MAXCELLS} grid points)")
+    for ax, name in ((table.H, "H_ii"), (table.h, "h_i")):
+        if len(ax) > 1 and not np.allclose(np.diff(ax), ax[1] - ax[0], rtol=1e-9, atol=0):
+            raise ManipcadError(f"the {name} grid must be uniform")
+    p[LQ_NH], p[LQ_NV] = nH, nV
+    p[LQ_H0] = table.H[0]
+    p[LQ_DH] = table.H[1] - table.H[0] if nH > 1 else 1.0
+    p[LQ_V0] = table.h[0]
+    p[LQ_DV] = table.h[1] - table.h[0] if nV > 1 else 1.0
+    p[LQ_ULIM] = ulim
+    for k in range(3):
+        p[LQ_TAB + k * nH * nV: LQ_TAB + (k + 1) * nH * nV] = table.gains[:, :, k].ravel()
+
+
+def _check_order(d: Drive, order: int) -> None:
+    if order not in (2, 3):
+        raise ManipcadError(f"order must be 2 or 3, got {order}")
+    if order == 3 and not (math.isfinite(d.L) and d.L > 0):
+        raise ManipcadError("lqr of order 3 needs the armature inductance L > 0; use order=2")
+
+
+def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
+                   load_range_=None, H_nominal: float | None = None,
+                   order: int = 3, feedforward: bool = True) -> SynthesizedRegulator:
+    """One LQR gain at the nominal load (default the middle of the H_ii range).
+
+    Args:
+        robot, joint: the joint.
+        spec: Bryson weights ``{"e_max": rad (0.01), "ed_max": rad/s (0.3),
+            "i_max": A (10× rated current), "u_max": V (u_max/k_u)}``.
+        period: control period, s.
+        load_range_: (H_min, H_max), kg·m².
+        H_nominal: the design load, kg·m².
+        order: 3 (with the current) or 2.
+        feedforward: the reference feed-forward U_ff at the nominal load.
+    """
+    period = check_period(period)
+    j, d = joint_drive(robot, joint)
+    _check_order(d, order)
+    Hmin, Hmax = load_range(robot, j, load_range_)
+    H = 0.5 * (Hmin + Hmax) if H_nominal is None else float(H_nominal)
+    if not (math.isfinite(H) and H >= 0):
+        raise ManipcadError(f"H_nominal must be >= 0 kg·m², got {H}")
+    w = weights_from_spec(spec, d)
+    table = gain_table(d, [H], [0.0], w, order)
+    g = table.gains[0, 0]
+    p = packed(d, order)
+    ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
+    _pack_table(p, table, ulim)
+    p[LQ_FF], p[LQ_W], p[LQ_ADAPT], p[LQ_HFIX] = float(feedforward), 0.0, 0.0, H
+    poles = closed_loop_poles(d, H, 0.0, g, order)
+    name = robot.joint_names[j]
+    kf = (g[2] + d.R / d.k_u) / (d.k_m * d.ratio)
+    ff = (f" + {kf * (H + d.J * d.ratio ** 2):.6g}·q̈* + "
+          f"{kf * d.k_v * d.ratio ** 2 + d.k_w * d.ratio / d.k_u:.6g}·q̇*") if feedforward else ""
+    law = (f"lqr ({name}): U = {g[0]:.6g}·e + {g[1]:.6g}·ė − {g[2]:.6g}·i{ff} (LQR at "
+           f"H_ii = {H:.4g} kg·m², h_i = 0; Bryson e_max = {w.e_max:g} rad, "
+           f"ė_max = {w.ed_max:g} rad/s, "
+           f"i_max = {w.i_max:g} A, U_max = {w.u_max:g} V); |U| <= {ulim:g} V, T = {period:g} s")
+    signals = (["q", "q_dot", "q_ref", "q_dot_ref"] + (["i"] if order == 3 else [])
+               + (["q_ddot_ref"] if feedforward else []))
+    lin = linearize(d, H, 0.0, order=order)
+    return SynthesizedRegulator(
+        joint=j, period=period, kind=KIND_LQR, params=p, name="lqr", needs=tuple(signals),
+        method="lqr", law=law,
+        complexity={"gains_stored": (3 if order == 3 else 2) + (2 if feedforward else 0),
+                    "ops_per_period": 8 + (4 if feedforward else 0),
+                    "signals": signals, "period": period},
+        design={"gains": g, "H_nominal": H, "load_range": (Hmin, Hmax), "weights": w,
+                "closed_loop_poles": [complex(z) for z in poles], "table": table},
+        linear={"plant": lin.ss,
+                "closed_loop": ct.ss(lin.A - lin.B @ g[: lin.A.shape[0]].reshape(1, -1),
+                                     lin.B * g[0], np.eye(lin.A.shape[0])[:1], 0)})
+
+
+def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
+                      load_range_=None, h_range=None, grid=None, order: int = 3,
+                      progress: bool = False, n_jobs: int = 1, feedforward: bool = True,
+                      load_torque: bool = True) -> SynthesizedRegulator:
+    """LQR gains scheduled on the load from a table computed ahead.
+
+    Args:
+        robot, joint: the joint.
+        spec: Bryson weights, as :func:`synthesize_lqr`.
+        period: control period, s.
+        load_range_: (H_min, H_max), kg·m² (the H_ii axis).
+        h_range: (h_min, h_max) of h_i = Ḣ_ii, N·m·s/rad (default: no h axis, h_i = 0).
+        grid: (nH, nV) grid points (default (8, 1), or (8, 7) with an h_range);
+            at most 74 points in all (the compiled table's room).
+        order: 3 or 2.
+        progress: show a progress bar while the table is computed.
+        n_jobs: local worker processes for the grid (1: none).
+        feedforward: the reference feed-forward U_ff at the current load.
+        load_torque: compensate the measured velocity torque and gravity τ_w in U_ff.
+    """
+    period = check_period(period)
+    j, d = joint_drive(robot, joint)
+    _check_order(d, order)
+    Hmin, Hmax = load_range(robot, j, load_range_)
+    if h_range is None:
+        hl, hh = 0.0, 0.0
+    else:
+        try:
+            hl, hh = (float(v) for v in h_range)
+        except (TypeError, ValueError) as exc:
+            raise ManipcadError(f"h_range must be a pair (h_min, h_max), got {h_range!r}") from exc
+        if not (math.isfinite(hl) and math.isfinite(hh) and hl <= hh):
+            raise ManipcadError(f"h_range must satisfy h_min <= h_max, got {h_range!r}")
+    if grid is None:
+        grid = (8, 1 if hl == hh else 7)
+    nH, nV = (int(v) for v in grid)
+    if nH < 1 or nV < 1 or (Hmin < Hmax and nH < 2) or (hl < hh and nV < 2):
+        raise ManipcadError(f"grid {grid} must have >= 2 points along each axis with a range")
+    if nH * nV > LQ_MAXCELLS:
+        raise ManipcadError(f"grid {nH}×{nV} too large: at most {LQ_MAXCELLS} points")
+    H_grid = np.linspace(Hmin, Hmax, nH) if Hmin < Hmax else np.array([Hmin])
+    h_grid = np.linspace(hl, hh, nV) if hl < hh else np.array([hl])
+    w = weights_from_spec(spec, d)
+    table = gain_table(d, H_grid, h_grid, w, order, progress=progress, n_jobs=n_jobs)
+    p = packed(d, order)
+    ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
+    _pack_table(p, table, ulim)
+    p[LQ_FF], p[LQ_W], p[LQ_ADAPT] = float(feedforward), float(feedforward and load_torque), 1.0
+    name = robot.joint_names[j]
+    g = table.gains
+    ffw = ""
+    if feedforward:
+        ffw = (" + (D_i + R/k_u)·((H_ii + J·i_r²)·q̈* + k_v·i_r²·q̇*"
+               + (" + c_i + Q_i" if load_torque else "") + ")/(k_m·i_r) + k_w·i_r·q̇*/k_u")
+    law = (f"lqr_gs ({name}): U = D_e·e + D_v·ė − D_i·i{ffw}, gains bilinear in a {len(H_grid)}×"
+           f"{len(h_grid)} table over H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m², h_i = Ḣ_ii in "
+           f"[{hl:.4g}, {hh:.4g}] N·m·s/rad (clamped at the edges): D_e in "
+           f"[{g[..., 0].min():.4g}, {g[..., 0].max():.4g}] V/rad, D_v in "
+           f"[{g[..., 1].min():.4g}, {g[..., 1].max():.4g}] V·s/rad, D_i in "
+           f"[{g[..., 2].min():.4g}, {g[..., 2].max():.4g}] V/A (LQR, Bryson e_max = "
+           f"{w.e_max:g} rad, ė_max = {w.ed_max:g} rad/s, i_max = {w.i_max:g} A, "
+           f"U_max = {w.u_max:g} V); |U| <= {ulim:g} V, T = {period:g} s")
+    signals = ["q", "q_dot", "q_ref", "q_dot_ref", "H_ii"] + (["i"] if order == 3 else [])
+    if feedforward:
+        signals.append("q_ddot_ref")
+        if load_torque:
+            signals += ["h_i", "Q_i"]
+    nd = 3 if order == 3 else 2
+    return SynthesizedRegulator(
+        joint=j, period=period, kind=KIND_LQR, params=p, name="lqr_gs", needs=tuple(signals),
+        method="lqr_gs", law=law,
+        complexity={"gains_stored": nd * len(H_grid) * len(h_grid) + 4 + (5 if feedforward else 0),
+                    # 2 cell indices ~10, 3 bilinear lookups 3×11, Ḣ difference 5 (h axis), law 8,
+                    # feed-forward 12 (+2 for τ_w)
+                    "ops_per_period": 10 + 11 * nd + 8 + (5 if len(h_grid) > 1 else 0)
+                    + ((12 + (2 if load_torque else 0)) if feedforward else 0),
+                    "signals": signals + (["H_ii history (Ḣ_ii)"] if len(h_grid) > 1 else []),
+                    "period": period},
+        design={"table": table, "load_range": (Hmin, Hmax), "h_range": (hl, hh),
+                "weights": w},
+        linear={})

@@ -1,0 +1,214 @@
+"""``manipcad simulate``: run the closed loop along a trajectory and save the results.
+
+::
+
+    manipcad simulate ROBOT --trajectory FILE --regulator FILE --out DIR
+                      [--t-end S] [--dt S] [--every N] [--json] [--no-drives]
+                      [--payload KG] [--force] [--save-diverged]
+
+ROBOT is a catalog name or a robot file; the trajectory and regulator files
+are the YAML schemas of :mod:`manipcad.trajectories.io` and
+:mod:`manipcad.sim.files`. DIR receives the inputs, the time series, the
+metrics and a PNG of the errors (:mod:`manipcad.store.results`), all at once
+when the run is complete: an interrupted run (Ctrl-C), bad input or a
+divergent simulation leaves DIR as it was. A divergent run exits with status
+2 and names the time and the joint; ``--save-diverged`` keeps its partial
+time series in DIR, marked ``"status": "diverged"`` in metrics.json.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+import warnings
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich import box
+from rich.table import Table
+
+from manipcad.cli.app import app, console, err_console, guarded
+from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+
+
+def _num(x: Any, fmt: str = ".4g") -> str:
+    """A table cell: nan/None print as "-"."""
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "-"
+    return format(x, fmt)
+
+
+def _robot_file(arg: str) -> Path | None:
+    """The file a robot argument names: the file itself or the catalog entry."""
+    from manipcad.model.load import CATALOG
+
+    p = Path(arg)
+    if p.is_file():
+        return p
+    for ext in (".yaml", ".urdf"):
+        entry = CATALOG / "robots" / f"{arg}{ext}"
+        if entry.is_file():
+            return Path(str(entry))
+    return None
+
+
+def metrics_table(doc: dict[str, Any]) -> Table:
+    """A rich table of the per-joint metrics of a result document (metrics.json).
+
+    Errors are in the joint's unit (rad or m), times in s, the effort (RMS
+    regulator output) in V (N·m or N without drives), the energy in J. The step
+    figures (overshoot, rise and settling time) are shown when a joint's
+    reference is a step.
+    """
+    drives = bool(doc["settings"].get("drives", True))
+    metrics = doc["metrics"]
+    step = any(metrics[j].get("rise_time") is not None for j in doc["joints"])
+    table = Table(title=f"{doc['robot']}: closed-loop metrics, t = 0..{doc['t_final']:.4g} s",
+                  box=box.SIMPLE_HEAD)
+    cols = ["joint", "unit", "max |e|", "RMS e"]
+    if step:
+        cols += ["overshoot %", "rise s", "settling s"]
+    cols += ["effort " + ("V" if drives else "N·m|N"), "energy J"]
+    for col in cols:
+        table.add_column(col, justify="left" if col in ("joint", "unit") else "right")
+    for name in doc["joints"]:
+        m, u = metrics[name], doc["units"][name]
+        row = [name, u["max_error"], _num(m["max_error"], ".3g"), _num(m["rms_error"], ".3g")]
+        if step:
+            over = m.get("overshoot")
+            row += ["-" if over is None else f"{100 * over:.3g}",
+                    _num(m.get("rise_time"), ".3g"), _num(m.get("settling_time"), ".3g")]
+        row += [_num(m["effort_rms"], ".3g"), _num(m["energy"], ".4g")]
+        table.add_row(*row)
+    return table
+
+
+@app.command()
+@guarded
+def simulate(
+    robot: Annotated[str, typer.Argument(
+        help="A catalog robot name (see 'manipcad robots list') or a .yaml/.urdf file.")],
+    trajectory: Annotated[Path, typer.Option(
+        "--trajectory", "-t", help="Trajectory YAML file (reference motion).")],
+    out: Annotated[Path, typer.Option(
+        "--out", "-o", help="Result folder: inputs/, timeseries.csv/.npz, metrics.json, "
+        "errors.png.")],
+    regulator: Annotated[list[Path] | None, typer.Option(
+        "--regulator", "-r", help="Regulator YAML file; repeat for several files. "
+        "Joints in no file get U = 0.")] = None,
+    t_end: Annotated[float | None, typer.Option(
+        "--t-end", help="Simulated time, s (default: the trajectory's duration).")] = None,
+    dt: Annotated[float, typer.Option(
+        "--dt", help="Integration step (RK4), s; regulator periods must be multiples of it.")]
+    = 1e-4,
+    every: Annotated[int, typer.Option(
+        "--every", help="Keep every N-th step in the saved time series (the metrics are "
+        "computed on the kept samples).")] = 1,
+    as_json: Annotated[bool, typer.Option(
+        "--json", help="Print the metrics document (metrics.json) instead of a table.")] = False,
+    no_drives: Annotated[bool, typer.Option(
+        "--no-drives", help="Rigid body only: regulator outputs are joint torques (N·m, N).")]
+    = False,
+    payload: Annotated[float | None, typer.Option(
+        "--payload", help="Payload mass at the last link's origin, kg.")] = None,
+    force: Annotated[bool, typer.Option(
+        "--force", help="Replace a non-empty result folder (only once the new one is "
+        "complete).")] = False,
+    save_diverged: Annotated[bool, typer.Option(
+        "--save-diverged", help="If the run diverges, still save its partial time series "
+        "(status 'diverged'); the exit status stays 2.")] = False,
+) -> None:
+    """Simulate the closed loop (multibody + DC drives + sampled regulators) and save it."""
+    from manipcad.model.load import load_robot
+    from manipcad.sim import SimulationDiverged
+    from manipcad.sim import simulate as run_simulation
+    from manipcad.sim.files import load_regulators
+    from manipcad.store import check_out_dir, result_document, save_result
+    from manipcad.trajectories import load_trajectory
+
+    if not (math.isfinite(dt) and dt > 0):
+        raise InputError("--dt", "", f"must be > 0 s, got {dt}")
+    if every < 1:
+        raise InputError("--every", "", f"must be >= 1, got {every}")
+    if t_end is not None and not (math.isfinite(t_end) and t_end > 0):
+        raise InputError("--t-end", "", f"must be > 0 s, got {t_end}")
+    if payload is not None and not (math.isfinite(payload) and payload >= 0):
+        raise InputError("--payload", "", f"must be >= 0 kg, got {payload}")
+    check_out_dir(out, force=force)  # fail before the run, not after
+
+    with warnings.catch_warnings(record=True) as robot_notes:
+        warnings.simplefilter("always", ManipcadWarning)
+        arm = load_robot(robot)
+    notes = [str(w.message) for w in robot_notes if issubclass(w.category, ManipcadWarning)]
+    from_catalog = not Path(robot).is_file()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ManipcadWarning)
+        traj = load_trajectory(trajectory, robot=arm)
+        if traj.n != arm.n:
+            raise InputError(str(trajectory), "", f"has {traj.n} joints, robot {arm.name!r} "
+                             f"has {arm.n}")
+        regs = []
+        owner: dict[int, str] = {}
+        for path in regulator or ():
+            for reg in load_regulators(path, arm, dt=dt, drives=not no_drives):
+                if reg.joint in owner:
+                    raise InputError(str(path), "joints", f"joint "
+                                     f"{arm.joint_names[reg.joint]!r} already has a "
+                                     f"regulator in {owner[reg.joint]}")
+                owner[reg.joint] = str(path)
+                regs.append(reg)
+    # the catalog robots' data notes are documented ('manipcad robots show'); a user's
+    # robot file's are news
+    shown = [] if from_catalog else list(notes)
+    shown += [str(w.message) for w in caught if issubclass(w.category, ManipcadWarning)]
+    for w in shown:
+        err_console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
+    if t_end is None:
+        t_end = float(traj.duration)
+        if not (math.isfinite(t_end) and t_end > 0):
+            raise InputError("--t-end", "", "needed: the trajectory has no finite duration")
+    if dt > t_end:
+        raise InputError("--dt", "", f"{dt:g} s is longer than the run ({t_end:g} s)")
+    if not no_drives and not arm.has_drives:
+        raise InputError(robot, "drives", "the robot has no drives; use --no-drives")
+
+    inputs: dict[str, Any] = {}
+    robot_file = _robot_file(robot)
+    inputs["robot"] = robot_file if robot_file is not None else {"name": arm.name}
+    inputs["trajectory"] = trajectory
+    if regulator:
+        inputs["regulator"] = list(regulator)
+    run = {"robot": robot, "trajectory": str(trajectory),
+           "regulators": [str(p) for p in regulator or ()], "t_end": t_end, "dt": dt,
+           "every": every, "drives": not no_drives, "payload": payload,
+           "robot_notes": notes}
+
+    wall = time.perf_counter()
+    with err_console.status(f"simulating {arm.name}: {t_end:g} s at dt = {dt:g} s "
+                            f"({int(round(t_end / dt))} RK4 steps)..."):
+        try:
+            res = run_simulation(arm, t_end=t_end, dt=dt, trajectory=traj, regulators=regs,
+                                 payload=payload, drives=not no_drives, record_every=every)
+        except SimulationDiverged as exc:
+            if save_diverged:
+                save_result(exc.result, out, inputs=inputs, joint_types=arm.joint_types,
+                            force=force, status="diverged", message=str(exc), run=run)
+                raise ManipcadError(f"{exc}; the partial result is in {out}") from None
+            raise ManipcadError(f"{exc}; nothing was written to {out}") from None
+    wall = time.perf_counter() - wall
+    run["wall_time_s"] = wall
+    with err_console.status(f"writing {out}..."):
+        save_result(res, out, inputs=inputs, joint_types=arm.joint_types, force=force,
+                    run=run)
+    doc = result_document(res, joint_types=arm.joint_types, inputs=inputs, run=run)
+    doc["out"] = str(out)
+    if as_json:
+        typer.echo(json.dumps(doc, indent=2))
+        return
+    console.print(metrics_table(doc))
+    console.print(f"simulated {t_end:g} s ({int(round(t_end / dt))} steps of {dt:g} s) in "
+                  f"{wall:.3g} s wall (the first run compiles); wrote {out}/ (inputs/, "
+                  "timeseries.csv, timeseries.npz, metrics.json, errors.png)",
+                  highlight=False, soft_wrap=True)

@@ -1,0 +1,350 @@
+"""Regulator files: YAML, validated with pydantic, loaded into :class:`Regulator` objects.
+
+A file holds one regulator group (a mapping with a ``type``) or several
+(``regulators:`` followed by a list of such mappings, for different settings
+on different joints). SI units; every gain is one number (all joints of the
+group) or a list with one entry per joint of the group::
+
+    # PID on every joint of the PUMA 560, sampled at 1 kHz
+    type: pid
+    period: 0.001          # sampling period, s (a multiple of the simulation step)
+    kp: [800, 1500, 800, 100, 100, 60]   # V/rad (V/m); N·m/rad without drives
+    ki: 0                  # V/(rad·s)
+    kd: [20, 40, 20, 2, 2, 1]            # V·s/rad
+    kff: 0                 # velocity feed-forward on q̇_ref, V·s/rad (optional)
+    u_limit: 40            # output clip, V (N·m without drives); optional, default .inf
+    joints: [waist, shoulder, elbow, wrist_roll, wrist_pitch, flange]  # optional: all
+
+    # or several groups
+    regulators:
+      - {type: pid, joints: [turn], period: 0.001, kp: 400, kd: 12}
+      - {type: pid, joints: [lift, reach], period: 0.0005, kp: [2e4, 8e3], kd: [300, 90]}
+
+``joints`` names the joints a group controls (names or 0-based indices;
+default: all joints of the robot), and its length sets the length every list
+must have. A joint may appear in only one group; joints in no group get no
+control (U = 0).
+
+Types: ``pid`` (:func:`manipcad.sim.pid`). To add one, write its schema (a
+subclass of :class:`GroupFile` with ``type: Literal["name"]``) and a builder
+taking (schema, joint index, k) -> Regulator, and register both in
+:data:`TYPES`.
+
+Bad files raise :class:`manipcad.errors.InputError` naming the file, the
+dotted field (``regulators[1].kd[2]``) and the reason: no such file, YAML
+syntax, unknown type or field, wrong list length, unknown joint, joint in two
+groups, non-positive period or limit, period not a multiple of the step.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import yaml
+from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
+
+from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.model.robot import Robot
+from manipcad.sim.regulators import KIND_PID, PID_KP, Regulator, pid
+
+
+def _listify(v: Any) -> Any:
+    """Let one number stand for a one-entry list (broadcast to the group's joints)."""
+    if isinstance(v, int | float) and not isinstance(v, bool):
+        return [v]
+    return v
+
+
+Gains = Annotated[list[float], BeforeValidator(_listify)]
+
+
+class GroupFile(BaseModel):
+    """Fields every regulator group has."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+    type: str
+    period: float
+    joints: list[str | int] | None = None
+
+
+class PIDFile(GroupFile):
+    """``type: pid``: gains of :func:`manipcad.sim.pid` (one number or one per joint)."""
+
+    type: Literal["pid"]
+    kp: Gains
+    ki: Gains = [0.0]
+    kd: Gains = [0.0]
+    kff: Gains = [0.0]
+    u_limit: Gains = [math.inf]
+
+
+def _build_pid(spec: PIDFile, joint: int, k: int) -> Regulator:
+    def pick(values: list[float]) -> float:
+        return values[0] if len(values) == 1 else values[k]
+
+    return pid(joint, kp=pick(spec.kp), ki=pick(spec.ki), kd=pick(spec.kd),
+               kff=pick(spec.kff), u_limit=pick(spec.u_limit), period=spec.period)
+
+
+#: regulator type -> (schema, builder(schema, joint index, position in the group))
+TYPES: dict[str, tuple[type[GroupFile], Callable[[Any, int, int], Regulator]]] = {
+    "pid": (PIDFile, _build_pid),
+}
+
+#: per-type checks of the gain lists: field -> (predicate, reason)
+_FINITE = (math.isfinite, "must be finite")
+_CHECKS: dict[str, dict[str, tuple[Callable[[float], bool], str]]] = {
+    "pid": {"kp": _FINITE, "ki": _FINITE, "kd": _FINITE, "kff": _FINITE,
+            "u_limit": (lambda v: v > 0 and not math.isnan(v), "must be > 0 (.inf: no limit)")},
+}
+
+
+def _field_path(prefix: str, loc: tuple[Any, ...]) -> str:
+    out = prefix
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif part in ("list[str]", "list[float]", "int", "str", "float"):
+            continue  # pydantic's union branch names, not fields
+        else:
+            out += f".{part}" if out else str(part)
+    return out
+
+
+def _read_yaml(path: str | Path) -> Any:
+    p = Path(path)
+    src = str(path)
+    if not p.exists():
+        raise InputError(src, "", "no such file")
+    if not p.is_file():
+        raise InputError(src, "", "not a file")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise InputError(src, "", "not a UTF-8 text file") from None
+    except OSError as exc:
+        raise InputError(src, "", f"cannot read: {exc.strerror}") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise InputError(src, "", f"YAML syntax error{where}: {problem}") from None
+    if data is None:
+        raise InputError(src, "", "empty file; expected a mapping with a 'type' "
+                         "or a 'regulators' list")
+    return data
+
+
+def regulators_from_dict(data: Any, robot: Robot, source: str = "<dict>", *,
+                         dt: float | None = None, drives: bool = True) -> list[Regulator]:
+    """Build the regulators of a robot from a regulator file's mapping.
+
+    Args:
+        data: the mapping (see the module docstring).
+        robot: the robot whose joints the groups name.
+        source: the name used in errors (usually the file path).
+        dt: the simulation step, s; if given, every period must be a multiple of it.
+        drives: whether the run simulates the drives (for the sign check).
+
+    Returns:
+        One :class:`Regulator` per controlled joint.
+
+    Raises:
+        InputError: naming ``source``, the dotted field and the reason.
+
+    Warns:
+        ManipcadWarning: a PID's kp has the sign that makes positive feedback
+        (with a drive, the drive gain i_r·k_m·k_u/R has the gear ratio's sign).
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.sim.files import regulators_from_dict
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> regs = regulators_from_dict({"type": "pid", "period": 1e-3, "kp": [3640, 2170],
+        ...                              "kd": [0, 48], "joints": ["lift", "reach"]}, arm)
+        >>> [r.joint for r in regs]
+        [1, 2]
+    """
+    if not isinstance(data, dict):
+        raise InputError(source, "", "expected a mapping with a 'type' or a 'regulators' list, "
+                         f"got {type(data).__name__}")
+    if "regulators" in data:
+        extra = sorted(set(data) - {"regulators"})
+        if extra:
+            raise InputError(source, extra[0], "unknown field beside 'regulators' (put it "
+                             "inside a group)")
+        groups = data["regulators"]
+        if not isinstance(groups, list) or not groups:
+            raise InputError(source, "regulators", "expected a non-empty list of regulator "
+                             "groups (mappings with a 'type')")
+        prefixes = [f"regulators[{g}]" for g in range(len(groups))]
+    else:
+        groups, prefixes = [data], [""]
+    out: list[Regulator] = []
+    owner: dict[int, str] = {}
+    for group, prefix in zip(groups, prefixes, strict=True):
+        for reg in _group(group, robot, source, prefix, dt):
+            j = int(reg.joint)
+            where = _join(prefix, "joints")
+            if j in owner:
+                raise InputError(source, where, f"joint {robot.joint_names[j]!r} already has a "
+                                 f"regulator (in {owner[j] or 'the file'})")
+            owner[j] = prefix
+            out.append(reg)
+            _check_sign(reg, robot, drives, source, _join(prefix, "kp"))
+    return out
+
+
+def _check_sign(reg: Regulator, robot: Robot, drives: bool, source: str, where: str) -> None:
+    """Warn when a PID's proportional gain gives positive feedback through the drive."""
+    if reg.kind != KIND_PID:
+        return
+    j = int(reg.joint)
+    d = robot.drives[j] if drives else None
+    gain = 1.0 if d is None else math.copysign(1.0, d.ratio * d.k_u * d.k_m)
+    kp = float(reg.params[PID_KP])
+    if kp * gain < 0:
+        why = (f"the drive's gear ratio is {d.ratio:g}, so the drive gain i_r·k_m·k_u/R is "
+               f"{'negative' if gain < 0 else 'positive'}" if d is not None
+               else "without a drive the output is the joint torque")
+        warnings.warn(f"{source}: {where}: joint {robot.joint_names[j]!r} has kp = {kp:g}: "
+                      f"positive feedback ({why}); give kp the sign "
+                      f"{'-' if gain < 0 else '+'}", ManipcadWarning, stacklevel=3)
+
+
+def _join(prefix: str, field: str) -> str:
+    return f"{prefix}.{field}" if prefix else field
+
+
+def _group(data: Any, robot: Robot, source: str, prefix: str,
+           dt: float | None) -> list[Regulator]:
+    if not isinstance(data, dict):
+        raise InputError(source, prefix, "expected a mapping with a 'type', got "
+                         f"{type(data).__name__}")
+    if "type" not in data:
+        raise InputError(source, _join(prefix, "type"), f"missing; one of {', '.join(TYPES)}")
+    kind = data["type"]
+    if not isinstance(kind, str) or kind not in TYPES:
+        raise InputError(source, _join(prefix, "type"),
+                         f"unknown regulator type {kind!r}; expected one of {', '.join(TYPES)}")
+    schema, build = TYPES[kind]
+    # YAML reads 1e-3 as a string and 1 as an int: give pydantic floats where floats are due
+    data = {k: _floats(v) if k not in ("type", "joints") else v for k, v in data.items()}
+    try:
+        spec = schema.model_validate(data)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        field = _field_path(prefix, first["loc"])
+        if first["type"] == "extra_forbidden":
+            reason = (f"unknown field for a {kind!r} regulator "
+                      f"(fields: {', '.join(schema.model_fields)})")
+        elif first["type"] == "missing":
+            reason = f"missing (required for a {kind!r} regulator)"
+        else:
+            reason = f"{first['msg']} (got {first.get('input')!r})"
+        raise InputError(source, field, reason) from None
+
+    if not (math.isfinite(spec.period) and spec.period > 0):
+        raise InputError(source, _join(prefix, "period"),
+                         f"must be > 0 s and finite, got {spec.period}")
+    if dt is not None:
+        steps = spec.period / dt
+        if round(steps) < 1 or abs(steps - round(steps)) > 1e-6 * steps:
+            raise InputError(source, _join(prefix, "period"),
+                             f"{spec.period:g} s is not a multiple of the simulation step "
+                             f"dt = {dt:g} s")
+
+    if spec.joints is None:
+        joints = list(range(robot.n))
+    else:
+        if not spec.joints:
+            raise InputError(source, _join(prefix, "joints"), "empty list; leave the field "
+                             "out to control every joint")
+        joints = []
+        for k, name in enumerate(spec.joints):
+            try:
+                j = robot.joint_index(name)
+            except ManipcadError:
+                raise InputError(source, _join(prefix, f"joints[{k}]"),
+                                 f"no joint {name!r} in robot {robot.name!r}; joints are "
+                                 f"{', '.join(robot.joint_names)}") from None
+            if j in joints:
+                raise InputError(source, _join(prefix, f"joints[{k}]"),
+                                 f"joint {robot.joint_names[j]!r} listed twice")
+            joints.append(j)
+
+    m = len(joints)
+    what = "the group's joints" if spec.joints is not None else f"robot {robot.name!r}'s joints"
+    for name, (ok, reason) in _CHECKS[kind].items():
+        values = getattr(spec, name)
+        if len(values) not in (1, m):
+            raise InputError(source, _join(prefix, name),
+                             f"has {len(values)} entries; expected one number or {m} "
+                             f"(one per joint of {what})")
+        for k, v in enumerate(values):
+            if not ok(v):
+                field = _join(prefix, name) + (f"[{k}]" if len(values) > 1 else "")
+                raise InputError(source, field, f"{reason}, got {v}")
+    regs = []
+    for k, j in enumerate(joints):
+        try:
+            regs.append(build(spec, j, k))
+        except ManipcadError as exc:  # the constructor's own checks
+            raise InputError(source, prefix, str(exc)) from None
+    return regs
+
+
+def _floats(v: Any) -> Any:
+    """Numbers as floats (YAML gives ints for ``1`` and strings for ``1e-3``)."""
+    if isinstance(v, list):
+        return [_floats(x) for x in v]
+    if isinstance(v, bool):
+        return v
+    if isinstance(v, int):
+        return float(v)
+    if isinstance(v, str):
+        try:
+            return float(v)
+        except ValueError:
+            return v
+    return v
+
+
+def load_regulators(path: str | Path, robot: Robot, *, dt: float | None = None,
+                    drives: bool = True) -> list[Regulator]:
+    """Load the regulators of a robot from a YAML regulator file.
+
+    Args:
+        path: the file (schema in this module's docstring; SI units).
+        robot: the robot the file's joints belong to.
+        dt: the simulation step, s; if given, every period must be a multiple of it.
+        drives: whether the run simulates the drives (for the sign check).
+
+    Returns:
+        One :class:`Regulator` per controlled joint, for :func:`manipcad.sim.simulate`.
+
+    Raises:
+        InputError: naming the file, the dotted field and the reason.
+
+    Warns:
+        ManipcadWarning: a PID gain sign that makes positive feedback.
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.sim.files import load_regulators
+        >>> puma = manipcad.load_robot("puma560")  # doctest: +SKIP
+        >>> regs = load_regulators("examples/pid_puma.yaml", puma, dt=1e-4)  # doctest: +SKIP
+        >>> len(regs)  # doctest: +SKIP
+        6
+    """
+    return regulators_from_dict(_read_yaml(path), robot, str(path), dt=dt, drives=drives)
+
+
+__all__ = ["load_regulators", "regulators_from_dict", "TYPES", "GroupFile", "PIDFile"]

@@ -17,6 +17,7 @@ from manipcad.dynamics import (
 )
 from manipcad.dynamics.identification import PayloadEstimate, identify_payload
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning, ModelError
+from manipcad.expert import Requirements, recommend
 from manipcad.model import Drive, Robot, catalog_names, load_robot
 from manipcad.sizing import DriveRequirements, ratio_sweep, required_drive, torque_speed_plot
 from manipcad.synthesis import synthesize
@@ -29,6 +30,7 @@ __all__ = [
     "inverse_dynamics", "mass_matrix", "forward_dynamics", "torque_components",
     "operation_counts", "load_trajectory", "save_trajectory",
     "identify_payload", "PayloadEstimate", "coupling_analysis", "moment_components",
-    "synthesize", "required_drive", "DriveRequirements", "ratio_sweep", "torque_speed_plot",
+    "synthesize", "Requirements", "recommend",
+    "required_drive", "DriveRequirements", "ratio_sweep", "torque_speed_plot",
     "ManipcadError", "ModelError", "InputError", "ManipcadWarning",
 ]

@@ -1,4 +1,4 @@
-"""Shared fixtures: random robots and their Pinocchio twins."""
+"""Shared fixtures and helpers: random robots, modified-DH chains, relative errors."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from manipcad.model.dh import rot_x, rot_z
 from manipcad.model.robot import Drive, Robot
 
 
@@ -26,6 +27,49 @@ def random_tree(seed: int, n: int = 7, *, chain: bool = False, drives: bool = Fa
         rng.normal(size=(n, 3)) * 0.3, rng.uniform(0.5, 3.0, n), rng.normal(size=(n, 3)) * 0.1,
         inertia, offset=rng.normal(size=n), drives=drv,
         gravity=rng.normal(size=3) * 5.0)
+
+
+# the PUMA 560 as modified-DH rows (type, a_{i-1} m, alpha_{i-1} rad, d_i m, theta_i rad)
+# for mdh_robot; the kinematics and trajectory tests build their arms from it
+PUMA_MDH = [
+    ("R", 0.0, 0.0, 0.0, 0.0),
+    ("R", 0.0, -np.pi / 2, 0.2435, 0.0),
+    ("R", 0.4318, 0.0, -0.0934, 0.0),
+    ("R", 0.0203, np.pi / 2, 0.4331, 0.0),
+    ("R", 0.0, -np.pi / 2, 0.0, 0.0),
+    ("R", 0.0, np.pi / 2, 0.0, 0.0),
+]
+
+
+def mdh_robot(rows, tool: np.ndarray | None = None, name: str = "mdh", *,
+              tool_p=None) -> Robot:
+    """A serial Robot from modified-DH rows (type "R" or "P", a_{i-1} m, alpha_{i-1} rad,
+    d_i m, theta_i rad); the joint variable adds to theta (R) or d (P).
+
+    The placement is Rot_x(alpha)·Trans_x(a) with the fixed z part (d for a
+    revolute joint, theta for a prismatic one) folded in. Links of 1 kg at the
+    frame origin with inertia 0.01·I kg·m². ``tool``: the (4, 4) tool transform
+    in the last link frame (m); ``tool_p``: a tool offset (m) replacing its
+    translation.
+    """
+    Rs, ps, off, types = [], [], [], []
+    for kind, a, alpha, d, theta in rows:
+        if kind == "R":
+            Rs.append(rot_x(alpha))
+            ps.append(np.array([a, 0.0, 0.0]) + rot_x(alpha) @ [0.0, 0.0, d])
+            off.append(theta)
+            types.append("revolute")
+        else:
+            Rs.append(rot_x(alpha) @ rot_z(theta))
+            ps.append(np.array([a, 0.0, 0.0]))
+            off.append(d)
+            types.append("prismatic")
+    n = len(rows)
+    T = np.eye(4) if tool is None else tool
+    return Robot.from_arrays(
+        name, types, list(range(-1, n - 1)), np.array(Rs), np.array(ps), np.ones(n),
+        np.zeros((n, 3)), np.tile(np.eye(3) * 0.01, (n, 1, 1)), offset=off,
+        tool_R=T[:3, :3], tool_p=T[:3, 3] if tool_p is None else tool_p)
 
 
 @pytest.fixture(params=range(6))

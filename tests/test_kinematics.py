@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import PUMA_MDH, mdh_robot
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.kinematics import (
@@ -33,15 +34,7 @@ SE3 = pytest.importorskip("spatialmath").SE3
 TOL = 1e-12
 
 # modified DH rows: (type, a_{i-1} m, alpha_{i-1} rad, d_i m, theta_i rad); the
-# joint variable adds to theta (revolute) or d (prismatic)
-PUMA_MDH = [
-    ("R", 0.0, 0.0, 0.0, 0.0),
-    ("R", 0.0, -np.pi / 2, 0.2435, 0.0),
-    ("R", 0.4318, 0.0, -0.0934, 0.0),
-    ("R", 0.0203, np.pi / 2, 0.4331, 0.0),
-    ("R", 0.0, -np.pi / 2, 0.0, 0.0),
-    ("R", 0.0, np.pi / 2, 0.0, 0.0),
-]
+# joint variable adds to theta (revolute) or d (prismatic); PUMA_MDH is in conftest.py
 # the cylindrical arm of the paper's Fig. 2: turn about the vertical, lift, radial reach
 CYL_MDH = [
     ("R", 0.0, 0.0, 0.40, 0.0),
@@ -57,29 +50,6 @@ MIXED_MDH = [
     ("P", 0.12, -0.6, 0.05, 0.2),
 ]
 TOOL = SE3.Rx(0.3) * SE3.Ry(-0.2) * SE3(0.01, 0.02, 0.11)
-
-
-def mdh_robot(rows, tool: np.ndarray | None = None, name: str = "mdh") -> Robot:
-    """A Robot from modified-DH rows: placement Rot_x(alpha)·Trans_x(a) and the
-    fixed z part (d for revolute, theta for prismatic) folded in."""
-    Rs, ps, off, types = [], [], [], []
-    for kind, a, alpha, d, theta in rows:
-        if kind == "R":
-            Rs.append(rot_x(alpha))
-            ps.append(np.array([a, 0.0, 0.0]) + rot_x(alpha) @ [0.0, 0.0, d])
-            off.append(theta)
-            types.append("revolute")
-        else:
-            Rs.append(rot_x(alpha) @ rot_z(theta))
-            ps.append(np.array([a, 0.0, 0.0]))
-            off.append(d)
-            types.append("prismatic")
-    n = len(rows)
-    T = np.eye(4) if tool is None else tool
-    return Robot.from_arrays(
-        name, types, list(range(-1, n - 1)), np.array(Rs), np.array(ps), np.ones(n),
-        np.zeros((n, 3)), np.tile(np.eye(3) * 0.01, (n, 1, 1)), offset=off,
-        tool_R=T[:3, :3], tool_p=T[:3, 3])
 
 
 def rtb_robot(rows, tool=None):

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from conftest import PUMA_MDH, mdh_robot
 
 from manipcad.errors import InputError
 from manipcad.kinematics import KinematicsError, jacobian, tool_pose
-from manipcad.model.dh import rot_x, rot_z
 from manipcad.model.robot import Robot
 from manipcad.trajectories import (
     Trajectory,
@@ -29,35 +29,7 @@ from manipcad.trajectories import io as traj_io
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
-
-def mdh_robot(rows, tool_p=(0.0, 0.0, 0.0), name: str = "mdh") -> Robot:
-    """A serial Robot from modified-DH rows (type, a_{i-1}, alpha_{i-1}, d_i, theta_i)."""
-    Rs, ps, off, types = [], [], [], []
-    for kind, a, alpha, d, theta in rows:
-        if kind == "R":
-            Rs.append(rot_x(alpha))
-            ps.append(np.array([a, 0.0, 0.0]) + rot_x(alpha) @ [0.0, 0.0, d])
-            off.append(theta)
-            types.append("revolute")
-        else:
-            Rs.append(rot_x(alpha) @ rot_z(theta))
-            ps.append(np.array([a, 0.0, 0.0]))
-            off.append(d)
-            types.append("prismatic")
-    n = len(rows)
-    return Robot.from_arrays(
-        name, types, list(range(-1, n - 1)), np.array(Rs), np.array(ps), np.ones(n),
-        np.zeros((n, 3)), np.tile(np.eye(3) * 0.01, (n, 1, 1)), offset=off, tool_p=tool_p)
-
-
-PUMA = mdh_robot([
-    ("R", 0.0, 0.0, 0.0, 0.0),
-    ("R", 0.0, -np.pi / 2, 0.2435, 0.0),
-    ("R", 0.4318, 0.0, -0.0934, 0.0),
-    ("R", 0.0203, np.pi / 2, 0.4331, 0.0),
-    ("R", 0.0, -np.pi / 2, 0.0, 0.0),
-    ("R", 0.0, np.pi / 2, 0.0, 0.0),
-], tool_p=(0.0, 0.0, 0.1), name="puma_mdh")
+PUMA = mdh_robot(PUMA_MDH, tool_p=(0.0, 0.0, 0.1), name="puma_mdh")
 PUMA_Q0 = np.array([0.1, -0.6, 0.4, 0.2, 0.7, -0.3])
 # the paper's Fig. 2 arm: turn q1 about the vertical (rad), lift q2 (m), radial reach q3 (m)
 CYL = mdh_robot([

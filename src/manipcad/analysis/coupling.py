@@ -56,6 +56,7 @@ import numpy as np
 
 from manipcad.dynamics.components import torque_components
 from manipcad.errors import InputError
+from manipcad.fileio import json_safe
 from manipcad.model.robot import COL_JR, REVOLUTE, Robot
 from manipcad.trajectories.base import Trajectory
 
@@ -182,8 +183,8 @@ class CouplingReport:
         for j in self.joints:
             d = asdict(j)
             d["H_variation"] = j.H_variation
-            out["joints"].append(_plain(d))
-        return _plain(out)
+            out["joints"].append(json_safe(d))
+        return json_safe(out)
 
 
 def coupling_analysis(robot: Robot, trajectory: Trajectory | str | Path, *, dt: float = 1e-3,
@@ -374,23 +375,3 @@ def _trajectory(robot: Robot, trajectory) -> Trajectory:
         raise InputError(src, "", f"the trajectory moves {traj.n} joints, the robot "
                          f"{robot.name!r} has {robot.n}")
     return traj
-
-
-def _plain(x):
-    """JSON-ready values: tuples to lists, numpy scalars to floats, inf to "inf"."""
-    if isinstance(x, dict):
-        return {k: _plain(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_plain(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _plain(x.tolist())
-    if isinstance(x, float | np.floating):
-        x = float(x)
-        if math.isnan(x):
-            return None
-        if math.isinf(x):
-            return "inf" if x > 0 else "-inf"
-        return x
-    if isinstance(x, np.integer | np.bool_):
-        return x.item()
-    return x

@@ -19,6 +19,7 @@ from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
 from manipcad.errors import ManipcadWarning
+from manipcad.fileio import json_safe
 
 robots_app = typer.Typer(
     help="List the built-in catalog; show a robot's joints, links and drives.",
@@ -34,26 +35,6 @@ def _num(x: float, fmt: str = ".4g") -> str:
     if math.isinf(x):
         return "inf" if x > 0 else "-inf"
     return format(x, fmt)
-
-
-def _jsonable(x: Any) -> Any:
-    """Plain JSON values: arrays to lists, nan to null, ±inf to the strings "inf"/"-inf"."""
-    if isinstance(x, np.ndarray):
-        return [_jsonable(v) for v in x.tolist()]
-    if isinstance(x, list | tuple):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, dict):
-        return {k: _jsonable(v) for k, v in x.items()}
-    if isinstance(x, float | np.floating):
-        x = float(x)
-        if math.isnan(x):
-            return None
-        if math.isinf(x):
-            return "inf" if x > 0 else "-inf"
-        return x
-    if isinstance(x, np.integer):
-        return int(x)
-    return x
 
 
 @robots_app.command("list")
@@ -125,7 +106,7 @@ def robot_summary(robot: Any) -> dict[str, Any]:
             "mass": float(robot.mass[i]), "com": robot.com[i], "inertia": robot.inertia[i],
             "drive": drive,
         })
-    return _jsonable({
+    return json_safe({
         "name": robot.name, "n": robot.n, "gravity": robot.gravity,
         "source": robot.source, "tool_R": robot.tool_R, "tool_p": robot.tool_p,
         "total_mass": float(robot.mass.sum()),

@@ -64,15 +64,16 @@ Derivation criteria (stated, so that they can be argued with):
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, StrictBool, ValidationError, field_validator
 
 from manipcad.errors import InputError, ManipcadError
+from manipcad.fileio import read_yaml, validation_error
 from manipcad.model.yaml_robot import OptNum
 
 COUPLING = ("decoupled", "inertial", "full")
@@ -179,17 +180,17 @@ class Requirements(BaseModel):
         try:
             return cls.model_validate(data)
         except ValidationError as exc:
-            err = exc.errors()[0]
-            field = ".".join(str(p) for p in err["loc"])
-            reason = err["msg"]
-            if err["type"] == "extra_forbidden":
-                reason = (f"unknown field; known: {', '.join(cls.model_fields)} "
-                          "(transmission: backlash, elasticity)")
-            elif err["type"] == "literal_error":
-                reason = f"{reason}, got {err.get('input')!r}"
-            elif err["type"] == "bool_type":
-                reason = f"expected true or false, got {err.get('input')!r}"
-            raise InputError(source, field, reason) from None
+            def reason(err: Mapping[str, Any]) -> str:
+                if err["type"] == "extra_forbidden":
+                    return (f"unknown field; known: {', '.join(cls.model_fields)} "
+                            "(transmission: backlash, elasticity)")
+                if err["type"] == "literal_error":
+                    return f"{err['msg']}, got {err.get('input')!r}"
+                if err["type"] == "bool_type":
+                    return f"expected true or false, got {err.get('input')!r}"
+                return err["msg"]
+
+            raise validation_error(source, exc, reason, skip={"str", "int"}) from None
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> Requirements:
@@ -198,26 +199,8 @@ class Requirements(BaseModel):
         Raises:
             InputError: naming the file, the field and the reason.
         """
-        p, src = Path(path), str(path)
-        if not p.exists():
-            raise InputError(src, "", "no such file")
-        if not p.is_file():
-            raise InputError(src, "", "not a file")
-        try:
-            text = p.read_text(encoding="utf-8")
-        except UnicodeDecodeError:
-            raise InputError(src, "", "not a UTF-8 text file") from None
-        except OSError as exc:
-            raise InputError(src, "", f"cannot read: {exc.strerror}") from None
-        try:
-            data = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-            problem = getattr(exc, "problem", None) or str(exc)
-            raise InputError(src, "", f"YAML syntax error{where}: {problem}") from None
-        if data is None:
-            raise InputError(src, "", "empty file; expected a mapping of requirement fields")
+        src = str(path)
+        data = read_yaml(path, "a mapping of requirement fields", unique_keys=False)
         return cls.from_dict(data, src)
 
     @classmethod

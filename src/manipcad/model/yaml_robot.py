@@ -60,7 +60,7 @@ import math
 import operator
 import typing
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from functools import lru_cache
 from importlib import resources
 from importlib.abc import Traversable
@@ -68,9 +68,9 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
+from manipcad import fileio
 from manipcad.errors import InputError, ManipcadWarning, ModelError
 from manipcad.model import dh
 from manipcad.model.robot import PRISMATIC, REVOLUTE, Drive, Robot
@@ -367,61 +367,11 @@ class GearSpec(_Spec):
 # --------------------------------------------------------------------------- reading
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """SafeLoader that rejects duplicate mapping keys (PyYAML keeps the last silently)."""
-
-
-def _construct_mapping(loader: _UniqueKeyLoader, node: yaml.MappingNode,
-                       deep: bool = False) -> dict[Any, Any]:
-    seen: set[Any] = set()
-    for key_node, _ in node.value:
-        key = loader.construct_object(key_node, deep=deep)
-        if key in seen:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key {key!r}", key_node.start_mark)
-        seen.add(key)
-    return loader.construct_mapping(node, deep=deep)
-
-
-_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG,
-                                 _construct_mapping)
-
-
 def read_yaml(source: str | Path | Traversable, label: str | None = None) -> Any:
-    """Read a YAML file; syntax errors become :class:`InputError` with the line.
-
-    Args:
-        source: the file.
-        label: how to name the file in errors (default its path).
-    """
-    name = label or str(source)
-    try:
-        text = source.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(name, "", "no such file") from None
-    except UnicodeDecodeError as exc:
-        raise InputError(name, "", f"not a UTF-8 text file ({exc.reason})") from None
-    except OSError as exc:
-        raise InputError(name, "", f"cannot read: {exc.strerror or exc}") from None
-    try:
-        return yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 (SafeLoader subclass)
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        what = exc.problem or exc.context or "invalid YAML"
-        raise InputError(name, "", f"YAML syntax error{where}: {what}") from None
-    except yaml.YAMLError as exc:
-        raise InputError(name, "", f"YAML syntax error: {exc}") from None
-
-
-def _dotted(loc: tuple[Any, ...]) -> str:
-    out = ""
-    for part in loc:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        else:
-            out += ("." if out else "") + str(part)
-    return out
+    """Read a YAML file, rejecting duplicate keys; every failure (no such file,
+    YAML syntax with the line...) is an :class:`InputError` naming the file as
+    ``label`` (default its path). See :func:`manipcad.fileio.read_yaml`."""
+    return fileio.read_yaml(source, label=label)
 
 
 def _inner_model(annotation: Any) -> type[BaseModel] | None:
@@ -445,7 +395,20 @@ def _model_at(root: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | 
     return model
 
 
-def _reason(err: dict[str, Any], root: type[BaseModel]) -> str:
+def _reason(err: Mapping[str, Any], root: type[BaseModel], data: dict[str, Any]) -> str:
+    """The words for a pydantic error in a robot, motor or gear file, naming the
+    joint (by its name in ``data``) when the error is inside one."""
+    loc = err["loc"]
+    if len(loc) >= 2 and loc[0] == "joints" and isinstance(loc[1], int):
+        joints = data.get("joints")
+        if isinstance(joints, list) and loc[1] < len(joints):
+            j = joints[loc[1]]
+            if isinstance(j, dict) and isinstance(j.get("name"), str):
+                return f"{_problem(err, root)} (joint {j['name']!r})"
+    return _problem(err, root)
+
+
+def _problem(err: Mapping[str, Any], root: type[BaseModel]) -> str:
     kind, value = err["type"], err.get("input")
     if kind == "missing":
         return "required field is missing"
@@ -476,23 +439,8 @@ def validate(model: type[BaseModel], data: Any, label: str, prefix: str = "") ->
     try:
         return model.model_validate(data)
     except ValidationError as exc:
-        errors = exc.errors(include_url=False)
-        err = errors[0]
-        field = _dotted(err["loc"])
-        if prefix:
-            field = f"{prefix}.{field}" if field else prefix
-        reason = _reason(err, model)
-        loc = err["loc"]
-        if len(loc) >= 2 and loc[0] == "joints" and isinstance(loc[1], int):
-            joints = data.get("joints")
-            if isinstance(joints, list) and loc[1] < len(joints):
-                j = joints[loc[1]]
-                if isinstance(j, dict) and isinstance(j.get("name"), str):
-                    reason += f" (joint {j['name']!r})"
-        if len(errors) > 1:
-            more = len(errors) - 1
-            reason += f" (and {more} more problem{'s' if more > 1 else ''})"
-        raise InputError(label, field, reason) from None
+        raise fileio.validation_error(label, exc, lambda err: _reason(err, model, data),
+                                      prefix=prefix) from None
 
 
 # --------------------------------------------------------------------------- catalog

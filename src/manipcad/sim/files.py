@@ -40,14 +40,14 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-import yaml
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
 
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.fileio import describe_error, read_yaml, validation_error
 from manipcad.model.robot import Robot
 from manipcad.sim.regulators import KIND_PID, PID_KP, Regulator, pid
 
@@ -104,42 +104,8 @@ _CHECKS: dict[str, dict[str, tuple[Callable[[float], bool], str]]] = {
 }
 
 
-def _field_path(prefix: str, loc: tuple[Any, ...]) -> str:
-    out = prefix
-    for part in loc:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        elif part in ("list[str]", "list[float]", "int", "str", "float"):
-            continue  # pydantic's union branch names, not fields
-        else:
-            out += f".{part}" if out else str(part)
-    return out
-
-
-def _read_yaml(path: str | Path) -> Any:
-    p = Path(path)
-    src = str(path)
-    if not p.exists():
-        raise InputError(src, "", "no such file")
-    if not p.is_file():
-        raise InputError(src, "", "not a file")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise InputError(src, "", "not a UTF-8 text file") from None
-    except OSError as exc:
-        raise InputError(src, "", f"cannot read: {exc.strerror}") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise InputError(src, "", f"YAML syntax error{where}: {problem}") from None
-    if data is None:
-        raise InputError(src, "", "empty file; expected a mapping with a 'type' "
-                         "or a 'regulators' list")
-    return data
+#: pydantic's union-branch names in error locations (not fields)
+_UNION_TAGS = frozenset({"list[str]", "list[float]", "int", "str", "float"})
 
 
 def regulators_from_dict(data: Any, robot: Robot, source: str = "<dict>", *,
@@ -240,16 +206,15 @@ def _group(data: Any, robot: Robot, source: str, prefix: str,
     try:
         spec = schema.model_validate(data)
     except ValidationError as exc:
-        first = exc.errors()[0]
-        field = _field_path(prefix, first["loc"])
-        if first["type"] == "extra_forbidden":
-            reason = (f"unknown field for a {kind!r} regulator "
-                      f"(fields: {', '.join(schema.model_fields)})")
-        elif first["type"] == "missing":
-            reason = f"missing (required for a {kind!r} regulator)"
-        else:
-            reason = f"{first['msg']} (got {first.get('input')!r})"
-        raise InputError(source, field, reason) from None
+        def reason(err: Mapping[str, Any]) -> str:
+            if err["type"] == "extra_forbidden":
+                return (f"unknown field for a {kind!r} regulator "
+                        f"(fields: {', '.join(schema.model_fields)})")
+            if err["type"] == "missing":
+                return f"missing (required for a {kind!r} regulator)"
+            return describe_error(err)
+
+        raise validation_error(source, exc, reason, prefix=prefix, skip=_UNION_TAGS) from None
 
     if not (math.isfinite(spec.period) and spec.period > 0):
         raise InputError(source, _join(prefix, "period"),
@@ -344,7 +309,8 @@ def load_regulators(path: str | Path, robot: Robot, *, dt: float | None = None,
         >>> len(regs)  # doctest: +SKIP
         6
     """
-    return regulators_from_dict(_read_yaml(path), robot, str(path), dt=dt, drives=drives)
+    data = read_yaml(path, "a mapping with a 'type' or a 'regulators' list", unique_keys=False)
+    return regulators_from_dict(data, robot, str(path), dt=dt, drives=drives)
 
 
 __all__ = ["load_regulators", "regulators_from_dict", "TYPES", "GroupFile", "PIDFile"]

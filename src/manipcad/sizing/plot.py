@@ -21,13 +21,12 @@ save leaves no partial file.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from manipcad.errors import InputError
+from manipcad.fileio import atomic_write, writable_target
 from manipcad.sizing.limits import voltage_limit
 from manipcad.sizing.requirements import DriveRequirements
 
@@ -110,14 +109,9 @@ def torque_speed_plot(req: DriveRequirements, path: str | Path, *, dpi: int = 12
     """
     from matplotlib.figure import Figure
 
-    p = Path(path)
+    p = writable_target(path)
     src = str(path)
     fmt = p.suffix.lower().lstrip(".")
-    folder = p.parent if str(p.parent) else Path(".")
-    if not folder.is_dir():
-        raise InputError(src, "", f"folder {str(folder)!r} does not exist")
-    if p.is_dir():
-        raise InputError(src, "", "is a folder")
     fig = Figure(figsize=(5.0 * min(req.n, 3), 4.2 * math.ceil(req.n / 3)), dpi=dpi)
     supported = fig.canvas.get_supported_filetypes()
     if fmt not in supported:
@@ -135,23 +129,4 @@ def torque_speed_plot(req: DriveRequirements, path: str | Path, *, dpi: int = 12
     fig.suptitle(f"{req.robot.name}: required motor torque vs speed, t_end = {req.t_end:g} s"
                  + (f", payload {req.payload_mass:g} kg" if req.payload_mass else ""))
     fig.tight_layout()
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
-    except OSError as exc:
-        raise InputError(src, "", f"cannot write in {str(folder)!r}: {exc.strerror}") from None
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fig.savefig(fh, format=fmt)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, p)
-    except BaseException as exc:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        if isinstance(exc, OSError):
-            raise InputError(src, "", f"cannot write: {exc.strerror or exc}") from None
-        raise
-    return p
+    return atomic_write(path, lambda fh: fig.savefig(fh, format=fmt), binary=True)

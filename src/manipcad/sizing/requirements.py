@@ -23,12 +23,12 @@ Then it checks every motor against its ratings (:mod:`manipcad.sizing.limits`).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from manipcad.fileio import json_safe
 from manipcad.model.robot import PRISMATIC, Drive, Robot
 from manipcad.sizing.limits import LIMITS, LimitCheck, check_limits, overall_status
 from manipcad.sizing.motion import SampledMotion, sample_motion
@@ -176,14 +176,14 @@ class DriveRequirements:
                 "name": self.joint_names[j], "type": self.robot.joint_types[j],
                 "motor": d.name if d is not None else None,
                 "gear": d.gear if d is not None else None,
-                "ratio": _plain(d.ratio) if d is not None else None,
+                "ratio": json_safe(float(d.ratio)) if d is not None else None,
                 "units": self.units(j),
             }
             for key in FIELDS:
-                entry[key] = _plain(getattr(self, key)[j])
+                entry[key] = json_safe(getattr(self, key)[j])
             entry["checks"] = {
-                name: {"required": _plain(c.required[j]), "limit": _plain(c.limit[j]),
-                       "margin": _plain(c.margin[j]), "status": c.status[j], "unit": c.unit}
+                name: {"required": json_safe(c.required[j]), "limit": json_safe(c.limit[j]),
+                       "margin": json_safe(c.margin[j]), "status": c.status[j], "unit": c.unit}
                 for name, c in self.checks.items()
             }
             entry["status"] = self.status[j]
@@ -194,30 +194,13 @@ class DriveRequirements:
             "limits": {k: v[0] for k, v in LIMITS.items()}, "joints": joints,
         }
         if series:
-            out["series"] = {
-                "t": _plain(self.t), "tau": _plain(self.tau),
-                "motor_torque": _plain(self.motor_torque), "motor_speed": _plain(self.motor_speed),
-                "current": _plain(self.current), "voltage": _plain(self.voltage),
-            }
+            out["series"] = {key: json_safe(getattr(self, key)) for key in (
+                "t", "tau", "motor_torque", "motor_speed", "current", "voltage")}
         return out
 
     def __repr__(self) -> str:
         return (f"DriveRequirements({self.robot.name!r}, n={self.n}, t_end={self.t_end:g} s, "
                 f"status={list(self.status)})")
-
-
-def _plain(x: Any) -> Any:
-    """Floats and nested lists for JSON; nan becomes None, ±inf the strings "inf"/"-inf"."""
-    if isinstance(x, np.ndarray):
-        return [_plain(v) for v in x.tolist()] if x.ndim else _plain(x.item())
-    if isinstance(x, list | tuple):
-        return [_plain(v) for v in x]
-    if isinstance(x, float | np.floating | int | np.integer):
-        x = float(x)
-        if math.isnan(x):
-            return None
-        return ("inf" if x > 0 else "-inf") if math.isinf(x) else x
-    return x
 
 
 def motor_side(motion: SampledMotion) -> dict[str, np.ndarray]:

@@ -22,7 +22,6 @@ two runs.
 from __future__ import annotations
 
 import json
-import math
 import os
 import shutil
 import tempfile
@@ -35,6 +34,7 @@ import numpy as np
 import yaml
 
 from manipcad.errors import InputError
+from manipcad.fileio import json_safe
 
 #: the arrays of a result kept in the store, in column order per joint
 SERIES = ("q", "qd", "q_ref", "qd_ref", "error", "u", "current", "tau")
@@ -72,28 +72,8 @@ def metric_units(joint_type: str | None, drives: bool) -> dict[str, str]:
             "rise_time": "s", "settling_time": "s", "effort_rms": s["u"], "energy": "J"}
 
 
-def jsonable(x: Any) -> Any:
-    """Plain JSON values: arrays to lists, nan to null, ±inf to "inf"/"-inf"."""
-    if isinstance(x, np.ndarray):
-        return [jsonable(v) for v in x.tolist()]
-    if isinstance(x, list | tuple):
-        return [jsonable(v) for v in x]
-    if isinstance(x, Mapping):
-        return {str(k): jsonable(v) for k, v in x.items()}
-    if isinstance(x, float | np.floating):
-        x = float(x)
-        if math.isnan(x):
-            return None
-        if math.isinf(x):
-            return "inf" if x > 0 else "-inf"
-        return x
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    if isinstance(x, Path):
-        return str(x)
-    return x
+#: JSON-ready values (nan -> null, ±inf -> "inf"/"-inf"); see :func:`manipcad.fileio.json_safe`
+jsonable = json_safe
 
 
 def check_out_dir(out_dir: str | Path, *, force: bool = False) -> Path:

@@ -98,6 +98,42 @@ class Trajectory(ABC):
         return f"{type(self).__name__}(n={self.n}, duration={self.duration:g} s)"
 
 
+class PointToPoint(Trajectory):
+    """A joint-space move along the straight line from q_start to q_end.
+
+    All joints follow one path coordinate s(t), from 0 at t = 0 to 1 at
+    ``duration``: q = q_start + s·D, qd = ṡ·D, qdd = s̈·D with D = q_end - q_start,
+    so they start and stop together. Subclasses give s, ṡ (1/s) and s̈ (1/s²)
+    by :meth:`_profile`, and the YAML mapping by :meth:`to_dict`.
+
+    Attributes:
+        q_start, q_end: (n,) end positions, rad or m.
+    """
+
+    def __init__(self, q_start: np.ndarray, q_end: np.ndarray, duration: float) -> None:
+        self.q_start, self.q_end = q_start, q_end
+        self._duration = duration
+
+    @property
+    def n(self) -> int:
+        """Number of joints."""
+        return self.q_start.shape[0]
+
+    @property
+    def duration(self) -> float:
+        """Length of the move, s."""
+        return self._duration
+
+    @abstractmethod
+    def _profile(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """s (1), ṡ (1/s) and s̈ (1/s²), each of shape (len(t),), for 0 <= t <= duration (s)."""
+
+    def _evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        s, sd, sdd = self._profile(t)
+        D = self.q_end - self.q_start
+        return (self.q_start + s[:, None] * D, sd[:, None] * D, sdd[:, None] * D)
+
+
 # ------------------------------------------------------------------ argument checks
 def vector(value: Any, field: str, source: str, n: int | None = None, *,
            allow_scalar: bool = False) -> np.ndarray:

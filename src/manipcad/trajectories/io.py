@@ -28,8 +28,8 @@ target, so an interrupted or failed save leaves any earlier file intact.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
+import os  # noqa: F401  (tests reach os.replace / os.fsync of the atomic save as io.os)
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -37,6 +37,7 @@ import yaml
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
 
 from manipcad.errors import InputError, ManipcadError
+from manipcad.fileio import atomic_write_text, describe_error, read_yaml, validation_error
 from manipcad.model.robot import Robot
 from manipcad.trajectories.base import Trajectory
 from manipcad.trajectories.cartesian import circle, line
@@ -135,30 +136,16 @@ SCHEMAS: dict[str, type[_Schema]] = {
 }
 
 
-def _field_path(loc: tuple[Any, ...]) -> str:
-    out = ""
-    for part in loc:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        else:
-            out += f".{part}" if out else str(part)
-    return out
-
-
 def _pydantic_error(source: str, kind: str, exc: ValidationError) -> InputError:
-    errors = exc.errors()
-    first = errors[0]
-    field = _field_path(first["loc"])
-    if first["type"] == "extra_forbidden":
-        allowed = ", ".join(SCHEMAS[kind].model_fields)
-        reason = f"unknown field for a {kind!r} trajectory (fields: {allowed})"
-    elif first["type"] == "missing":
-        reason = f"missing (required for a {kind!r} trajectory)"
-    else:
-        reason = f"{first['msg']} (got {first.get('input')!r})"
-    if len(errors) > 1:
-        reason += f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})"
-    return InputError(source, field, reason)
+    def reason(err: Mapping[str, Any]) -> str:
+        if err["type"] == "extra_forbidden":
+            allowed = ", ".join(SCHEMAS[kind].model_fields)
+            return f"unknown field for a {kind!r} trajectory (fields: {allowed})"
+        if err["type"] == "missing":
+            return f"missing (required for a {kind!r} trajectory)"
+        return describe_error(err)
+
+    return validation_error(source, exc, reason)
 
 
 def trajectory_from_dict(data: Any, source: str = "<dict>", *, robot: Robot | None = None,
@@ -256,28 +243,8 @@ def load_trajectory(path: str | Path, *, robot: Robot | None = None) -> Trajecto
         >>> traj.n, traj.duration  # doctest: +SKIP
         (3, 1.6)
     """
-    p = Path(path)
-    src = str(path)
-    if not p.exists():
-        raise InputError(src, "", "no such file")
-    if not p.is_file():
-        raise InputError(src, "", "not a file")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise InputError(src, "", "not a UTF-8 text file") from None
-    except OSError as exc:
-        raise InputError(src, "", f"cannot read: {exc.strerror}") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise InputError(src, "", f"YAML syntax error{where}: {problem}") from None
-    if data is None:
-        raise InputError(src, "", "empty file; expected a mapping with a 'type'")
-    return trajectory_from_dict(data, src, robot=robot, base_dir=p.parent)
+    data = read_yaml(path, "a mapping with a 'type'", unique_keys=False)
+    return trajectory_from_dict(data, str(path), robot=robot, base_dir=Path(path).parent)
 
 
 def save_trajectory(trajectory: Trajectory, path: str | Path) -> Path:
@@ -303,36 +270,7 @@ def save_trajectory(trajectory: Trajectory, path: str | Path) -> Path:
         >>> save_trajectory(cosine([0.5], [4.0], 1.6), "/tmp/q1.yaml")  # doctest: +SKIP
         PosixPath('/tmp/q1.yaml')
     """
-    p = Path(path)
-    src = str(path)
     text = ("# manipcad trajectory; SI units: joint values rad or m, times s\n"
             + yaml.safe_dump(trajectory.to_dict(), sort_keys=False, default_flow_style=None,
                              width=100))
-    folder = p.parent if str(p.parent) else Path(".")
-    if not folder.is_dir():
-        raise InputError(src, "", f"folder {str(folder)!r} does not exist")
-    if p.is_dir():
-        raise InputError(src, "", "is a folder")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
-    except OSError as exc:
-        raise InputError(src, "", f"cannot write in {str(folder)!r}: {exc.strerror}") from None
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        if p.exists():
-            os.chmod(tmp, p.stat().st_mode & 0o777)
-        else:
-            os.chmod(tmp, 0o644)
-        os.replace(tmp, p)
-    except BaseException as exc:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        if isinstance(exc, OSError):
-            raise InputError(src, "", f"cannot write: {exc.strerror or exc}") from None
-        raise
-    return p
+    return atomic_write_text(path, text)

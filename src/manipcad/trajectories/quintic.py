@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from manipcad.trajectories.base import Trajectory, floats, positive, vector
+from manipcad.trajectories.base import PointToPoint, floats, positive, vector
 
 
 def quintic_profile(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -34,7 +34,7 @@ def quintic_profile(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return s, sd, sdd
 
 
-class QuinticTrajectory(Trajectory):
+class QuinticTrajectory(PointToPoint):
     """A quintic move from q_start to q_end in ``duration``; build it with :func:`quintic`.
 
     Attributes:
@@ -48,26 +48,10 @@ class QuinticTrajectory(Trajectory):
 
     kind = "quintic"
 
-    def __init__(self, q_start: np.ndarray, q_end: np.ndarray, duration: float) -> None:
-        self.q_start, self.q_end = q_start, q_end
-        self._duration = duration
-
-    @property
-    def n(self) -> int:
-        """Number of joints."""
-        return self.q_start.shape[0]
-
-    @property
-    def duration(self) -> float:
-        """Length of the move, s."""
-        return self._duration
-
-    def _evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _profile(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         T = self._duration
         s, sd, sdd = quintic_profile(t / T)
-        D = self.q_end - self.q_start
-        return (self.q_start + s[:, None] * D, (sd / T)[:, None] * D,
-                (sdd / T**2)[:, None] * D)
+        return s, sd / T, sdd / T**2
 
     def to_dict(self) -> dict[str, Any]:
         """The YAML mapping: type, q_start, q_end (rad or m), duration (s)."""

@@ -22,10 +22,10 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError
-from manipcad.trajectories.base import Trajectory, floats, vector
+from manipcad.trajectories.base import PointToPoint, floats, vector
 
 
-class TrapezoidalTrajectory(Trajectory):
+class TrapezoidalTrajectory(PointToPoint):
     """A synchronised trapezoidal move; build it with :func:`trapezoidal`.
 
     Attributes:
@@ -46,37 +46,28 @@ class TrapezoidalTrajectory(Trajectory):
 
     def __init__(self, q_start: np.ndarray, q_end: np.ndarray, v_max: np.ndarray,
                  a_max: np.ndarray) -> None:
-        self.q_start, self.q_end, self.v_max, self.a_max = q_start, q_end, v_max, a_max
+        self.v_max, self.a_max = v_max, a_max
         D = np.abs(q_end - q_start)
         moving = D > 0
         if not moving.any():
             self._A = self._V = 0.0
-            self.t_accel, self._duration, self.triangular = 0.0, 0.0, True
+            self.t_accel, duration, self.triangular = 0.0, 0.0, True
         else:
             V = float(np.min(v_max[moving] / D[moving]))
             A = float(np.min(a_max[moving] / D[moving]))
             if V * V / A > 1.0:
                 self.t_accel = 1.0 / math.sqrt(A)
                 V = A * self.t_accel
-                self._duration, self.triangular = 2.0 * self.t_accel, True
+                duration, self.triangular = 2.0 * self.t_accel, True
             else:
                 self.t_accel = V / A
-                self._duration, self.triangular = self.t_accel + 1.0 / V, False
+                duration, self.triangular = self.t_accel + 1.0 / V, False
             self._A, self._V = A, V
+        super().__init__(q_start, q_end, duration)
         self.peak_velocity = D * self._V
         self.peak_acceleration = D * self._A
 
-    @property
-    def n(self) -> int:
-        """Number of joints."""
-        return self.q_start.shape[0]
-
-    @property
-    def duration(self) -> float:
-        """Length of the move, s (the least the limits allow)."""
-        return self._duration
-
-    def _evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _profile(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         A, V, ta, T = self._A, self._V, self.t_accel, self._duration
         s = np.empty_like(t)
         sd = np.empty_like(t)
@@ -91,8 +82,7 @@ class TrapezoidalTrajectory(Trajectory):
         s[dec], sd[dec], sdd[dec] = 1.0 - 0.5 * A * r**2, A * r, -A
         if T == 0.0:
             s[:] = 0.0
-        D = self.q_end - self.q_start
-        return (self.q_start + s[:, None] * D, sd[:, None] * D, sdd[:, None] * D)
+        return s, sd, sdd
 
     def to_dict(self) -> dict[str, Any]:
         """The YAML mapping: type, q_start, q_end (rad or m), v_max (rad/s or m/s),

@@ -157,35 +157,39 @@ def test_loader_alone_matches_pinocchio(erd):
             close(a, b)
 
 
+def _check_dynamics(erd, seed: int, draws: int, *, gravity=None, f_ext_sd: float = 0.0,
+                    mass_matrix: bool = False) -> None:
+    """Our inverse and forward (ABA, CRBA) dynamics against Pinocchio at random states.
+
+    ``gravity`` is passed to both when given; ``f_ext_sd`` > 0 draws external
+    forces N(0, sd) per state (after the state); ``mass_matrix`` also compares H.
+    """
+    dyn = dynamics()
+    name, path, robot, model = erd
+    rng = np.random.default_rng(seed)
+    for _ in range(draws):
+        q, qd, qdd, tau = random_state(robot, rng)
+        kw = {} if gravity is None else {"gravity": gravity}
+        if f_ext_sd:
+            kw["f_ext"] = rng.normal(0.0, f_ext_sd, (robot.n, 6))
+        tau_ref, H_ref, qdd_ref = pin_reference(robot, model, q, qd, qdd, tau, **kw)
+        close(dyn.inverse_dynamics(robot, q, qd, qdd, drives=False, **kw), tau_ref)
+        if mass_matrix:
+            close(dyn.mass_matrix(robot, q, drives=False), H_ref)
+        for method in ("aba", "crba"):
+            close(dyn.forward_dynamics(robot, q, qd, tau, method=method, drives=False, **kw),
+                  qdd_ref)
+
+
 @pytest.mark.parametrize("with_gravity", [False, True])
 def test_dynamics_match_pinocchio(erd, with_gravity):
     """manipcad.dynamics (drives=False) against Pinocchio's RNEA, CRBA and ABA."""
-    dyn = dynamics()
-    name, path, robot, model = erd
-    rng = np.random.default_rng(3)
     g = np.array([0.3, -1.2, -9.81]) if with_gravity else np.zeros(3)
-    for _ in range(3):
-        q, qd, qdd, tau = random_state(robot, rng)
-        tau_ref, H_ref, qdd_ref = pin_reference(robot, model, q, qd, qdd, tau, gravity=g)
-        close(dyn.inverse_dynamics(robot, q, qd, qdd, gravity=g, drives=False), tau_ref)
-        close(dyn.mass_matrix(robot, q, drives=False), H_ref)
-        for method in ("aba", "crba"):
-            close(dyn.forward_dynamics(robot, q, qd, tau, method=method, gravity=g,
-                                       drives=False), qdd_ref)
+    _check_dynamics(erd, 3, 3, gravity=g, mass_matrix=True)
 
 
 def test_dynamics_with_external_forces_match_pinocchio(erd):
-    dyn = dynamics()
-    name, path, robot, model = erd
-    rng = np.random.default_rng(4)
-    for _ in range(2):
-        q, qd, qdd, tau = random_state(robot, rng)
-        f_ext = rng.normal(0.0, 5.0, (robot.n, 6))
-        tau_ref, _, qdd_ref = pin_reference(robot, model, q, qd, qdd, tau, f_ext=f_ext)
-        close(dyn.inverse_dynamics(robot, q, qd, qdd, f_ext=f_ext, drives=False), tau_ref)
-        for method in ("aba", "crba"):
-            close(dyn.forward_dynamics(robot, q, qd, tau, method=method, f_ext=f_ext,
-                                       drives=False), qdd_ref)
+    _check_dynamics(erd, 4, 2, f_ext_sd=5.0)
 
 
 def test_batched_dynamics_match_pinocchio(erd):

@@ -137,7 +137,8 @@ def law3_voltage_paper(U: float, qd: float, qdd: float, H_star: float, h_star: f
     """Law (3) as printed in the paper (dots restored), for comparison only.
 
     ``U_k = L(2h*+k_v)/(k_m k_u)·i_r·q̈ + [k_w/k_u·(1-ρ) + (R(h*+k_v)+L·ḣ*)/(k_m k_u)]·i_r·q̇
-    + R/(k_m k_u)·M_f + ρ·U``. It equals :func:`law3_voltage` when
+    + R/(k_m k_u)·M_f + ρ·U``, i.e. :func:`law3_voltage` with ``Ḣ*`` taken as
+    ``h*`` and ``ṁ_f = 0``, which is how it is computed: the derived law when
     ``h* = Ḣ*`` (true for the paper's Fig. 2 turning joint, whose velocity
     term is the rate of change of its inertia) and ``ṁ_f = 0``.
 
@@ -146,16 +147,7 @@ def law3_voltage_paper(U: float, qd: float, qdd: float, H_star: float, h_star: f
     Returns:
         U_k, V.
     """
-    J = p[P_J]
-    r = p[P_RATIO]
-    kv = p[P_KV]
-    R = p[P_R]
-    L = p[P_L]
-    kmku = p[P_KM] * p[P_KU]
-    rho = (J + H_star) / J_n
-    return (L * (2.0 * h_star + kv) / kmku * r * qdd
-            + (p[P_KW] / p[P_KU] * (1.0 - rho) + (R * (h_star + kv) + L * h_star_dot) / kmku)
-            * r * qd + R / kmku * m_f + rho * U)
+    return law3_voltage(U, qd, qdd, H_star, h_star, h_star, h_star_dot, m_f, 0.0, J_n, p)
 
 
 def nominal_tf(drive: Drive, J_n: float | None = None, *, order: int = 3) -> ct.TransferFunction:

@@ -41,6 +41,16 @@ def _load(drive: Drive, H_ii: float, h_i: float) -> tuple[float, float]:
     return H_ii / r2, h_i / r2
 
 
+def _damped_load(drive: Drive, H_ii: float, h_i: float) -> tuple[float, float]:
+    """(H*, (h* + k_v)·R + k_m·k_w); refuses an undamped drive (the latter <= 0)."""
+    check_electrics(drive, need_L=False)
+    Hs, hs = _load(drive, H_ii, h_i)
+    den = (hs + drive.k_v) * drive.R + drive.k_m * drive.k_w
+    if den <= 0:
+        raise ModelError(f"(h*+k_v)·R + k_m·k_w = {den} <= 0: the drive is not damped")
+    return Hs, den
+
+
 def referred_load(drive: Drive, H_ii: float = 0.0, h_i: float = 0.0) -> tuple[float, float]:
     """The load referred to the motor shaft: (H*, h*) = (H_ii/i_r², h_i/i_r²).
 
@@ -79,11 +89,7 @@ def mechanical_time_constant(drive: Drive, H_ii: float = 0.0, h_i: float = 0.0) 
         >>> round(mechanical_time_constant(d, H_ii=0.01), 9)    # (1e-4+1e-4)·1/0.01
         0.02
     """
-    check_electrics(drive, need_L=False)
-    Hs, hs = _load(drive, H_ii, h_i)
-    den = (hs + drive.k_v) * drive.R + drive.k_m * drive.k_w
-    if den <= 0:
-        raise ModelError(f"(h*+k_v)·R + k_m·k_w = {den} <= 0: the drive is not damped")
+    Hs, den = _damped_load(drive, H_ii, h_i)
     return (Hs + drive.J) * drive.R / den
 
 
@@ -106,11 +112,7 @@ def drive_gain(drive: Drive, H_ii: float = 0.0, h_i: float = 0.0) -> float:
         >>> round(drive_gain(Drive(R=1.0, L=1e-3, k_m=0.1, k_w=0.1)), 12)   # 1/k_w without friction
         10.0
     """
-    check_electrics(drive, need_L=False)
-    _, hs = _load(drive, H_ii, h_i)
-    den = (hs + drive.k_v) * drive.R + drive.k_m * drive.k_w
-    if den <= 0:
-        raise ModelError(f"(h*+k_v)·R + k_m·k_w = {den} <= 0: the drive is not damped")
+    _, den = _damped_load(drive, H_ii, h_i)
     return drive.k_m / den
 
 

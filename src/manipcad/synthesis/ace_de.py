@@ -21,12 +21,14 @@ current through the shaft equation (no accelerometer).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import control as ct
+import numpy as np
 
 from manipcad.drives.laws import nominal_tf
 from manipcad.errors import ManipcadError
-from manipcad.model.robot import Robot
+from manipcad.model.robot import Drive, Robot
 from manipcad.synthesis._common import (
     DEFAULT_PERIOD,
     SynthesizedRegulator,
@@ -63,6 +65,79 @@ def sce_feedforward(drive, J_n: float, order: int) -> tuple[float, float]:
     """
     kfv = drive.k_w * drive.ratio / drive.k_u
     return kfv, drive.R * J_n * drive.ratio / (drive.k_m * drive.k_u)
+
+
+@dataclass(frozen=True)
+class SCEDesign:
+    """A stationary corrective element designed by :func:`design_sce`.
+
+    Attributes:
+        params: the regulator's parameter vector: the packed drive, then the
+            SCE gains and the output limit at ``R_KP .. R_ULIM``.
+        kp, kd, kfv, kfa: the SCE gains, V/rad, V·s/rad, V·s/rad, V·s²/rad.
+        ulim: output limit u_max/k_u, V (inf: none).
+        bandwidth, damping: ω_n (rad/s, the one reached for a ``max_error``) and ζ.
+        max_error: the accuracy asked, rad (None: none).
+        nominal_max_error: the nominal loop's max error on the reference, rad (None: not asked).
+        closed_loop: the nominal closed loop q/q*.
+    """
+
+    params: np.ndarray
+    kp: float
+    kd: float
+    kfv: float
+    kfa: float
+    ulim: float
+    bandwidth: float
+    damping: float
+    max_error: float | None
+    nominal_max_error: float | None
+    closed_loop: ct.TransferFunction
+
+    def design(self) -> dict:
+        """The SCE's entries of a regulator's ``design``."""
+        return {"bandwidth": self.bandwidth, "damping": self.damping,
+                "max_error": self.max_error, "nominal_max_error": self.nominal_max_error,
+                "kp": self.kp, "kd": self.kd, "kfv": self.kfv, "kfa": self.kfa}
+
+    def law(self) -> str:
+        """The SCE's law with its numbers: ``U = k_p·e + k_d·ė + k_fv·q̇* + k_fa·q̈*``."""
+        return (f"U = {self.kp:.6g}·e + {self.kd:.6g}·ė + {self.kfv:.6g}·q̇* + "
+                f"{self.kfa:.6g}·q̈*")
+
+    def poles(self) -> list[complex]:
+        """Poles of the nominal closed loop."""
+        return [complex(z) for z in self.closed_loop.poles()]
+
+    def linear(self, plant: ct.TransferFunction) -> dict:
+        """A regulator's ``linear``: the nominal plant, the SCE's PD and the closed loop."""
+        return {"plant": plant, "sce": ct.tf([self.kd, self.kp], [1.0], inputs="e", outputs="U"),
+                "closed_loop": self.closed_loop}
+
+
+def design_sce(d: Drive, plant: ct.TransferFunction, T: float, J_n: float, order: int, wn: float,
+               zeta: float, period: float, e_max: float | None, ref, *, feedforward: bool,
+               what: str) -> SCEDesign:
+    """The SCE of ``ace_de`` and ``ace_tf`` on the nominal ``plant`` (time constant T), packed.
+
+    The PD of :func:`~manipcad.synthesis._common.design_pd` at (ω_n, ζ), or with
+    ``e_max`` the smallest ω_n that meets it on ``ref``
+    (:func:`~manipcad.synthesis._common.design_for_accuracy`); the nominal
+    feed-forward of :func:`sce_feedforward` (J_n) when ``feedforward``.
+    """
+    K = d.k_u / (d.k_w * d.ratio)
+    kfv, kfa = sce_feedforward(d, J_n, order) if feedforward else (0.0, 0.0)
+    e_reached = None
+    if e_max is None:
+        kp, kd, cl = design_pd(plant, K, T, wn, zeta, period, what=what)
+    else:
+        kp, kd, cl, wn, e_reached = design_for_accuracy(plant, K, T, wn, zeta, period,
+                                                        (kfv, kfa), e_max, ref, what=what)
+    p = packed(d, order)
+    ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
+    p[R_KP], p[R_KD], p[R_KFV], p[R_KFA], p[R_ULIM] = kp, kd, kfv, kfa, ulim
+    return SCEDesign(params=p, kp=kp, kd=kd, kfv=kfv, kfa=kfa, ulim=ulim, bandwidth=wn,
+                     damping=zeta, max_error=e_max, nominal_max_error=e_reached, closed_loop=cl)
 
 
 def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
@@ -108,24 +183,15 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
                           accuracy=True)
     e_max, ref = max_error_of(spec, reference, j)
     plant = nominal_tf(d, Jn, order=order)
-    K = d.k_u / (d.k_w * d.ratio)
     T = d.R * Jn / (d.k_m * d.k_w)
-    what = f"ace_de on {robot.joint_names[j]!r}"
-    kfv, kfa = sce_feedforward(d, Jn, order) if feedforward else (0.0, 0.0)
-    e_reached = None
-    if e_max is None:
-        kp, kd, cl = design_pd(plant, K, T, wn, zeta, period, what=what)
-    else:
-        kp, kd, cl, wn, e_reached = design_for_accuracy(plant, K, T, wn, zeta, period,
-                                                        (kfv, kfa), e_max, ref, what=what)
-    p = packed(d, order)
-    ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
-    p[R_KP], p[R_KD], p[R_KFV], p[R_KFA], p[R_ULIM] = kp, kd, kfv, kfa, ulim
+    sce = design_sce(d, plant, T, Jn, order, wn, zeta, period, e_max, ref,
+                     feedforward=feedforward, what=f"ace_de on {robot.joint_names[j]!r}")
+    p = sce.params
     p[AD_JN], p[AD_FRIC], p[AD_TORQUE] = Jn, float(friction), float(load_torque)
     rho = ((d.J + Hmin / r2) / Jn, (d.J + Hmax / r2) / Jn)
     name = robot.joint_names[j]
-    law = (f"ace_de ({name}): U = {kp:.6g}·e + {kd:.6g}·ė + {kfv:.6g}·q̇* + {kfa:.6g}·q̈* (SCE, "
-           f"ω_n = {wn:g} rad/s, ζ = {zeta:g} on the nominal model); law (3): "
+    law = (f"ace_de ({name}): {sce.law()} (SCE, "
+           f"ω_n = {sce.bandwidth:g} rad/s, ζ = {zeta:g} on the nominal model); law (3): "
            f"U_k = L(Ḣ*+h*+k_v)/(k_m k_u)·i_r·q̈ "
            f"+ [k_w/k_u·(1−ρ) + (R(h*+k_v)+L·ḣ*)/(k_m k_u)]·i_r·q̇ "
            f"+ R/(k_m k_u)·m_f + L/(k_m k_u)·ṁ_f + ρ·U with ρ = (J+H*)/J_n, J_n = {Jn:.6g} kg·m², "
@@ -133,7 +199,7 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
            f"k_w = {d.k_w:g} V·s/rad, k_u = {d.k_u:g}, k_v = {d.k_v:g} N·m·s/rad, "
            f"i_r = {d.ratio:g}; h_i = Ḣ_ii; H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m² "
            f"(ρ in [{rho[0]:.3g}, {rho[1]:.3g}]); "
-           f"|U_k| <= {ulim:g} V, T = {period:g} s")
+           f"|U_k| <= {sce.ulim:g} V, T = {period:g} s")
     signals = ["q", "q_dot", "i", "q_ref", "q_dot_ref", "H_ii", "h_i", "Q_i"]
     if feedforward:
         signals.append("q_ddot_ref")
@@ -146,16 +212,12 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         "signals": signals,
         "period": period,
     }
-    design = {"J_n": Jn, "load_range": (Hmin, Hmax), "rho_range": rho, "bandwidth": wn,
-              "damping": zeta, "max_error": e_max, "nominal_max_error": e_reached,
-              "kp": kp, "kd": kd, "kfv": kfv, "kfa": kfa,
-              "closed_loop_poles": [complex(z) for z in cl.poles()], "order": order}
-    linear = {"plant": plant, "sce": ct.tf([kd, kp], [1.0], inputs="e", outputs="U"),
-              "closed_loop": cl}
+    design = {"J_n": Jn, "load_range": (Hmin, Hmax), "rho_range": rho, **sce.design(),
+              "closed_loop_poles": sce.poles(), "order": order}
     return SynthesizedRegulator(
         joint=j, period=period, kind=KIND_ACE_DE, params=p, name="ace_de",
         needs=tuple(signals), method="ace_de", law=law, complexity=complexity,
-        design=design, linear=linear)
+        design=design, linear=sce.linear(plant))
 
 
 def nominal_prediction(reg: SynthesizedRegulator, t, q_ref, qd_ref, qdd_ref=None):

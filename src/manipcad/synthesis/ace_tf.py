@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import math
 
-import control as ct
-
 from manipcad.drives.laws import ace1_target_tf
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
@@ -29,26 +27,18 @@ from manipcad.synthesis._common import (
     DEFAULT_PERIOD,
     SynthesizedRegulator,
     check_period,
-    design_for_accuracy,
-    design_pd,
     joint_drive,
     load_range,
     max_error_of,
-    packed,
     parse_spec,
 )
-from manipcad.synthesis.ace_de import DEFAULT_BANDWIDTH, DEFAULT_DAMPING, sce_feedforward
+from manipcad.synthesis.ace_de import DEFAULT_BANDWIDTH, DEFAULT_DAMPING, design_sce
 from manipcad.synthesis.kernels import (
     AT_DENMIN,
     AT_FORM,
     AT_HDOT,
     AT_T1,
     KIND_ACE_TF,
-    R_KD,
-    R_KFA,
-    R_KFV,
-    R_KP,
-    R_ULIM,
 )
 
 REALIZATIONS = ("observable", "controllable")
@@ -100,29 +90,20 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     if order == 3 and not (math.isfinite(d.L) and d.L > 0):
         raise ManipcadError(f"joint {robot.joint_names[j]!r}: order 3 needs L > 0 (got {d.L})")
     plant = ace1_target_tf(d, T_1=T1, order=order)
-    K = d.k_u / (d.k_w * d.ratio)
-    what = f"ace_tf on {robot.joint_names[j]!r}"
-    kfv, kfa = sce_feedforward(d, Jn, order) if feedforward else (0.0, 0.0)
-    e_reached = None
-    if e_max is None:
-        kp, kd, cl = design_pd(plant, K, T1, wn, zeta, period, what=what)
-    else:
-        kp, kd, cl, wn, e_reached = design_for_accuracy(plant, K, T1, wn, zeta, period,
-                                                        (kfv, kfa), e_max, ref, what=what)
-    p = packed(d, order)
-    ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
-    p[R_KP], p[R_KD], p[R_KFV], p[R_KFA], p[R_ULIM] = kp, kd, kfv, kfa, ulim
+    sce = design_sce(d, plant, T1, Jn, order, wn, zeta, period, e_max, ref,
+                     feedforward=feedforward, what=f"ace_tf on {robot.joint_names[j]!r}")
+    p = sce.params
     p[AT_T1], p[AT_FORM] = T1, float(realization == "controllable")
     p[AT_HDOT], p[AT_DENMIN] = float(h_dot), den_floor
     name = robot.joint_names[j]
-    law = (f"ace_tf ({name}, {realization}): U = {kp:.6g}·e + {kd:.6g}·ė + {kfv:.6g}·q̇* + "
-           f"{kfa:.6g}·q̈* (SCE, ω_n = {wn:g} rad/s, ζ = {zeta:g}); ACE (1): "
+    law = (f"ace_tf ({name}, {realization}): {sce.law()} "
+           f"(SCE, ω_n = {sce.bandwidth:g} rad/s, ζ = {zeta:g}); ACE (1): "
            f"W_k = (T_m·s + 1)/(k_p·k_w·(T_1·s + 1)), T_1 = {T1:.6g} s, "
            f"T_m = (J+H*)·R/((h*+k_v)·R + k_m·k_w), k_p = k_m/((h*+k_v)·R + k_m·k_w), "
            f"J = {d.J:.4g} kg·m², R = {d.R:g} Ω, k_m = {d.k_m:g} N·m/A, k_w = {d.k_w:g} V·s/rad, "
            f"k_v = {d.k_v:g} N·m·s/rad, i_r = {d.ratio:g}; H* = H_ii/i_r², "
            f"h* = {'Ḣ_ii' if h_dot else '0'}/i_r²; H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m²; "
-           f"|U_k| <= {ulim:g} V, T = {period:g} s")
+           f"|U_k| <= {sce.ulim:g} V, T = {period:g} s")
     signals = ["q", "q_dot", "q_ref", "q_dot_ref", "H_ii"]
     if feedforward:
         signals.append("q_ddot_ref")
@@ -133,15 +114,11 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         "signals": signals,
         "period": period,
     }
-    design = {"T_1": T1, "J_n": Jn, "load_range": (Hmin, Hmax), "bandwidth": wn,
-              "damping": zeta, "max_error": e_max, "nominal_max_error": e_reached,
-              "kp": kp, "kd": kd, "kfv": kfv, "kfa": kfa,
-              "realization": realization, "order": order,
-              "closed_loop_poles": [complex(z) for z in cl.poles()]}
+    design = {"T_1": T1, "J_n": Jn, "load_range": (Hmin, Hmax), **sce.design(),
+              "realization": realization, "order": order, "closed_loop_poles": sce.poles()}
     from manipcad.drives.laws import ace1_tf
 
-    linear = {"plant": plant, "sce": ct.tf([kd, kp], [1.0], inputs="e", outputs="U"),
-              "closed_loop": cl,
+    linear = {**sce.linear(plant),
               "ace_at_min_load": ace1_tf(d, Hmin, 0.0, T_1=T1),
               "ace_at_max_load": ace1_tf(d, Hmax, 0.0, T_1=T1)}
     return SynthesizedRegulator(

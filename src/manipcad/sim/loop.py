@@ -18,8 +18,20 @@ import numpy as np
 
 from manipcad.drives.coupling import drive_rates
 from manipcad.drives.dc import static_current
-from manipcad.drives.params import KIND_ELASTIC, KIND_RIGID, KIND_RIGID_STATIC, P_KIND, P_RATIO
-from manipcad.dynamics.aba import ABA_WORK, aba_one
+from manipcad.drives.params import (
+    KIND_ELASTIC,
+    KIND_RIGID,
+    KIND_RIGID_STATIC,
+    P_KIND,
+    P_KM,
+    P_KU,
+    P_KW,
+    P_L,
+    P_R,
+    P_RATIO,
+    P_UMAX,
+)
+from manipcad.dynamics.aba import ABA_WORK, aba_state
 from manipcad.dynamics.crba import CRBA_WORK, crba_one
 from manipcad.dynamics.rnea import RNEA_WORK, rnea_one
 from manipcad.sim.regulators import (
@@ -41,31 +53,77 @@ from manipcad.sim.regulators import (
 MAX_SPEED = 1.0e4
 
 
-@nb.njit(cache=True)
-def _rates(x, U, dist, n, rtable, g, dtable, off, use_drives, tau, dx, fext, work, tmp):
-    q = x[:n]
-    qd = x[n:2 * n]
+@nb.njit(cache=True, inline="always")
+def _amplifier(dtable, j, U):
+    """Amplifier output clip(k_u·U, -u_max, u_max), V (as ``drives.dc.amplifier_voltage``)."""
+    u = dtable[j, P_KU] * U
+    u_max = dtable[j, P_UMAX]
+    if u > u_max:
+        return u_max
+    if u < -u_max:
+        return -u_max
+    return u
+
+
+@nb.njit(cache=True, inline="always")
+def _rates(xs, U, DIST, k, n, rtable, g, dtable, off, use_drives, generic_drives,
+           q, qd, xd, dxd, tau, qdd, K4, st, fext, work, tmp):
+    """Right-hand side at state xs into row ``st`` of K4; joint torques into tau.
+
+    Inlined into :func:`run` and free of array views (numba counts references
+    to every view and every array argument of a compiled call with atomics).
+    Rigid drives (the common case) are written out; elastic ones go through
+    :func:`manipcad.drives.coupling.drive_rates` on copies of their states.
+    """
+    m = 2 * n
     for j in range(n):
+        q[j] = xs[j]
+        qd[j] = xs[n + j]
         tau[j] = U[j]
     if use_drives:
-        drive_rates(dtable, off, x[2 * n:], U, q, qd, tau, dx[2 * n:])
+        if generic_drives:
+            for j in range(xd.shape[0]):
+                xd[j] = xs[m + j]
+            drive_rates(dtable, off, xd, U, q, qd, tau, dxd)
+            for j in range(xd.shape[0]):
+                K4[st, m + j] = dxd[j]
+        else:
+            # rigid gears only: drives.dc.rigid_drive_rate written out
+            for j in range(n):
+                kind = int(dtable[j, P_KIND])
+                if kind == KIND_RIGID:
+                    o = m + off[j]
+                    i = xs[o]
+                    omega = dtable[j, P_RATIO] * qd[j]
+                    u_a = _amplifier(dtable, j, U[j])
+                    K4[st, o] = ((u_a - dtable[j, P_R] * i - dtable[j, P_KW] * omega)
+                                 / dtable[j, P_L])
+                    tau[j] = dtable[j, P_RATIO] * dtable[j, P_KM] * i
+                elif kind == KIND_RIGID_STATIC:
+                    omega = dtable[j, P_RATIO] * qd[j]
+                    u_a = _amplifier(dtable, j, U[j])
+                    i = (u_a - dtable[j, P_KW] * omega) / dtable[j, P_R]
+                    tau[j] = dtable[j, P_RATIO] * dtable[j, P_KM] * i
     for j in range(n):
-        tau[j] = tau[j] + dist[j]
-        dx[j] = qd[j]
-    aba_one(rtable, g, q, qd, tau, fext, False, True, work, tmp, dx[n:2 * n])
+        tau[j] = tau[j] + DIST[k, j]
+        K4[st, j] = qd[j]
+    aba_state(rtable, g, q, qd, tau, fext, False, True, work, tmp, qdd)
+    for j in range(n):
+        K4[st, n + j] = qdd[j]
 
 
-@nb.njit(cache=True)
-def _current(dtable, off, xd, U, qd, j):
+@nb.njit(cache=True, inline="always")
+def _current(dtable, off, x, m, U, qd, j):
+    """Armature current of joint j's drive from the state x (drive states from index m)."""
     kind = int(dtable[j, P_KIND])
     if kind == KIND_RIGID:
-        return xd[off[j]]
+        return x[m + off[j]]
     if kind == KIND_ELASTIC:
-        return xd[off[j] + 2]
+        return x[m + off[j] + 2]
     if kind == KIND_RIGID_STATIC:
         return static_current(U, dtable[j, P_RATIO] * qd, dtable[j])
     if kind != 0:  # elastic, L neglected: the current follows the motor speed
-        return static_current(U, xd[off[j] + 1], dtable[j])
+        return static_current(U, x[m + off[j] + 1], dtable[j])
     return math.nan
 
 
@@ -79,12 +137,15 @@ def run(rtable, ctable, g, dtable, off, use_drives, rkind, rparam, rstate, rstep
     """
     n = rtable.shape[0]
     nx = x0.shape[0]
+    m = 2 * n
     x = x0.copy()
     xs = np.empty(nx)
-    k1 = np.empty(nx)
-    k2 = np.empty(nx)
-    k3 = np.empty(nx)
-    k4 = np.empty(nx)
+    K4 = np.empty((4, nx))
+    q = np.empty(n)
+    qd = np.empty(n)
+    qdd = np.empty(n)
+    xd = np.empty(nx - m)
+    dxd = np.empty(nx - m)
     tau = np.empty(n)
     U = np.zeros(n)
     sig = np.zeros(NSIG)
@@ -98,64 +159,84 @@ def run(rtable, ctable, g, dtable, off, use_drives, rkind, rparam, rstate, rstep
     nog = np.zeros(3)
     hv = np.empty(n)
     qg = np.empty(n)
+    generic_drives = False
+    for j in range(n):
+        kind = int(dtable[j, P_KIND])
+        if kind != 0 and kind != KIND_RIGID and kind != KIND_RIGID_STATIC:
+            generic_drives = True
+    h2 = 0.5 * dt
+    h6 = dt / 6.0
     rec = 0
+    # steps until each regulator's next sample, and until the next recorded step
+    # (counters instead of k % period: an integer division each is slow)
+    wait = np.zeros(n, dtype=np.int64)
+    wait_rec = 0
     for k in range(K + 1):
-        q = x[:n]
-        qd = x[n:2 * n]
         # sample the regulators due at this step
         due = False
         for j in range(n):
-            if k % rsteps[j] == 0:
+            if wait[j] == 0:
                 due = True
         if due and need_comp:
+            for j in range(n):
+                q[j] = x[j]
+                qd[j] = x[n + j]
             crba_one(ctable, q, False, cwork, tmp, H)
             rnea_one(ctable, nog, q, qd, zero, fext, False, False, rwork, tmp, hv)
             rnea_one(ctable, g, q, zero, zero, fext, False, False, rwork, tmp, qg)
         for j in range(n):
-            if k % rsteps[j] != 0:
+            if wait[j] != 0:
+                wait[j] -= 1
                 continue
+            wait[j] = rsteps[j] - 1
             sig[S_T] = k * dt
             sig[S_QREF] = QR[k, j]
             sig[S_QDREF] = QDR[k, j]
             sig[S_QDDREF] = QDDR[k, j]
-            sig[S_Q] = q[j]
-            sig[S_QD] = qd[j]
-            sig[S_I] = _current(dtable, off, x[2 * n:], U[j], qd[j], j) if use_drives else 0.0
+            sig[S_Q] = x[j]
+            sig[S_QD] = x[n + j]
+            sig[S_I] = _current(dtable, off, x, m, U[j], x[n + j], j) if use_drives else 0.0
             if need_comp:
                 sig[S_HII] = H[j, j]
                 sig[S_HI] = hv[j]
                 sig[S_QI] = qg[j]
             U[j] = regulator_update(rkind[j], rparam[j], rstate[j], sig, rsteps[j] * dt)
-        d = DIST[k]
-        _rates(x, U, d, n, rtable, g, dtable, off, use_drives, tau, k1, fext, work, tmp)
-        if k % every == 0:
-            T[rec] = k * dt
+        # the four RK4 stages with U held and the disturbance at the step's start;
+        # one call site of the inlined right-hand side
+        for st in range(4):
+            if st == 0:
+                for j in range(nx):
+                    xs[j] = x[j]
+            elif st == 3:
+                for j in range(nx):
+                    xs[j] = x[j] + dt * K4[2, j]
+            else:
+                for j in range(nx):
+                    xs[j] = x[j] + h2 * K4[st - 1, j]
+            _rates(xs, U, DIST, k, n, rtable, g, dtable, off, use_drives, generic_drives,
+                   q, qd, xd, dxd, tau, qdd, K4, st, fext, work, tmp)
+            if st != 0:
+                continue
+            if wait_rec == 0:
+                wait_rec = every
+                T[rec] = k * dt
+                for j in range(n):
+                    Q[rec, j] = x[j]
+                    QD[rec, j] = x[n + j]
+                    U_out[rec, j] = U[j]
+                    I_out[rec, j] = (_current(dtable, off, x, m, U[j], x[n + j], j)
+                                     if use_drives else math.nan)
+                    TAU_out[rec, j] = tau[j]
+                rec += 1
+            wait_rec -= 1
+            if k == K:
+                return 0, K, -1
+            for j in range(nx):
+                if not math.isfinite(x[j]) or not math.isfinite(K4[0, j]):
+                    return 1, k, j % n if j < m else -1
             for j in range(n):
-                Q[rec, j] = q[j]
-                QD[rec, j] = qd[j]
-                U_out[rec, j] = U[j]
-                I_out[rec, j] = (_current(dtable, off, x[2 * n:], U[j], qd[j], j)
-                                 if use_drives else math.nan)
-                TAU_out[rec, j] = tau[j]
-            rec += 1
-        if k == K:
-            break
+                if abs(x[n + j]) > MAX_SPEED:
+                    return 2, k, j
         for j in range(nx):
-            if not math.isfinite(x[j]) or not math.isfinite(k1[j]):
-                return 1, k, j % n if j < 2 * n else -1
-        for j in range(n):
-            if abs(x[n + j]) > MAX_SPEED:
-                return 2, k, j
-        # RK4 with U held and the disturbance at the step's start
-        for j in range(nx):
-            xs[j] = x[j] + 0.5 * dt * k1[j]
-        _rates(xs, U, d, n, rtable, g, dtable, off, use_drives, tau, k2, fext, work, tmp)
-        for j in range(nx):
-            xs[j] = x[j] + 0.5 * dt * k2[j]
-        _rates(xs, U, d, n, rtable, g, dtable, off, use_drives, tau, k3, fext, work, tmp)
-        for j in range(nx):
-            xs[j] = x[j] + dt * k3[j]
-        _rates(xs, U, d, n, rtable, g, dtable, off, use_drives, tau, k4, fext, work, tmp)
-        for j in range(nx):
-            x[j] = x[j] + dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+            x[j] = x[j] + h6 * (K4[0, j] + 2.0 * K4[1, j] + 2.0 * K4[2, j] + K4[3, j])
     return 0, K, -1

@@ -156,8 +156,9 @@ def simulate(
         robot, regulators, dt)
     every = int(record_every)
     m = K // every + 1
-    T, Q, QD, U, I, TAU = (np.full((m, n), np.nan) for _ in range(6))
-    T = np.full(m, np.nan)
+    # the loop fills every row it keeps (a diverged run is cut after its last recorded row)
+    Q, QD, U, I, TAU = (np.empty((m, n)) for _ in range(5))
+    T = np.empty(m)
     status, step, joint = run(rtable, robot.table, robot.gravity, dtable, off, bool(drives),
                               rkind, rparam, rstate, rsteps, need_comp, QR, QDR, QDDR, DIST,
                               x0, float(dt), K, every, T, Q, QD, U, I, TAU)

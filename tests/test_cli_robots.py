@@ -60,7 +60,7 @@ def test_show_json():
     res = run("show", "cylindrical", "--json")
     assert res.exit_code == 0, res.output
     data = json.loads(res.output)
-    assert data["n"] == 3 and data["total_mass"] == pytest.approx(43.0)
+    assert data["n"] == 3 and data["total_mass"] == pytest.approx(35.4)
     j = data["joints"]
     assert [x["type"] for x in j] == ["revolute", "prismatic", "prismatic"]
     assert j[0]["parent"] == "base" and j[1]["parent"] == "turn"

@@ -56,12 +56,14 @@ def fig3():
 
 def test_fig3_turning_joint_strongly_coupled(fig3):
     """Laws (2) on the cylindrical arm: the turning drive q1 sees its inertia change
-    more than threefold with the reach q3 and a Coriolis torque larger than its own
-    inertial one: the general form of P_1, as the paper's Fig. 2/3 study assumes."""
+    by more than half with the reach q3 and a Coriolis torque of the order of its own
+    inertial one: the general form of P_1, as the paper's Fig. 2/3 study assumes.
+    (The arm's figures: 0.47-0.77 kg·m², Coriolis/inertial peaks 4.4/4.7 N·m, for
+    the 0.4 kg carbon reach arm of the catalog file.)"""
     arm, rep = fig3
     turn = rep["turn"]
     assert turn.classification == "full" and rep.overall == "full"
-    assert turn.H_ratio > 3.0
+    assert turn.H_ratio > 1.5
     # H_11 ranges over the reach's stroke: min at q3 = 0, max at q3 = 0.5 m (Pinocchio CRBA)
     model, order = to_pinocchio(arm)
     data = model.createData()
@@ -71,7 +73,7 @@ def test_fig3_turning_joint_strongly_coupled(fig3):
         H11.append(pin.crba(model, data, (q + arm.offset)[order])[0, 0])
     assert turn.H_min == pytest.approx(H11[0], rel=1e-9)
     assert turn.H_max == pytest.approx(H11[1], rel=1e-5)  # sampled at 1 ms, near q3 = 0.5
-    assert turn.velocity_ratio > 1.0  # 2·m·r·ṙ·q̇1 beats H_11·q̈1
+    assert turn.velocity_ratio > 0.5  # 2·m·r·ṙ·q̇1 of the order of H_11·q̈1
     assert turn.coupling_ratio == 0.0  # the reach axis passes through the turning axis
     assert turn.gravity_peak == 0.0
     assert any("general form" in r for r in turn.reasons)
@@ -83,11 +85,11 @@ def test_fig3_lift_and_reach(fig3):
     # the lift is held; its only load is the weight of carriage and arm, a constant
     # that a counterweight (or a constant-force spring) takes off entirely
     assert not lift.moving and lift.inertial_peak == 0.0
-    assert lift.gravity_constant == pytest.approx((15 + 8) * G, rel=1e-12)
+    assert lift.gravity_constant == pytest.approx((15 + 0.4) * G, rel=1e-12)
     assert lift.gravity_after_spring == 0.0 and lift.gravity_after_balancer == 0.0
     assert lift.classification == "decoupled"
-    # the reach: constant inertia 8 kg, centrifugal force a few % of m·q̈3
-    assert reach.H_min == pytest.approx(8.0) and reach.H_max == pytest.approx(8.0)
+    # the reach: constant inertia 0.4 kg, centrifugal force a few % of m·q̈3
+    assert reach.H_min == pytest.approx(0.4) and reach.H_max == pytest.approx(0.4)
     assert 0.0 < reach.velocity_ratio < 0.05
     assert reach.classification == "decoupled"
 
@@ -224,7 +226,7 @@ def test_cli_table_and_json():
     doc = json.loads(res.output)
     assert doc["overall"] == "full"
     assert [j["classification"] for j in doc["joints"]] == ["full", "decoupled", "decoupled"]
-    assert doc["joints"][0]["H_ratio"] > 3 and doc["joints"][1]["velocity_ratio"] == 0.0
+    assert doc["joints"][0]["H_ratio"] > 1.5 and doc["joints"][1]["velocity_ratio"] == 0.0
 
 
 def test_cli_bad_input_exits_2(tmp_path):

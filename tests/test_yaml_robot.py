@@ -251,8 +251,12 @@ def test_cylindrical_geometry():
     assert all(d.has_electrics and d.name for d in robot.drives)
     d1 = robot.drives[0]
     # J = J_motor + J_gear on the motor shaft, ratio from the gear (CSF reverses)
-    assert d1.J == pytest.approx(137e-7 + 0.193e-4, rel=1e-12)
+    assert d1.J == pytest.approx(137e-7 + 0.079e-4, rel=1e-12)   # RE 40 + CSF-17-100
     assert d1.ratio == -100
+    # reach: RE 65 directly on a 20-tooth AT5 pulley (2π/0.1 m), pulley + 2 idlers on the shaft
+    d3 = robot.drives[2]
+    assert d3.ratio == pytest.approx(2 * np.pi / 0.1, rel=1e-12)
+    assert d3.J == pytest.approx(1340e-7 + 3 * 0.5 * 2700 * np.pi * 0.016**4 * 0.016, rel=1e-12)
 
 
 # --------------------------------------------------------------------------- mapping

@@ -54,7 +54,11 @@ def fig3(
     synthesis method; writes fig3.png, fig3.json and report.html into --out."""
     from manipcad.study import run_fig3
 
-    res = run_fig3(out, dt=dt, t_end=t_end, methods=methods, progress=progress)
+    print_fig3(run_fig3(out, dt=dt, t_end=t_end, methods=methods, progress=progress))
+
+
+def print_fig3(res) -> None:
+    """Print the tables, the claims and the written files of a Fig. 3 study result."""
     d = res.data
     t = Table(title=f"Fig. 3 study: turning drive, laws (2), t_end = {d['settings']['t_end']:g} s, "
                     f"dt = {d['settings']['dt']:g} s", box=box.SIMPLE_HEAD)

@@ -62,6 +62,7 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError, ManipcadError
+from manipcad.fileio import json_safe
 from manipcad.model.robot import Robot
 
 #: the robot of the study (catalog name)
@@ -417,32 +418,6 @@ def _select(methods: Sequence[str] | None) -> tuple[list[Variant], list[Variant]
             [v for v in STEPS if v.label in methods])
 
 
-def _jsonable(x: Any) -> Any:
-    """Plain JSON: arrays to lists, nan to null, ±inf to "inf"/"-inf", complex to [re, im]."""
-    if isinstance(x, np.ndarray):
-        return [_jsonable(v) for v in x.tolist()]
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, bool | np.bool_):
-        return bool(x)
-    if isinstance(x, int | np.integer):
-        return int(x)
-    if isinstance(x, float | np.floating):
-        x = float(x)
-        if math.isnan(x):
-            return None
-        if math.isinf(x):
-            return "inf" if x > 0 else "-inf"
-        return x
-    if isinstance(x, complex | np.complexfloating):
-        return [_jsonable(x.real), _jsonable(x.imag)]
-    if x is None or isinstance(x, str):
-        return x
-    return str(x)
-
-
 def _metric(res, joint: str, key: str) -> float | None:
     v = res.metrics[joint][key]
     return float(v) if math.isfinite(v) else None
@@ -630,7 +605,7 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
                           for (case, q3), m in zip(STEP_CASES.items(), ("min", "max"),
                                                    strict=True)}
     data["claims"] = evaluate_claims(data)
-    data = _jsonable(data)
+    data = json_safe(data)
     files = _write(out, data, tracking, steps, plot_fig3, fig3_html, arm)
     return Fig3Result(out_dir=out, files=files, data=data, tracking=tracking, steps=steps)
 

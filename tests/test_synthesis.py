@@ -409,3 +409,49 @@ def test_period_must_suit_the_simulation(arm):
     with pytest.raises(ManipcadError, match="not a multiple"):
         simulate(arm, t_end=0.01, dt=2e-4, regulators=[reg])
     assert math.isclose(reg.period, 3e-4)
+
+
+# ---------------------------------------------------------------- lqr_gs, elastic gear
+
+ELASTIC = 2000.0  # k_s N·m/rad, undamped: the rigid-model design oscillates on it
+
+
+def test_lqr_gs_on_the_elastic_model(arm, hold_others):
+    """Turning joint on an undamped k_s = 2000 N·m/rad gear. Measured: step 0.1 rad, max |e1|
+    over 0.4-0.6 s: rigid-model lqr_gs 5.2e-2 rad (sustained oscillation), elastic-model
+    lqr_gs 2.2e-5 rad; laws (2): max |e1| 0.125 rad against 1.09e-3 rad."""
+    from manipcad.drives.params import Transmission
+
+    tr = Transmission(ELASTIC)
+    reg = synthesize(arm, "turn", "lqr_gs", period=DT, transmission=tr)
+    rigid = synthesize(arm, "turn", "lqr_gs", period=DT)
+    table = reg.design["table"]
+    w = reg.design["weights"]
+    d = arm.drives[0]
+    assert table.gains.shape == (8, 1, 5)
+    assert {"theta_m", "omega_m"} <= set(reg.needs) and "D_θ" in reg.describe()
+    for H in table.H:
+        direct = lqr_gains(d, H, 0.0, w, transmission=tr)
+        np.testing.assert_allclose(lookup_py(reg.params, H, 0.0), direct, rtol=1e-10)
+        assert closed_loop_poles(d, H, 0.0, direct, transmission=tr).real.max() < 0
+    errs = {}
+    for name, r in (("elastic", reg), ("rigid", rigid)):
+        res = simulate(arm, t_end=0.6, dt=DT, trajectory=Const([0.1, 0.0, 0.25]),
+                       q0=[0.0, 0.0, 0.25], regulators=[r, *hold_others],
+                       transmissions=[tr, None, None])
+        late = res.t > 0.4
+        traj = cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], duration=1.6)
+        res2 = simulate(arm, t_end=1.6, dt=DT, trajectory=traj, regulators=[r, *hold_others],
+                        transmissions=[tr, None, None])
+        errs[name] = (np.abs(res.error[late, 0]).max(), np.abs(res2.error[:, 0]).max())
+    assert errs["elastic"][0] < 1e-4 and errs["elastic"][1] < 3e-3
+    assert errs["rigid"][0] > 1e-2
+    assert errs["elastic"][1] < 0.1 * errs["rigid"][1]
+
+
+def test_lqr_on_the_elastic_model_exports_a_stable_loop(arm):
+    reg = synthesize(arm, "turn", "lqr", period=DT, transmission=(ELASTIC, 1.0))
+    cl = reg.linear["closed_loop"]
+    assert np.all(np.real(cl.poles()) < 0)
+    assert abs(float(np.real(cl.dcgain())) - 1.0) < 0.05
+    assert len(reg.design["gains"]) == 5

@@ -20,6 +20,7 @@ from manipcad.drives.coupling import drive_rates
 from manipcad.drives.dc import static_current
 from manipcad.drives.params import (
     KIND_ELASTIC,
+    KIND_ELASTIC_STATIC,
     KIND_RIGID,
     KIND_RIGID_STATIC,
     P_KIND,
@@ -46,6 +47,8 @@ from manipcad.sim.regulators import (
     S_QI,
     S_QREF,
     S_T,
+    S_THM,
+    S_WM,
     regulator_update,
 )
 
@@ -196,6 +199,13 @@ def run(rtable, ctable, g, dtable, off, use_drives, rkind, rparam, rstate, rstep
             sig[S_Q] = x[j]
             sig[S_QD] = x[n + j]
             sig[S_I] = _current(dtable, off, x, m, U[j], x[n + j], j) if use_drives else 0.0
+            kind = int(dtable[j, P_KIND]) if use_drives else 0
+            if kind == KIND_ELASTIC or kind == KIND_ELASTIC_STATIC:
+                sig[S_THM] = x[m + off[j]]
+                sig[S_WM] = x[m + off[j] + 1]
+            else:
+                sig[S_THM] = dtable[j, P_RATIO] * x[j]
+                sig[S_WM] = dtable[j, P_RATIO] * x[n + j]
             if need_comp:
                 sig[S_HII] = H[j, j]
                 sig[S_HI] = hv[j]

@@ -4,7 +4,8 @@ A regulator controls one joint (decentralized control, as in the paper). It is
 sampled every ``period`` seconds (digital control, zero-order hold between
 samples). At a sample the simulator fills a signal vector ``sig`` (indices
 ``S_*`` below: time, reference, measured state, armature current and the
-current moment constituents H_ii, h_i, Q_i of the joint) and calls the
+current moment constituents H_ii, h_i, Q_i of the joint, the motor angle
+and speed) and calls the
 compiled :func:`regulator_update` with the regulator's kind, its parameter
 vector and its own state vector; the returned value is held until the next
 sample. With a drive it is the amplifier input U (V); on a joint without a
@@ -28,8 +29,9 @@ import numpy as np
 from manipcad.errors import ManipcadError
 
 # signal vector filled by the simulator at every sample of a joint's regulator
-S_T, S_QREF, S_QDREF, S_QDDREF, S_Q, S_QD, S_I, S_HII, S_HI, S_QI = range(10)
-NSIG = 10
+# (S_THM, S_WM: motor angle θ_m rad and speed ω_m rad/s; i_r·q and i_r·q̇ on a rigid gear)
+S_T, S_QREF, S_QDREF, S_QDDREF, S_Q, S_QD, S_I, S_HII, S_HI, S_QI, S_THM, S_WM = range(12)
+NSIG = 12
 #: parameter and state vector lengths every regulator is packed to (the
 #: synthesis methods need room for the packed drive and a gain table)
 NPARAM = 256

@@ -37,6 +37,8 @@ from manipcad.sim.regulators import (
     S_QDREF,
     S_QI,
     S_QREF,
+    S_THM,
+    S_WM,
 )
 
 KIND_ACE_DE = 2
@@ -66,9 +68,15 @@ AS_KE, AS_KSM, AS_KGM, AS_ADAPT, AS_HFIX, AS_CM, AS_ULIM, AS_TORQUE = 16, 17, 18
 # table of (D_e, D_v, D_i), each nH×nV row-major, from LQ_TAB
 LQ_NH, LQ_NV, LQ_H0, LQ_DH, LQ_V0, LQ_DV, LQ_ULIM = 16, 17, 18, 19, 20, 21, 22
 LQ_FF, LQ_W, LQ_ADAPT, LQ_HFIX = 23, 24, 25, 26
+# elastic transmission: gains per grid point (3 rigid model; 5 elastic model, the table then
+# holds D_e, D_v, D_i, D_θ, D_ω), joint-side stiffness k_s for the deflection of the
+# motor-angle reference (0: θ_m* = i_r·q*)
+LQ_NG, LQ_KS = 27, 28
 LQ_TAB = 32
 #: largest nH·nV a gain table may have (3 gains each)
 LQ_MAXCELLS = (NPARAM - LQ_TAB) // 3
+#: largest nH·nV of an elastic-model table (5 gains each)
+LQ_MAXCELLS_EL = (NPARAM - LQ_TAB) // 5
 
 # computed_torque: outer-loop gains k_p (1/s²), k_d (1/s), output limit (V),
 # compensate dry friction (1/0)
@@ -302,8 +310,21 @@ def lqr_update(p, s, sig, Ts):
     e = sig[S_QREF] - sig[S_Q]
     ed = sig[S_QDREF] - sig[S_QD]
     U = De * e + Dv * ed - Di * sig[S_I]
+    Hff = H if p[LQ_ADAPT] != 0.0 else p[LQ_HFIX]
+    if p[LQ_NG] == 5.0:
+        # elastic model: motor angle and speed errors against θ_m* = i_r·(q* + τ_s*/k_s),
+        # ω_m* = i_r·q̇*
+        r = p[P_RATIO]
+        th = sig[S_QREF]
+        if p[LQ_KS] > 0.0 and p[LQ_FF] != 0.0:
+            tau = Hff * sig[S_QDDREF]
+            if p[LQ_W] != 0.0:
+                tau += sig[S_HI] + sig[S_QI]
+            th += tau / p[LQ_KS]
+        U += (table_lookup(p, 3, H, h) * (r * th - sig[S_THM])
+              + table_lookup(p, 4, H, h) * (r * sig[S_QDREF] - sig[S_WM]))
     if p[LQ_FF] != 0.0:
-        U += lqr_feedforward(p, Di, H if p[LQ_ADAPT] != 0.0 else p[LQ_HFIX], sig)
+        U += lqr_feedforward(p, Di, Hff, sig)
     return _clip(U, p[LQ_ULIM])
 
 
@@ -327,6 +348,8 @@ def computed_torque_update(p, s, sig, Ts):
 
 
 def lookup_py(params: np.ndarray, H: float, h: float) -> np.ndarray:
-    """The gains (D_e V/rad, D_v V·s/rad, D_i V/A) the compiled loop uses at (H_ii, h_i)."""
+    """The gains (D_e V/rad, D_v V·s/rad, D_i V/A[, D_θ V/rad, D_ω V·s/rad on the elastic
+    model]) the compiled loop uses at (H_ii, h_i)."""
     p = np.asarray(params, dtype=float)
-    return np.array([table_lookup(p, k, float(H), float(h)) for k in range(3)])
+    ng = 5 if p[LQ_NG] == 5.0 else 3
+    return np.array([table_lookup(p, k, float(H), float(h)) for k in range(ng)])

@@ -22,6 +22,15 @@ velocity torque and gravity (the W of (6)) when compensated.
   compensated. Gravity Q_i enters the drive's linear model only as the
   disturbance W (it changes neither A nor B), so the table has no Q_i axis: the
   gains would be the same along it.
+
+Elastic transmission (``transmission=``; backlash is designed for in contact,
+where the linear model is the elastic one): the LQR of the model
+ε = (q, q̇, θ_m, ω_m, i) (:func:`manipcad.drives.linearize` with ``elasticity``),
+with the motor angle and speed errors weighed 1/(i_r·e_max)², 1/(i_r·ė_max)²;
+the regulator adds D_θ·(θ_m* − θ_m) + D_ω·(ω_m* − ω_m) to (V), with
+θ_m* = i_r·(q* + τ*/k_s) (τ* = H_ii·q̈* (+ τ_w) the torque the spring passes,
+with the feed-forward) and ω_m* = i_r·q̇*. The simulator supplies θ_m, ω_m
+(``S_THM``, ``S_WM``). The table then holds (D_e, D_v, D_i, D_θ, D_ω).
 """
 
 from __future__ import annotations
@@ -33,6 +42,7 @@ import control as ct
 import numpy as np
 
 from manipcad.drives.linear import linearize
+from manipcad.drives.params import Transmission, as_transmission
 from manipcad.errors import ManipcadError, ModelError
 from manipcad.model.robot import Drive, Robot
 from manipcad.synthesis._common import (
@@ -51,7 +61,10 @@ from manipcad.synthesis.kernels import (
     LQ_FF,
     LQ_H0,
     LQ_HFIX,
+    LQ_KS,
     LQ_MAXCELLS,
+    LQ_MAXCELLS_EL,
+    LQ_NG,
     LQ_NH,
     LQ_NV,
     LQ_TAB,
@@ -73,8 +86,12 @@ class Weights:
     i_max: float
     u_max: float
 
-    def matrices(self, order: int) -> tuple[np.ndarray, np.ndarray]:
+    def matrices(self, order: int, ratio: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Q, R; with ``ratio`` (elastic model) the motor angle and speed errors weigh
+        1/(i_r·e_max)² and 1/(i_r·ė_max)²."""
         q = [1 / self.e_max ** 2, 1 / self.ed_max ** 2]
+        if ratio is not None:
+            q += [1 / (ratio * self.e_max) ** 2, 1 / (ratio * self.ed_max) ** 2]
         if order == 3:
             q.append(1 / self.i_max ** 2)
         return np.diag(q), np.array([[1 / self.u_max ** 2]])
@@ -97,8 +114,25 @@ def weights_from_spec(spec, drive: Drive) -> Weights:
     return w
 
 
+def _linearize(drive: Drive, H_ii: float, h_i: float, order: int,
+               transmission: Transmission | None):
+    try:
+        return linearize(drive, H_ii, h_i, order=order, elasticity=transmission)
+    except ModelError as exc:
+        raise ManipcadError(f"lqr: {exc}") from exc
+
+
+def _state_gains(gains, order: int, elastic: bool) -> np.ndarray:
+    """The stored gains (D_e, D_v, D_i[, D_θ, D_ω]) in the linear model's state order."""
+    g = np.asarray(gains, dtype=float)
+    k = [g[0], g[1]] + ([g[3], g[4]] if elastic else [])
+    if order == 3:
+        k.append(g[2])
+    return np.array(k).reshape(1, -1)
+
+
 def lqr_gains(drive: Drive, H_ii: float, h_i: float, weights: Weights,
-              order: int = 3) -> np.ndarray:
+              order: int = 3, transmission=None) -> np.ndarray:
     """(D_e V/rad, D_v V·s/rad, D_i V/A) of the LQR at a frozen load (D_i = 0 at order 2).
 
     Args:
@@ -106,21 +140,26 @@ def lqr_gains(drive: Drive, H_ii: float, h_i: float, weights: Weights,
         H_ii: joint-side load inertia, kg·m²; h_i: velocity coefficient, N·m·s/rad.
         weights: :class:`Weights`.
         order: 3 (states q, q̇, i) or 2 (q, q̇).
+        transmission: an elastic transmission (a :class:`Transmission`, k_s or
+            (k_s, d_s); backlash is designed for in contact): the LQR of the model
+            (q, q̇, θ_m, ω_m[, i]), and the gains are (D_e, D_v, D_i, D_θ V/rad, D_ω V·s/rad).
     """
-    try:
-        lin = linearize(drive, H_ii, h_i, order=order)
-    except ModelError as exc:
-        raise ManipcadError(f"lqr: {exc}") from exc
-    Q, R = weights.matrices(order)
+    tr = as_transmission(transmission)
+    lin = _linearize(drive, H_ii, h_i, order, tr)
+    Q, R = weights.matrices(order, drive.ratio if tr is not None else None)
     K, _, _ = ct.lqr(lin.A, lin.B, Q, R)
     K = np.asarray(K).ravel()
-    return np.array([K[0], K[1], K[2] if order == 3 else 0.0])
+    if tr is None:
+        return np.array([K[0], K[1], K[2] if order == 3 else 0.0])
+    return np.array([K[0], K[1], K[4] if order == 3 else 0.0, K[2], K[3]])
 
 
-def closed_loop_poles(drive: Drive, H_ii: float, h_i: float, gains, order: int = 3) -> np.ndarray:
+def closed_loop_poles(drive: Drive, H_ii: float, h_i: float, gains, order: int = 3,
+                      transmission=None) -> np.ndarray:
     """Poles of the frozen-load drive with U = −D·ε (rad/s)."""
-    lin = linearize(drive, H_ii, h_i, order=order)
-    K = np.asarray(gains, dtype=float)[: lin.A.shape[0]].reshape(1, -1)
+    tr = as_transmission(transmission)
+    lin = _linearize(drive, H_ii, h_i, order, tr)
+    K = _state_gains(gains, order, tr is not None)
     return np.linalg.eigvals(lin.A - lin.B @ K)
 
 
@@ -130,7 +169,7 @@ class GainTable:
 
     Attributes:
         H: (nH,) grid of H_ii; h: (nV,) grid of h_i.
-        gains: (nH, nV, 3) D_e, D_v, D_i.
+        gains: (nH, nV, 3) D_e, D_v, D_i, or (nH, nV, 5) with D_θ, D_ω of the elastic model.
     """
 
     H: np.ndarray
@@ -148,7 +187,7 @@ class GainTable:
         if len(self.H) == 1:
             g = g[0]
         if not axes:
-            return lambda pts: np.broadcast_to(g, (len(np.atleast_2d(pts)), 3))
+            return lambda pts: np.broadcast_to(g, (len(np.atleast_2d(pts)), g.shape[-1]))
         return RegularGridInterpolator(axes, g, method="linear", bounds_error=True)
 
     def at(self, H_ii: float, h_i: float = 0.0) -> np.ndarray:
@@ -166,7 +205,7 @@ class GainTable:
         pt = [v for v, ax in ((H_ii, self.H), (h_i, self.h)) if len(ax) > 1]
         pt = [min(max(v, ax[0]), ax[-1]) for v, ax in
               zip(pt, [a for a in (self.H, self.h) if len(a) > 1], strict=True)]
-        return np.asarray(self.interpolator()(np.array([pt]))).reshape(3)
+        return np.asarray(self.interpolator()(np.array([pt]))).reshape(self.gains.shape[-1])
 
 
     def fit(self, degree: int = 2):
@@ -191,7 +230,7 @@ class GainTable:
             return np.stack([x ** a * y ** b for a, b in terms], axis=-1)
 
         A = basis(Hs, vs)
-        G = self.gains.reshape(-1, 3)
+        G = self.gains.reshape(-1, self.gains.shape[-1])
         coef, *_ = np.linalg.lstsq(A, G, rcond=None)
         err = float(np.max(np.abs(A @ coef - G) / np.maximum(np.abs(G), 1e-300)))
         H0, Hw = self.H.mean(), (np.ptp(self.H) or 1.0)
@@ -204,12 +243,12 @@ class GainTable:
 
 
 def _gains_at(args) -> np.ndarray:
-    drive, H, h, weights, order = args
-    return lqr_gains(drive, H, h, weights, order)
+    drive, H, h, weights, order, tr = args
+    return lqr_gains(drive, H, h, weights, order, tr)
 
 
 def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *,
-               progress: bool = False, n_jobs: int = 1) -> GainTable:
+               progress: bool = False, n_jobs: int = 1, transmission=None) -> GainTable:
     """Compute the LQR gains at every grid point.
 
     Args:
@@ -217,6 +256,7 @@ def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *
         weights: :class:`Weights`; order: 3 or 2.
         progress: show a progress bar (rich) while computing.
         n_jobs: worker processes (local; 1 computes in this process).
+        transmission: an elastic transmission: the gains of the elastic model (5 each).
 
     Returns:
         :class:`GainTable`.
@@ -227,8 +267,9 @@ def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *
     if n_jobs < 1:
         raise ManipcadError(f"n_jobs must be >= 1, got {n_jobs}")
     idx = [(a, b) for a in range(len(H_grid)) for b in range(len(h_grid))]
-    args = [(drive, H_grid[a], h_grid[b], weights, order) for a, b in idx]
-    g = np.empty((len(H_grid), len(h_grid), 3))
+    tr = as_transmission(transmission)
+    args = [(drive, H_grid[a], h_grid[b], weights, order, tr) for a, b in idx]
+    g = np.empty((len(H_grid), len(h_grid), 3 if tr is None else 5))
 
     def run(results):
         if not progress:
@@ -249,11 +290,14 @@ def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *
     return GainTable(H_grid, h_grid, g)
 
 
-def _pack_table(p: np.ndarray, table: GainTable, ulim: float) -> None:
+def _pack_table(p: np.ndarray, table: GainTable, ulim: float,
+                tr: Transmission | None = None) -> None:
     nH, nV = len(table.H), len(table.h)
-    if nH * nV > LQ_MAXCELLS:
+    ng = table.gains.shape[-1]
+    cells = LQ_MAXCELLS if ng == 3 else LQ_MAXCELLS_EL
+    if nH * nV > cells:
         raise ManipcadError(f"gain table {nH}×{nV} too large for the compiled regulator "
-                            f"(at most {LQ_MAXCELLS} grid points)")
+                            f"(at most {cells} grid points)")
     for ax, name in ((table.H, "H_ii"), (table.h, "h_i")):
         if len(ax) > 1 and not np.allclose(np.diff(ax), ax[1] - ax[0], rtol=1e-9, atol=0):
             raise ManipcadError(f"the {name} grid must be uniform")
@@ -263,7 +307,9 @@ def _pack_table(p: np.ndarray, table: GainTable, ulim: float) -> None:
     p[LQ_V0] = table.h[0]
     p[LQ_DV] = table.h[1] - table.h[0] if nV > 1 else 1.0
     p[LQ_ULIM] = ulim
-    for k in range(3):
+    p[LQ_NG] = ng
+    p[LQ_KS] = tr.stiffness if tr is not None else 0.0
+    for k in range(ng):
         p[LQ_TAB + k * nH * nV: LQ_TAB + (k + 1) * nH * nV] = table.gains[:, :, k].ravel()
 
 
@@ -276,7 +322,8 @@ def _check_order(d: Drive, order: int) -> None:
 
 def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
                    load_range_=None, H_nominal: float | None = None,
-                   order: int = 3, feedforward: bool = True) -> SynthesizedRegulator:
+                   order: int = 3, feedforward: bool = True,
+                   transmission=None) -> SynthesizedRegulator:
     """One LQR gain at the nominal load (default the middle of the H_ii range).
 
     Args:
@@ -288,6 +335,10 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
         H_nominal: the design load, kg·m².
         order: 3 (with the current) or 2.
         feedforward: the reference feed-forward U_ff at the nominal load.
+        transmission: the joint's elastic transmission (:class:`Transmission`, k_s or
+            (k_s, d_s); with backlash, designed in contact): the LQR of the elastic model,
+            which also feeds back the motor angle and speed errors against
+            θ_m* = i_r·(q* + τ*/k_s), ω_m* = i_r·q̇*.
     """
     period = check_period(period)
     j, d = joint_drive(robot, joint)
@@ -297,41 +348,61 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
     if not (math.isfinite(H) and H >= 0):
         raise ManipcadError(f"H_nominal must be >= 0 kg·m², got {H}")
     w = weights_from_spec(spec, d)
-    table = gain_table(d, [H], [0.0], w, order)
+    tr = _transmission(transmission)
+    table = gain_table(d, [H], [0.0], w, order, transmission=tr)
     g = table.gains[0, 0]
     p = packed(d, order)
     ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
-    _pack_table(p, table, ulim)
+    _pack_table(p, table, ulim, tr)
     p[LQ_FF], p[LQ_W], p[LQ_ADAPT], p[LQ_HFIX] = float(feedforward), 0.0, 0.0, H
-    poles = closed_loop_poles(d, H, 0.0, g, order)
+    poles = closed_loop_poles(d, H, 0.0, g, order, tr)
     name = robot.joint_names[j]
     kf = (g[2] + d.R / d.k_u) / (d.k_m * d.ratio)
     ff = (f" + {kf * (H + d.J * d.ratio ** 2):.6g}·q̈* + "
           f"{kf * d.k_v * d.ratio ** 2 + d.k_w * d.ratio / d.k_u:.6g}·q̇*") if feedforward else ""
-    law = (f"lqr ({name}): U = {g[0]:.6g}·e + {g[1]:.6g}·ė − {g[2]:.6g}·i{ff} (LQR at "
+    el = (f" + {g[3]:.6g}·(θ_m* − θ_m) + {g[4]:.6g}·(ω_m* − ω_m)" if tr is not None else "")
+    on = (f"elastic model k_s = {tr.stiffness:g} N·m/rad, d_s = {tr.damping:g} N·m·s/rad, "
+          if tr is not None else "")
+    law = (f"lqr ({name}): U = {g[0]:.6g}·e + {g[1]:.6g}·ė − {g[2]:.6g}·i{el}{ff} (LQR {on}at "
            f"H_ii = {H:.4g} kg·m², h_i = 0; Bryson e_max = {w.e_max:g} rad, "
            f"ė_max = {w.ed_max:g} rad/s, "
            f"i_max = {w.i_max:g} A, U_max = {w.u_max:g} V); |U| <= {ulim:g} V, T = {period:g} s")
     signals = (["q", "q_dot", "q_ref", "q_dot_ref"] + (["i"] if order == 3 else [])
+               + (["theta_m", "omega_m"] if tr is not None else [])
                + (["q_ddot_ref"] if feedforward else []))
-    lin = linearize(d, H, 0.0, order=order)
+    lin = _linearize(d, H, 0.0, order, tr)
+    K = _state_gains(g, order, tr is not None)
+    ref = np.zeros(lin.A.shape[0])
+    ref[0] = 1.0
+    if tr is not None:
+        ref[2] = d.ratio
+    ne = 2 if tr is not None else 0
     return SynthesizedRegulator(
         joint=j, period=period, kind=KIND_LQR, params=p, name="lqr", needs=tuple(signals),
         method="lqr", law=law,
-        complexity={"gains_stored": (3 if order == 3 else 2) + (2 if feedforward else 0),
-                    "ops_per_period": 8 + (4 if feedforward else 0),
+        complexity={"gains_stored": (3 if order == 3 else 2) + ne + (2 if feedforward else 0)
+                    + (1 if tr is not None and feedforward else 0),
+                    "ops_per_period": 8 + 5 * ne + (4 if feedforward else 0),
                     "signals": signals, "period": period},
         design={"gains": g, "H_nominal": H, "load_range": (Hmin, Hmax), "weights": w,
-                "closed_loop_poles": [complex(z) for z in poles], "table": table},
+                "closed_loop_poles": [complex(z) for z in poles], "table": table,
+                "transmission": tr},
         linear={"plant": lin.ss,
-                "closed_loop": ct.ss(lin.A - lin.B @ g[: lin.A.shape[0]].reshape(1, -1),
-                                     lin.B * g[0], np.eye(lin.A.shape[0])[:1], 0)})
+                "closed_loop": ct.ss(lin.A - lin.B @ K, lin.B * float((K @ ref)[0]),
+                                     np.eye(lin.A.shape[0])[:1], 0)})
+
+
+def _transmission(transmission) -> Transmission | None:
+    try:
+        return as_transmission(transmission)
+    except (ModelError, TypeError, ValueError) as exc:
+        raise ManipcadError(f"lqr transmission: {exc}") from exc
 
 
 def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
                       load_range_=None, h_range=None, grid=None, order: int = 3,
                       progress: bool = False, n_jobs: int = 1, feedforward: bool = True,
-                      load_torque: bool = True) -> SynthesizedRegulator:
+                      load_torque: bool = True, transmission=None) -> SynthesizedRegulator:
     """LQR gains scheduled on the load from a table computed ahead.
 
     Args:
@@ -347,6 +418,8 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         n_jobs: local worker processes for the grid (1: none).
         feedforward: the reference feed-forward U_ff at the current load.
         load_torque: compensate the measured velocity torque and gravity τ_w in U_ff.
+        transmission: the joint's elastic transmission, as :func:`synthesize_lqr`: the table
+            holds the elastic model's gains (D_e, D_v, D_i, D_θ, D_ω; at most 44 points).
     """
     period = check_period(period)
     j, d = joint_drive(robot, joint)
@@ -366,15 +439,18 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     nH, nV = (int(v) for v in grid)
     if nH < 1 or nV < 1 or (Hmin < Hmax and nH < 2) or (hl < hh and nV < 2):
         raise ManipcadError(f"grid {grid} must have >= 2 points along each axis with a range")
-    if nH * nV > LQ_MAXCELLS:
-        raise ManipcadError(f"grid {nH}×{nV} too large: at most {LQ_MAXCELLS} points")
+    tr = _transmission(transmission)
+    cells = LQ_MAXCELLS if tr is None else LQ_MAXCELLS_EL
+    if nH * nV > cells:
+        raise ManipcadError(f"grid {nH}×{nV} too large: at most {cells} points")
     H_grid = np.linspace(Hmin, Hmax, nH) if Hmin < Hmax else np.array([Hmin])
     h_grid = np.linspace(hl, hh, nV) if hl < hh else np.array([hl])
     w = weights_from_spec(spec, d)
-    table = gain_table(d, H_grid, h_grid, w, order, progress=progress, n_jobs=n_jobs)
+    table = gain_table(d, H_grid, h_grid, w, order, progress=progress, n_jobs=n_jobs,
+                       transmission=tr)
     p = packed(d, order)
     ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
-    _pack_table(p, table, ulim)
+    _pack_table(p, table, ulim, tr)
     p[LQ_FF], p[LQ_W], p[LQ_ADAPT] = float(feedforward), float(feedforward and load_torque), 1.0
     name = robot.joint_names[j]
     g = table.gains
@@ -382,7 +458,14 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     if feedforward:
         ffw = (" + (D_i + R/k_u)·((H_ii + J·i_r²)·q̈* + k_v·i_r²·q̇*"
                + (" + c_i + Q_i" if load_torque else "") + ")/(k_m·i_r) + k_w·i_r·q̇*/k_u")
-    law = (f"lqr_gs ({name}): U = D_e·e + D_v·ė − D_i·i{ffw}, gains bilinear in a {len(H_grid)}×"
+    el = ""
+    if tr is not None:
+        el = (f" + D_θ·(θ_m* − θ_m) + D_ω·(ω_m* − ω_m) [elastic model k_s = {tr.stiffness:g} "
+              f"N·m/rad, d_s = {tr.damping:g} N·m·s/rad; D_θ in [{g[..., 3].min():.4g}, "
+              f"{g[..., 3].max():.4g}] V/rad, D_ω in [{g[..., 4].min():.4g}, "
+              f"{g[..., 4].max():.4g}] V·s/rad]")
+    law = (f"lqr_gs ({name}): U = D_e·e + D_v·ė − D_i·i{el}{ffw}, gains bilinear in a "
+           f"{len(H_grid)}×"
            f"{len(h_grid)} table over H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m², h_i = Ḣ_ii in "
            f"[{hl:.4g}, {hh:.4g}] N·m·s/rad (clamped at the edges): D_e in "
            f"[{g[..., 0].min():.4g}, {g[..., 0].max():.4g}] V/rad, D_v in "
@@ -391,11 +474,13 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
            f"{w.e_max:g} rad, ė_max = {w.ed_max:g} rad/s, i_max = {w.i_max:g} A, "
            f"U_max = {w.u_max:g} V); |U| <= {ulim:g} V, T = {period:g} s")
     signals = ["q", "q_dot", "q_ref", "q_dot_ref", "H_ii"] + (["i"] if order == 3 else [])
+    if tr is not None:
+        signals += ["theta_m", "omega_m"]
     if feedforward:
         signals.append("q_ddot_ref")
         if load_torque:
             signals += ["h_i", "Q_i"]
-    nd = 3 if order == 3 else 2
+    nd = (3 if order == 3 else 2) + (2 if tr is not None else 0)
     return SynthesizedRegulator(
         joint=j, period=period, kind=KIND_LQR, params=p, name="lqr_gs", needs=tuple(signals),
         method="lqr_gs", law=law,
@@ -407,5 +492,5 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
                     "signals": signals + (["H_ii history (Ḣ_ii)"] if len(h_grid) > 1 else []),
                     "period": period},
         design={"table": table, "load_range": (Hmin, Hmax), "h_range": (hl, hh),
-                "weights": w},
+                "weights": w, "transmission": tr},
         linear={})

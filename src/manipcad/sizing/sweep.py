@@ -43,7 +43,7 @@ from scipy.optimize import minimize_scalar
 from manipcad.errors import InputError, ModelError
 from manipcad.model.robot import Drive, Robot
 from manipcad.sizing.limits import LIMITS, margin, motor_limits
-from manipcad.sizing.motion import SampledMotion, sample_motion
+from manipcad.sizing.motion import sample_motion
 from manipcad.sizing.motor import joint_torque, motor_series
 from manipcad.sizing.stats import peak, time_rms
 from manipcad.trajectories.base import Trajectory
@@ -117,15 +117,25 @@ class RatioSweep:
                 f"present {abs(self.ratio):.4g})")
 
 
-class _Evaluator:
-    """Evaluate one joint's motor quantities at any array of ratio magnitudes."""
+#: the per-ratio quantities of a sweep, in RatioSweep's field names
+_SERIES = ("rms_motor_torque", "peak_motor_torque", "peak_motor_speed", "peak_current",
+           "rms_current", "peak_voltage")
+#: cache version of the grid cells (change when _Evaluator's results change)
+_CELL_VERSION = "1"
 
-    def __init__(self, motion: SampledMotion, j: int, drive: Drive) -> None:
-        self.t = motion.t
+
+class _Evaluator:
+    """Evaluate one joint's motor quantities at any array of ratio magnitudes.
+
+    ``t`` (s) and ``cols`` (P_rigid, q̇, q̈, dP_rigid/dt, jerk of the joint, SI units)
+    are the sampled motion's columns of this joint: the inputs of a grid cell.
+    """
+
+    def __init__(self, t: np.ndarray, cols: tuple[np.ndarray, ...], drive: Drive) -> None:
+        self.t = t
         self.drive = drive
         self.sign = 1.0 if drive.ratio > 0 else -1.0
-        self.cols = (motion.tau_rigid[:, j], motion.qd[:, j], motion.qdd[:, j],
-                     motion.dtau_rigid[:, j], motion.jerk[:, j])
+        self.cols = cols
         self.limits = motor_limits(drive)
         self.used = tuple(k for k, v in self.limits.items() if math.isfinite(v) and v > 0)
 
@@ -159,6 +169,39 @@ class _Evaluator:
 
     def feasible(self, r_abs: np.ndarray) -> np.ndarray:
         return self(r_abs)["feasible"]
+
+
+def _grid_cells(tasks: list[dict], *, t: np.ndarray, cols: tuple[np.ndarray, ...],
+                drive: Drive) -> list[dict]:
+    """One executor chunk of sweep cells: each task ``{"ratio": |i_r|}`` -> its quantities
+    (the :data:`_SERIES` values, the margins per limit and ``feasible``), SI units."""
+    val = _Evaluator(t, cols, drive)(np.array([task["ratio"] for task in tasks], dtype=float))
+    out = []
+    for k in range(len(tasks)):
+        cell = {key: float(val[key][k]) for key in _SERIES}
+        cell["margins"] = {name: float(m[k]) for name, m in val["margins"].items()}
+        cell["feasible"] = bool(val["feasible"][k])
+        out.append(cell)
+    return out
+
+
+def _evaluate_grid(ev: _Evaluator, grid: np.ndarray, *, workers: int | None,
+                   scheduler: str | None, cache_dir: Any, progress: bool) -> dict:
+    """``ev(grid)``, cell by cell through :func:`manipcad.parallel.run_tasks`."""
+    if workers == 1 and scheduler is None and cache_dir is None:
+        return ev(grid)
+    from manipcad.parallel import run_tasks
+
+    chunk = max(1, min(_BLOCK // max(1, ev.t.shape[0]), math.ceil(grid.size / 16)))
+    cells = run_tasks(_grid_cells, [{"ratio": float(r)} for r in grid],
+                      common={"t": ev.t, "cols": ev.cols, "drive": ev.drive},
+                      workers=workers, scheduler=scheduler, cache_dir=cache_dir, chunk=chunk,
+                      batched=True, progress=progress, desc=f"ratio sweep {ev.drive.name}",
+                      version=_CELL_VERSION)
+    out = {key: np.array([c[key] for c in cells]) for key in _SERIES}
+    out["margins"] = {name: np.array([c["margins"][name] for c in cells]) for name in LIMITS}
+    out["feasible"] = np.array([c["feasible"] for c in cells], dtype=bool)
+    return out
 
 
 def _default_ratios(ratio: float) -> np.ndarray:
@@ -214,7 +257,8 @@ def _refine_min(ev: _Evaluator, key: str, lo: float, hi: float, x0: float, v0: f
 
 def ratio_sweep(robot: Robot, trajectory: Trajectory, joint: int | str, ratios: Any = None, *,
                 criterion: str = "rms_torque", t_end: float | None = None, dt: float = 1e-3,
-                payload: Any = None) -> RatioSweep:
+                payload: Any = None, workers: int | None = 1, scheduler: str | None = None,
+                cache_dir: Any = None, progress: bool = False) -> RatioSweep:
     """Sweep one joint's gear ratio: feasible range and best ratio for its motor.
 
     Args:
@@ -227,6 +271,17 @@ def ratio_sweep(robot: Robot, trajectory: Trajectory, joint: int | str, ratios: 
         criterion: "rms_torque" (least RMS motor torque: least heating) or
             "peak_current" (least peak current: smallest amplifier).
         t_end, dt, payload: as in :func:`~manipcad.sizing.required_drive`.
+        workers, scheduler, cache_dir, progress: how the grid's ratios (the
+            cells) are computed, as in :func:`manipcad.parallel.run_tasks`:
+            default ``workers=1``, serial in this process (the grid is
+            vectorized and takes milliseconds to seconds, less than a
+            cluster's start-up); ``workers=None`` one worker process per core,
+            ``scheduler="tcp://HOST:PORT"`` a running cluster; ``cache_dir`` a
+            folder where each ratio's result is kept by a hash of its inputs
+            (the motion's columns, the drive, the ratio), so a rerun or a wider
+            grid computes only the new ratios. The edges' bisection and the
+            best ratio's refinement run in this process. The results are the
+            same whichever way the cells ran.
 
     Returns:
         :class:`RatioSweep`.
@@ -257,12 +312,14 @@ def ratio_sweep(robot: Robot, trajectory: Trajectory, joint: int | str, ratios: 
                          "is; use criterion='rms_torque'")
     grid = _check_ratios(_default_ratios(drive.ratio) if ratios is None else ratios)
     motion = sample_motion(robot, trajectory, t_end=t_end, dt=dt, payload=payload)
-    ev = _Evaluator(motion, j, drive)
+    ev = _Evaluator(motion.t, (motion.tau_rigid[:, j], motion.qd[:, j], motion.qdd[:, j],
+                               motion.dtau_rigid[:, j], motion.jerk[:, j]), drive)
     if not ev.used:
         raise ModelError(f"joint {name!r}: motor {drive.name or '(unnamed)'} has no known "
                          "rating (rated_torque, peak_torque, max_speed or a voltage limit); "
                          "nothing to check the ratios against")
-    val = ev(grid)
+    val = _evaluate_grid(ev, grid, workers=workers, scheduler=scheduler, cache_dir=cache_dir,
+                         progress=progress)
     feas = val["feasible"]
     key = {"rms_torque": "rms_motor_torque", "peak_current": "peak_current"}[criterion]
 

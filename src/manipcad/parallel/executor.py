@@ -1,0 +1,384 @@
+"""Run independent tasks serially or on Dask distributed, with an on-disk result cache.
+
+A task is a mapping of keyword arguments; ``func(**common, **task)`` computes
+its result (or, with ``batched=True``, ``func(list_of_tasks, **common)``
+computes a list of results, one per task, for functions vectorized over cells).
+Tasks are grouped into chunks of ``chunk`` tasks in task order (the chunks do
+not depend on the number of workers, so a function vectorized over a chunk
+gives the same numbers serially and distributed); each chunk is one unit of
+work: run in this process (``workers=1``) or submitted to a Dask cluster.
+
+Cache: with ``cache_dir`` each task's result is stored as a pickle named by
+:func:`task_key`, a SHA-256 of the function's module and name, ``version``,
+the common arguments and the task's own arguments. Before running, the keys
+present are loaded and only the missing tasks are computed (a rerun computes
+nothing, a wider grid only its new cells). Files are written to a temporary
+name and renamed, so an interrupted run leaves no half-written result; a file
+that cannot be read is recomputed. Change ``version`` when the function's
+code changes in a way that changes its results.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import logging
+import os
+import pickle
+import struct
+import tempfile
+from collections.abc import Callable, Mapping, Sequence
+from contextlib import ExitStack
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from manipcad.errors import InputError, ManipcadError
+
+SOURCE = "run_tasks"
+#: how long to try to reach a scheduler given by address, s
+CONNECT_TIMEOUT = 10.0
+
+
+class TaskFailed(ManipcadError):
+    """A task raised; ``.index`` is its position in the task list, ``.task`` its arguments."""
+
+    def __init__(self, message: str, index: int, task: Mapping[str, Any]) -> None:
+        super().__init__(message)
+        self.index = index
+        self.task = task
+
+
+class Results(list):
+    """The results in task order, with ``.computed`` and ``.cached`` counts of tasks."""
+
+    computed: int = 0
+    cached: int = 0
+
+
+# ------------------------------------------------------------------ keys
+
+
+def _encode(x: Any, h: Any) -> None:
+    """Feed a canonical, type-tagged encoding of ``x`` into the hash ``h``."""
+    if x is None or isinstance(x, bool):
+        h.update(b"N" if x is None else (b"T" if x else b"F"))
+    elif isinstance(x, int | np.integer):
+        h.update(b"i" + str(int(x)).encode() + b";")
+    elif isinstance(x, float | np.floating):
+        h.update(b"f" + struct.pack("<d", float(x)))
+    elif isinstance(x, str):
+        b = x.encode()
+        h.update(b"s" + str(len(b)).encode() + b":" + b)
+    elif isinstance(x, bytes):
+        h.update(b"b" + str(len(x)).encode() + b":" + x)
+    elif isinstance(x, Path):
+        _encode(str(x), h)
+    elif isinstance(x, np.ndarray):
+        if x.dtype.hasobject:
+            h.update(b"O")
+            _encode(x.tolist(), h)
+        else:
+            a = np.ascontiguousarray(x)
+            h.update(b"a" + a.dtype.str.encode() + repr(a.shape).encode())
+            h.update(a.tobytes())
+    elif isinstance(x, Mapping):
+        items = sorted(((str(k), k, v) for k, v in x.items()), key=lambda kv: kv[0])
+        h.update(b"d" + str(len(items)).encode() + b"{")
+        for _, k, v in items:
+            _encode(k, h)
+            _encode(v, h)
+        h.update(b"}")
+    elif isinstance(x, list | tuple | set | frozenset):
+        seq = sorted(x, key=repr) if isinstance(x, set | frozenset) else x
+        h.update(b"l" + str(len(seq)).encode() + b"[")
+        for v in seq:
+            _encode(v, h)
+        h.update(b"]")
+    elif dataclasses.is_dataclass(x) and not isinstance(x, type):
+        h.update(b"D" + _qualname(type(x)).encode())
+        _encode({f.name: getattr(x, f.name) for f in dataclasses.fields(x)}, h)
+    elif callable(getattr(x, "to_dict", None)):
+        h.update(b"C" + _qualname(type(x)).encode())
+        _encode(x.to_dict(), h)
+    elif callable(x) and hasattr(x, "__qualname__"):
+        h.update(b"c" + _qualname(x).encode())
+    else:
+        h.update(b"p" + pickle.dumps(x, protocol=4))
+
+
+def _qualname(obj: Any) -> str:
+    return f"{getattr(obj, '__module__', '?')}.{getattr(obj, '__qualname__', repr(obj))}"
+
+
+def task_key(func: Callable, task: Mapping[str, Any], common: Mapping[str, Any] | None = None,
+             version: str = "") -> str:
+    """The cache key of one task: a SHA-256 hex digest of its inputs.
+
+    Args:
+        func: the task function (its module and qualified name enter the key).
+        task: the task's own keyword arguments.
+        common: the keyword arguments shared by all tasks.
+        version: a label of the function's code version.
+
+    Returns:
+        64 hexadecimal characters. Equal inputs (numbers, strings, arrays by
+        dtype, shape and bytes, mappings in any key order, dataclasses field by
+        field, objects with ``to_dict``) give equal keys; 1.0 and 1 differ.
+
+    Example:
+        >>> task_key(pow, {"base": 2, "exp": 3}) == task_key(pow, {"exp": 3, "base": 2})
+        True
+        >>> task_key(pow, {"base": 2, "exp": 3}) == task_key(pow, {"base": 2.0, "exp": 3})
+        False
+    """
+    h = hashlib.sha256()
+    h.update(_qualname(func).encode() + b"\0" + version.encode() + b"\0")
+    _encode(dict(common or {}), h)
+    _encode(dict(task), h)
+    return h.hexdigest()
+
+
+def _common_digest(func: Callable, common: Mapping[str, Any], version: str) -> Any:
+    h = hashlib.sha256()
+    h.update(_qualname(func).encode() + b"\0" + version.encode() + b"\0")
+    _encode(dict(common), h)
+    return h
+
+
+def _key_from(base: Any, task: Mapping[str, Any]) -> str:
+    h = base.copy()
+    _encode(dict(task), h)
+    return h.hexdigest()
+
+
+# ------------------------------------------------------------------ cache files
+
+
+def _cache_path(cache_dir: Path, key: str) -> Path:
+    return cache_dir / key[:2] / f"{key}.pkl"
+
+
+def _load_cached(cache_dir: Path, key: str) -> tuple[bool, Any]:
+    p = _cache_path(cache_dir, key)
+    if not p.is_file():
+        return False, None
+    try:
+        with open(p, "rb") as fh:
+            return True, pickle.load(fh)
+    except Exception:  # noqa: BLE001 - a damaged cache file is recomputed
+        return False, None
+
+
+def _store(cache_dir: Path, key: str, value: Any) -> None:
+    p = _cache_path(cache_dir, key)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{key[:8]}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            pickle.dump(value, fh, protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(tmp, p)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+# ------------------------------------------------------------------ running
+
+
+def _run_chunk(func: Callable, batched: bool, common: Mapping[str, Any],
+               tasks: Sequence[Mapping[str, Any]]) -> list:
+    """The results of one chunk of tasks (runs in this process or on a worker)."""
+    if batched:
+        out = list(func(list(tasks), **common))
+        if len(out) != len(tasks):
+            raise ManipcadError(f"{_qualname(func)} returned {len(out)} results for "
+                                f"{len(tasks)} tasks")
+        return out
+    return [func(**common, **t) for t in tasks]
+
+
+def _check(workers: Any, scheduler: Any, chunk: Any, tasks: Any) -> tuple[int | None, list]:
+    if scheduler is not None and workers is not None:
+        raise InputError(SOURCE, "workers", "give either workers or scheduler, not both")
+    if scheduler is not None and (not isinstance(scheduler, str) or "://" not in scheduler):
+        raise InputError(SOURCE, "scheduler", f"expected an address such as "
+                         f"'tcp://127.0.0.1:8786', got {scheduler!r}")
+    if workers is not None:
+        if isinstance(workers, bool) or not isinstance(workers, int | np.integer) or workers < 1:
+            raise InputError(SOURCE, "workers", f"expected a whole number >= 1, got {workers!r}")
+        workers = int(workers)
+    if isinstance(chunk, bool) or not isinstance(chunk, int | np.integer) or chunk < 1:
+        raise InputError(SOURCE, "chunk", f"expected a whole number >= 1, got {chunk!r}")
+    items = list(tasks)
+    for k, t in enumerate(items):
+        if not isinstance(t, Mapping):
+            raise InputError(SOURCE, f"tasks[{k}]", "expected a mapping of keyword arguments, "
+                             f"got {type(t).__name__}")
+    return workers, items
+
+
+def default_workers() -> int:
+    """Worker processes of the default LocalCluster: one per core.
+
+    Example:
+        >>> default_workers() >= 1
+        True
+    """
+    return max(1, os.cpu_count() or 1)
+
+
+def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
+              common: Mapping[str, Any] | None = None, workers: int | None = None,
+              scheduler: str | None = None, cache_dir: str | Path | None = None,
+              chunk: int = 1, batched: bool = False, progress: bool = True,
+              desc: str = "tasks", version: str = "") -> Results:
+    """Compute ``func`` on every task, serially or on Dask distributed, reusing cached results.
+
+    Args:
+        func: a module-level function (workers import it by name);
+            ``func(**common, **task)`` returns one task's result, or with
+            ``batched=True`` ``func(tasks, **common)`` returns a list of results.
+        tasks: the tasks, each a mapping of keyword arguments.
+        common: keyword arguments shared by every task (sent to each worker once).
+        workers: worker processes; None: one per core (:func:`default_workers`);
+            1: serial in this process, no cluster.
+        scheduler: address of a running Dask scheduler (``"tcp://HOST:PORT"``);
+            excludes ``workers``.
+        cache_dir: folder of the per-task result cache (created if needed); None:
+            no cache.
+        chunk: tasks per unit of work (>= 1), in task order.
+        batched: ``func`` takes a list of tasks (see above).
+        progress: show a progress bar of tasks done (rich, on stderr).
+        desc: the progress bar's label.
+        version: a label of ``func``'s code version, part of the cache key.
+
+    Returns:
+        :class:`Results`: a list of the results in task order, with ``.computed``
+        (tasks run now) and ``.cached`` (tasks read from the cache).
+
+    Raises:
+        InputError: bad ``workers``, ``scheduler``, ``chunk`` or ``tasks``, or
+            the scheduler cannot be reached.
+        TaskFailed: a task raised something that is not a ManipcadError (the
+            ManipcadErrors of tasks propagate as they are).
+
+    Example:
+        >>> import tempfile
+        >>> d = tempfile.mkdtemp()
+        >>> r = run_tasks(pow, [{"base": 3, "exp": 2}], workers=1, cache_dir=d, progress=False)
+        >>> list(r), r.computed
+        ([9], 1)
+        >>> r = run_tasks(pow, [{"base": 3, "exp": 2}, {"base": 2, "exp": 5}], workers=1,
+        ...               cache_dir=d, progress=False)
+        >>> list(r), r.computed, r.cached
+        ([9, 32], 1, 1)
+    """
+    workers, items = _check(workers, scheduler, chunk, tasks)
+    common = dict(common or {})
+    results = Results([None] * len(items))
+    todo = list(range(len(items)))
+    keys: list[str] = []
+    cache = None
+    if cache_dir is not None:
+        cache = Path(cache_dir)
+        try:
+            cache.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(str(cache_dir), "", f"cannot create the cache folder: "
+                             f"{exc.strerror}") from None
+        base = _common_digest(func, common, version)
+        keys = [_key_from(base, t) for t in items]
+        todo = []
+        for k, key in enumerate(keys):
+            hit, value = _load_cached(cache, key)
+            if hit:
+                results[k] = value
+            else:
+                todo.append(k)
+    results.cached = len(items) - len(todo)
+    results.computed = len(todo)
+    chunks = [todo[i:i + chunk] for i in range(0, len(todo), chunk)]
+
+    def done(idx: list[int], values: list) -> None:
+        for k, v in zip(idx, values, strict=True):
+            results[k] = v
+            if cache is not None:
+                _store(cache, keys[k], v)
+
+    with ExitStack() as stack:
+        bar = _progress(stack, progress, desc, len(items), results.cached)
+        if not chunks:
+            return results
+        if scheduler is None and (workers or default_workers()) == 1:
+            for idx in chunks:
+                done(idx, _guarded(func, batched, common, items, idx))
+                bar(len(idx))
+            return results
+        _run_dask(stack, func, batched, common, items, chunks, workers, scheduler, done, bar)
+    return results
+
+
+def _guarded(func, batched, common, items, idx) -> list:
+    try:
+        return _run_chunk(func, batched, common, [items[k] for k in idx])
+    except ManipcadError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - named with its task
+        raise TaskFailed(f"task {idx[0]} ({dict(items[idx[0]])!r}) of {_qualname(func)} "
+                         f"failed: {type(exc).__name__}: {exc}", idx[0], items[idx[0]]) from exc
+
+
+def _progress(stack: ExitStack, show: bool, desc: str, total: int, already: int):
+    if not show:
+        return lambda k: None
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    prog = stack.enter_context(Progress(
+        TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+        TimeElapsedColumn(), console=Console(stderr=True), transient=False))
+    tid = prog.add_task(desc, total=total, completed=already)
+    return lambda k: prog.advance(tid, k)
+
+
+def _run_dask(stack, func, batched, common, items, chunks, workers, scheduler, done, bar):
+    from distributed import Client, LocalCluster, as_completed
+
+    if scheduler is not None:
+        try:
+            client = stack.enter_context(Client(scheduler, timeout=CONNECT_TIMEOUT))
+        except (OSError, TimeoutError) as exc:
+            raise InputError(SOURCE, "scheduler", f"cannot connect to {scheduler}: "
+                             f"{exc}") from None
+    else:
+        n = workers or default_workers()
+        cluster = stack.enter_context(LocalCluster(
+            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+            memory_limit=0, silence_logs=logging.ERROR))
+        client = stack.enter_context(Client(cluster))
+    [shared] = client.scatter([common], broadcast=True, hash=False)
+    futures = {}
+    for idx in chunks:
+        fut = client.submit(_run_chunk, func, batched, shared, [items[k] for k in idx],
+                            pure=False)
+        futures[fut] = idx
+    try:
+        for fut in as_completed(list(futures)):
+            idx = futures[fut]
+            try:
+                values = fut.result()
+            except ManipcadError:
+                raise
+            except Exception as exc:  # noqa: BLE001 - named with its task
+                raise TaskFailed(f"task {idx[0]} ({dict(items[idx[0]])!r}) of "
+                                 f"{_qualname(func)} failed: {type(exc).__name__}: {exc}",
+                                 idx[0], items[idx[0]]) from exc
+            done(idx, values)
+            bar(len(idx))
+    finally:
+        for fut in futures:
+            if not fut.done():
+                fut.cancel()
+

@@ -1,0 +1,141 @@
+"""The sweep executor: serial and Dask runs agree, the cache computes only new cells."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import manipcad
+from manipcad.errors import InputError, ManipcadError
+from manipcad.parallel import TaskFailed, run_tasks, task_key
+from manipcad.sizing import ratio_sweep
+from manipcad.trajectories import cosine
+
+FIG3 = cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], duration=1.6)
+
+
+def _square(x, offset=0.0):
+    return x * x + offset
+
+
+def _fails(x):
+    if x == 2:
+        raise ValueError("two is bad")
+    return x
+
+
+def _bad_input(x):
+    raise InputError("cell", "x", f"refused {x}")
+
+
+def test_serial_results_in_order_with_common_arguments():
+    r = run_tasks(_square, [{"x": k} for k in range(7)], common={"offset": 0.5}, workers=1,
+                  chunk=3, progress=False)
+    assert list(r) == [k * k + 0.5 for k in range(7)]
+    assert r.computed == 7 and r.cached == 0
+
+
+def test_cache_computes_only_new_cells(tmp_path):
+    calls = []
+
+    def spy(tasks, offset):
+        calls.extend(t["x"] for t in tasks)
+        return [_square(t["x"], offset) for t in tasks]
+
+    spy.__module__, spy.__qualname__ = __name__, "spy"
+    first = run_tasks(spy, [{"x": k} for k in range(4)], common={"offset": 1.0}, workers=1,
+                      cache_dir=tmp_path, batched=True, progress=False)
+    assert calls == [0, 1, 2, 3] and first.computed == 4
+    again = run_tasks(spy, [{"x": k} for k in range(4)], common={"offset": 1.0}, workers=1,
+                      cache_dir=tmp_path, batched=True, progress=False)
+    assert calls == [0, 1, 2, 3] and again.cached == 4 and list(again) == list(first)
+    wider = run_tasks(spy, [{"x": k} for k in range(6)], common={"offset": 1.0}, workers=1,
+                      cache_dir=tmp_path, batched=True, progress=False)
+    assert calls == [0, 1, 2, 3, 4, 5] and wider.computed == 2 and wider.cached == 4
+    assert list(wider) == [k * k + 1.0 for k in range(6)]
+    # other common arguments: other keys, everything recomputed
+    other = run_tasks(spy, [{"x": 1}], common={"offset": 2.0}, workers=1, cache_dir=tmp_path,
+                      batched=True, progress=False)
+    assert list(other) == [3.0] and other.computed == 1
+    # a damaged cache file is recomputed, not trusted
+    key = task_key(spy, {"x": 5}, {"offset": 1.0})
+    (tmp_path / key[:2] / f"{key}.pkl").write_bytes(b"garbage")
+    fixed = run_tasks(spy, [{"x": 5}], common={"offset": 1.0}, workers=1, cache_dir=tmp_path,
+                      batched=True, progress=False)
+    assert list(fixed) == [26.0] and fixed.computed == 1
+
+
+def test_task_key_canonical():
+    a = {"q": np.arange(3.0), "name": "x", "opts": {"b": 1, "a": 2}}
+    b = {"opts": {"a": 2, "b": 1}, "name": "x", "q": np.arange(3.0)}
+    assert task_key(_square, a) == task_key(_square, b)
+    assert task_key(_square, a) != task_key(_square, {**a, "q": np.arange(3)})  # dtype counts
+    assert task_key(_square, a) != task_key(_fails, a)
+    assert task_key(_square, a, version="2") != task_key(_square, a)
+    robot = manipcad.load_robot("cylindrical")
+    heavier = robot.with_payload(1.0)
+    assert task_key(_square, {"r": robot}) == task_key(_square, {"r": manipcad.load_robot(
+        "cylindrical")})
+    assert task_key(_square, {"r": robot}) != task_key(_square, {"r": heavier})
+
+
+def test_bad_arguments_named():
+    with pytest.raises(InputError, match="workers"):
+        run_tasks(_square, [{"x": 1}], workers=0, progress=False)
+    with pytest.raises(InputError, match="not both"):
+        run_tasks(_square, [{"x": 1}], workers=2, scheduler="tcp://127.0.0.1:1", progress=False)
+    with pytest.raises(InputError, match="scheduler"):
+        run_tasks(_square, [{"x": 1}], scheduler="localhost", progress=False)
+    with pytest.raises(InputError, match=r"tasks\[1\]"):
+        run_tasks(_square, [{"x": 1}, 3], workers=1, progress=False)
+
+
+def test_failures_name_the_task():
+    with pytest.raises(TaskFailed, match=r"task 2 .*two is bad") as info:
+        run_tasks(_fails, [{"x": k} for k in range(4)], workers=1, progress=False)
+    assert info.value.index == 2
+    with pytest.raises(InputError, match="refused 1"):  # manipcad errors pass unchanged
+        run_tasks(_bad_input, [{"x": 1}], workers=1, progress=False)
+
+
+@pytest.mark.slow
+def test_ratio_sweep_serial_equals_two_workers(tmp_path):
+    """The grid cells on a 2-worker LocalCluster give bit-identical results to the serial run,
+    and a rerun from the cache computes nothing."""
+    arm = manipcad.load_robot("cylindrical")
+    grid = np.geomspace(5.0, 400.0, 40)
+    serial = ratio_sweep(arm, FIG3, "turn", ratios=grid)
+    dist = ratio_sweep(arm, FIG3, "turn", ratios=grid, workers=2, cache_dir=tmp_path)
+    for name in ("rms_motor_torque", "peak_motor_torque", "peak_motor_speed", "peak_current",
+                 "rms_current", "peak_voltage", "feasible"):
+        np.testing.assert_array_equal(getattr(serial, name), getattr(dist, name), err_msg=name)
+    for name in serial.margins:
+        np.testing.assert_array_equal(serial.margins[name], dist.margins[name])
+    assert serial.intervals == dist.intervals
+    assert serial.best_ratio == dist.best_ratio
+    assert serial.feasible.any() and not serial.feasible.all()  # the comparison has content
+    files = sorted(tmp_path.rglob("*.pkl"))
+    assert len(files) == grid.size
+    cached = ratio_sweep(arm, FIG3, "turn", ratios=grid, workers=1, cache_dir=tmp_path)
+    np.testing.assert_array_equal(cached.rms_motor_torque, serial.rms_motor_torque)
+    assert sorted(tmp_path.rglob("*.pkl")) == files
+
+
+def test_ratio_sweep_cache_serial_matches_plain(tmp_path):
+    arm = manipcad.load_robot("cylindrical")
+    grid = np.geomspace(5.0, 400.0, 12)
+    plain = ratio_sweep(arm, FIG3, "turn", ratios=grid)
+    cached = ratio_sweep(arm, FIG3, "turn", ratios=grid, cache_dir=tmp_path)
+    np.testing.assert_array_equal(plain.peak_current, cached.peak_current)
+    wider = ratio_sweep(arm, FIG3, "turn", ratios=np.concatenate([grid, [600.0, 800.0]]),
+                        cache_dir=tmp_path)
+    assert len(list(tmp_path.rglob("*.pkl"))) == grid.size + 2
+    np.testing.assert_array_equal(wider.peak_current[:grid.size], plain.peak_current)
+
+
+def test_scheduler_unreachable_is_an_input_error(monkeypatch):
+    from manipcad.parallel import executor
+
+    monkeypatch.setattr(executor, "CONNECT_TIMEOUT", 1.0)
+    with pytest.raises((InputError, ManipcadError), match="cannot connect"):
+        run_tasks(_square, [{"x": 1}], scheduler="tcp://127.0.0.1:9", progress=False)

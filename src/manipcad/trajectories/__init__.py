@@ -9,6 +9,7 @@ zero velocity and acceleration. Laws:
 - :func:`quintic`: point to point with zero end velocities and accelerations;
 - :func:`trapezoidal`: point to point, trapezoidal velocity, joints synchronised;
 - :func:`spline`: C2 cubic spline through via points, zero end velocities;
+- :func:`waypoints`: point-to-point moves through poses with a dwell at each;
 - :func:`line`, :func:`circle`: gripper paths through inverse kinematics.
 
 :func:`gripper_speed` gives the tool speed (m/s) along any of them;
@@ -37,10 +38,12 @@ from manipcad.trajectories.quintic import QuinticTrajectory, quintic
 from manipcad.trajectories.speed import gripper_speed
 from manipcad.trajectories.spline import SplineTrajectory, spline
 from manipcad.trajectories.trapezoidal import TrapezoidalTrajectory, trapezoidal
+from manipcad.trajectories.waypoints import WaypointsTrajectory, waypoints
 
 __all__ = [
-    "Trajectory", "cosine", "quintic", "trapezoidal", "spline", "line", "circle",
+    "Trajectory", "cosine", "quintic", "trapezoidal", "spline", "line", "circle", "waypoints",
     "CosineTrajectory", "QuinticTrajectory", "TrapezoidalTrajectory", "SplineTrajectory",
+    "WaypointsTrajectory",
     "CartesianTrajectory", "LineTrajectory", "CircleTrajectory",
     "gripper_speed", "load_trajectory", "save_trajectory", "trajectory_from_dict",
 ]

@@ -16,6 +16,9 @@ A file is one mapping with a ``type`` key and that type's fields, SI units
                             #   profile (quintic|cubic|linear), orientation (free|fixed)
     type: circle            # robot, center (m), radius (m), normal, duration (s), q0,
                             #   angle (rad, default 2π), start, profile, orientation
+    type: waypoints         # points (one pose a row, rad or m), move_time (s, one or
+                            #   one per move), dwell (s, one or one per pose),
+                            #   profile (quintic|trapezoidal)
 
 ``robot`` is a catalog name or a robot file path (relative paths are taken
 from the trajectory file's folder). Unknown fields, wrong types, wrong
@@ -45,6 +48,7 @@ from manipcad.trajectories.cosine import cosine
 from manipcad.trajectories.quintic import quintic
 from manipcad.trajectories.spline import spline
 from manipcad.trajectories.trapezoidal import trapezoidal
+from manipcad.trajectories.waypoints import waypoints
 
 
 def _listify(v: Any) -> Any:
@@ -130,9 +134,19 @@ class CircleFile(_Schema):
     orientation: Orientation = "free"
 
 
+class WaypointsFile(_Schema):
+    """Fields of ``type: waypoints`` (see :func:`manipcad.trajectories.waypoints`)."""
+
+    type: Literal["waypoints"]
+    points: list[Numbers]
+    move_time: NumbersOrOne
+    dwell: NumbersOrOne = [0.0]
+    profile: Literal["quintic", "trapezoidal"] = "quintic"
+
+
 SCHEMAS: dict[str, type[_Schema]] = {
     "cosine": CosineFile, "quintic": QuinticFile, "trapezoidal": TrapezoidalFile,
-    "spline": SplineFile, "line": LineFile, "circle": CircleFile,
+    "spline": SplineFile, "line": LineFile, "circle": CircleFile, "waypoints": WaypointsFile,
 }
 
 
@@ -190,6 +204,8 @@ def trajectory_from_dict(data: Any, source: str = "<dict>", *, robot: Robot | No
             fields["robot"] = _resolve_robot(source, fields.pop("robot"), robot, base_dir)
             make = line if kind == "line" else circle
             return make(**fields)
+        if kind == "waypoints":
+            return waypoints(fields.pop("points"), **fields)
         return {"cosine": cosine, "quintic": quintic, "trapezoidal": trapezoidal,
                 "spline": spline}[kind](**fields)
     except InputError as exc:

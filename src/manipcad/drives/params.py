@@ -171,6 +171,22 @@ def as_transmission(
     return Transmission(k_s, d_s, 0.0 if backlash is None else backlash)
 
 
+def drive_transmission(drive: Drive | None) -> Transmission | None:
+    """The transmission a drive describes itself (``Drive.stiffness``,
+    ``damping``, ``backlash``, joint side), or None for a rigid gear.
+
+    Example:
+        >>> from manipcad.model.robot import Drive
+        >>> drive_transmission(Drive(stiffness=2e4, backlash=1e-4))
+        Transmission(stiffness=20000.0, damping=0.0, backlash=0.0001)
+        >>> drive_transmission(Drive()) is None
+        True
+    """
+    if drive is None or not drive.elastic:
+        return None
+    return Transmission(drive.stiffness, drive.damping, drive.backlash)
+
+
 def check_electrics(drive: Drive, *, need_L: bool) -> None:
     """Raise :class:`ModelError` unless the drive's electrical data are usable.
 
@@ -267,7 +283,10 @@ def pack_drives(
 
     Args:
         drives: one drive or None per joint (``robot.drives``).
-        transmissions: one transmission or None per joint; None: all rigid.
+        transmissions: one transmission or None per joint; where None (or
+            for all joints when ``transmissions`` is None) the drive's own
+            (:func:`drive_transmission`: rigid unless the drive has a finite
+            stiffness) is used.
         order: 3 or 2, as in :func:`pack_drive`.
         friction_eps: dry-friction linear zone, rad/s, as in :func:`pack_drive`.
 
@@ -285,6 +304,7 @@ def pack_drives(
     trs = [None] * n if transmissions is None else list(transmissions)
     if len(trs) != n:
         raise ModelError(f"{len(trs)} transmissions for {n} drives")
+    trs = [drive_transmission(d) if t is None else t for d, t in zip(drives, trs, strict=True)]
     table = np.zeros((n, NPAR))
     for j, (d, t) in enumerate(zip(drives, trs, strict=True)):
         table[j] = pack_drive(d, t, order=order, friction_eps=friction_eps)

@@ -1,4 +1,4 @@
-"""``load_robot``: one entry for catalog names, YAML files and URDF files."""
+"""``load_robot``: one entry for catalog names, robot files (DH, URDF + drives, tree), URDFs."""
 
 from __future__ import annotations
 
@@ -23,8 +23,10 @@ def load_robot(source: str | Path | Robot) -> Robot:
 
     Args:
         source: a catalog name (see ``manipcad robots list``), a path ending in
-            .yaml/.yml (the DH schema of docs/robot-yaml.md) or .urdf, or a
-            :class:`Robot` (returned as it is).
+            .urdf, or a .yaml/.yml robot file of any of the three forms of
+            docs/robot-files.md: a DH table (``joints:`` with ``dh:``), a URDF
+            with drives (``urdf:``), or the tree form :meth:`Robot.save` writes
+            (``convention: tree``); or a :class:`Robot` (returned as it is).
 
     Returns:
         The validated :class:`Robot`.
@@ -59,6 +61,13 @@ def _load_path(path: Path) -> Robot:
         from manipcad.model.urdf import load_urdf
 
         return load_urdf(path)
-    from manipcad.model.yaml_robot import load_yaml_robot
+    from manipcad.model.tree_file import is_tree_file, load_tree_robot
+    from manipcad.model.urdf_drives import is_urdf_robot_file, load_urdf_robot
+    from manipcad.model.yaml_robot import load_yaml_robot, read_yaml
 
+    data = read_yaml(path) if path.is_file() else None
+    if is_urdf_robot_file(data):
+        return load_urdf_robot(path)
+    if is_tree_file(data):
+        return load_tree_robot(path)
     return load_yaml_robot(path)

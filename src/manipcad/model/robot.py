@@ -19,8 +19,10 @@ table (:attr:`Robot.table`) so a call passes few arrays and allocates little.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -74,6 +76,20 @@ class Drive:
         max_speed: maximum motor speed, rad/s (nan if unknown).
         rated_voltage: rated armature voltage, V (nan if unknown).
         rated_current: continuous armature current, A (nan if unknown).
+        stiffness: torsional stiffness k_s of the transmission, joint side,
+            N·m/rad (N/m for a prismatic joint); inf for a rigid gear.
+        damping: damping d_s of the transmission, joint side, N·m·s/rad (N·s/m).
+        backlash: half-width b of the gear's backlash gap, joint side, rad (m);
+            needs a finite stiffness (the contact stiffness).
+        efficiency: gear (chain) efficiency in (0, 1]; the motor supplies
+            P/(i_r·η) while it drives the load and P·η/i_r while the load
+            drives it back (docs/sizing.md); 1 when unknown.
+        gear_rated_torque: the gear's rated (continuous) output torque, N·m
+            (N), referred to the joint (nan if unknown).
+        gear_peak_torque: the gear's repeated-peak output torque, N·m (N),
+            referred to the joint (nan if unknown).
+        gear_max_input_speed: the gear's maximum input speed, referred to the
+            motor shaft, rad/s (nan if unknown).
     """
 
     J: float = 0.0
@@ -93,6 +109,13 @@ class Drive:
     max_speed: float = float("nan")
     rated_voltage: float = float("nan")
     rated_current: float = float("nan")
+    stiffness: float = float("inf")
+    damping: float = 0.0
+    backlash: float = 0.0
+    efficiency: float = 1.0
+    gear_rated_torque: float = float("nan")
+    gear_peak_torque: float = float("nan")
+    gear_max_input_speed: float = float("nan")
 
     def __post_init__(self) -> None:
         mf = self.M_f
@@ -108,6 +131,23 @@ class Drive:
                 raise ModelError(f"drive {name} must be >= 0, got {v}")
         if self.ratio == 0:
             raise ModelError("drive ratio must be non-zero")
+        if not (float(self.stiffness) > 0):
+            raise ModelError(f"drive stiffness must be > 0 N·m/rad (inf: rigid), "
+                             f"got {self.stiffness}")
+        for name in ("damping", "backlash"):
+            v = float(getattr(self, name))
+            if not (math.isfinite(v) and v >= 0):
+                raise ModelError(f"drive {name} must be finite and >= 0, got {v}")
+        if self.backlash > 0 and not math.isfinite(self.stiffness):
+            raise ModelError("drive backlash needs a contact stiffness: give a finite "
+                             "stiffness (elasticity) too")
+        if not 0 < float(self.efficiency) <= 1:
+            raise ModelError(f"drive efficiency must be in (0, 1], got {self.efficiency}")
+
+    @property
+    def elastic(self) -> bool:
+        """True when the transmission has a finite stiffness (elastic or with backlash)."""
+        return math.isfinite(self.stiffness)
 
     @property
     def has_electrics(self) -> bool:
@@ -139,8 +179,15 @@ class Robot:
         drives: one :class:`Drive` or None per joint.
         gravity: (3,) gravity in the base frame, m/s².
         limits: (n, 2) lower and upper joint limits, rad or m (±inf if none).
-        link_names: one name per moving link.
+        link_names: one name per moving link (the body of joint i is link i).
         tool_R, tool_p: the tool (gripper) frame in the last link's body frame.
+        source: where the model comes from (file, data set).
+        frames: named frames fixed to a body, as ``(name, body, R, p)``: the
+            body index (-1 for the base), the frame's rotation (3, 3) and
+            origin (3,) m in that body's frame. A URDF gives one per URDF link
+            (the link's own frame, which differs from the body frame by the
+            axis alignment, and links merged through fixed joints); see
+            :meth:`link_frame`.
     """
 
     name: str
@@ -160,6 +207,7 @@ class Robot:
     tool_R: np.ndarray = field(default_factory=lambda: np.eye(3))
     tool_p: np.ndarray = field(default_factory=lambda: np.zeros(3))
     source: str = ""
+    frames: tuple = ()
 
     # ------------------------------------------------------------------ build
     @classmethod
@@ -183,6 +231,7 @@ class Robot:
         tool_R: np.ndarray | None = None,
         tool_p: np.ndarray | None = None,
         source: str = "",
+        frames: Sequence = (),
     ) -> Robot:
         """Build and validate a robot from per-joint arrays (see the class docstring)."""
         n = len(joint_types)
@@ -208,6 +257,8 @@ class Robot:
             tool_R=np.eye(3) if tool_R is None else f(tool_R, dtype=float).reshape(3, 3),
             tool_p=np.zeros(3) if tool_p is None else f(tool_p, dtype=float).reshape(3),
             source=source,
+            frames=tuple((str(nm), int(b), f(R, dtype=float).reshape(3, 3),
+                          f(p, dtype=float).reshape(3)) for nm, b, R, p in frames),
         )
         robot.validate()
         return robot
@@ -234,6 +285,16 @@ class Robot:
                                  "must name an earlier joint or the base (-1)")
         if len(set(self.joint_names)) != n:
             raise ModelError("joint names must be unique")
+        names = set()
+        for name, body, R, p in self.frames:
+            if name in names:
+                raise ModelError(f"frame {name!r} is given twice")
+            names.add(name)
+            if not -1 <= body < n:
+                raise ModelError(f"frame {name!r}: body index {body} out of range")
+            if (np.shape(R) != (3, 3) or np.shape(p) != (3,)
+                    or not np.allclose(R @ R.T, np.eye(3), atol=1e-9)):
+                raise ModelError(f"frame {name!r}: not a rotation (3, 3) and origin (3,)")
         for i in range(n):
             where = f"link of joint {self.joint_names[i]!r}"
             if not np.isfinite(self.mass[i]) or self.mass[i] < 0:
@@ -288,6 +349,55 @@ class Robot:
             raise ModelError(f"joint index {joint} out of range for {self.n} joints")
         return int(joint) % self.n
 
+    @property
+    def all_link_names(self) -> tuple[str, ...]:
+        """Every name :meth:`link_frame` accepts: the named frames, then the link names."""
+        named = tuple(f[0] for f in self.frames)
+        return named + tuple(x for x in self.link_names if x not in named)
+
+    def link_frame(self, link: str | int) -> tuple[int, np.ndarray, np.ndarray]:
+        """Where a named link's own frame is: its body index and pose in that body.
+
+        Args:
+            link: a link name (a URDF link, including links merged through
+                fixed joints, or a name in :attr:`link_names`), or a link
+                number 1..n (link k is the body moved by joint k).
+
+        Returns:
+            ``(body, R, p)``: body index 0..n-1 (-1 for the base), rotation
+            (3, 3) and origin (3,) m of the link frame in the body frame. For a
+            URDF link, a centre of mass ``c`` given in the URDF link frame is
+            ``R @ c + p`` in the body frame.
+
+        Raises:
+            ModelError: no such link (naming the links there are).
+
+        Example:
+            >>> import manipcad
+            >>> body, R, p = manipcad.load_robot("puma560").link_frame(6)
+            >>> body, R.tolist() == [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+            (5, True)
+        """
+        if isinstance(link, int | np.integer) and not isinstance(link, bool):
+            if not 1 <= int(link) <= self.n:
+                raise ModelError(f"link number {link} out of range 1..{self.n}")
+            return int(link) - 1, np.eye(3), np.zeros(3)
+        for name, body, R, p in self.frames:
+            if name == link:
+                return body, R.copy(), p.copy()
+        if link in self.link_names:
+            return self.link_names.index(link), np.eye(3), np.zeros(3)
+        raise ModelError(f"no link named {link!r}; links are "
+                         f"{', '.join(self.all_link_names)} (or numbers 1..{self.n})")
+
+    def link_index(self, link: str | int) -> int:
+        """The body index 0..n-1 that carries a named link (see :meth:`link_frame`);
+        raises :class:`ModelError` for the base or an unknown link."""
+        body = self.link_frame(link)[0]
+        if body < 0:
+            raise ModelError(f"link {link!r} is fixed to the base; nothing moves it")
+        return body
+
     # ---------------------------------------------------------- new robots
     def replace(self, **changes) -> Robot:
         """A validated copy with some fields changed."""
@@ -302,10 +412,13 @@ class Robot:
 
         Args:
             mass: payload mass, kg (>= 0).
-            com: payload centre of mass in the link's body frame, m.
-            inertia: (3, 3) payload inertia about its own centre of mass, body
-                axes, kg·m²; None for a point mass.
-            link: joint index or name of the carrying link.
+            com: payload centre of mass, m: in the frame of the link when
+                ``link`` is a link name (a URDF link's own frame, see
+                :meth:`link_frame`), else in the body frame of the joint.
+            inertia: (3, 3) payload inertia about its own centre of mass, in
+                the same axes as ``com``, kg·m²; None for a point mass.
+            link: a link name (:attr:`all_link_names`), or a joint index or
+                joint name (the link that joint moves).
 
         Returns:
             A new :class:`Robot`; this one is unchanged.
@@ -315,16 +428,44 @@ class Robot:
             >>> puma = manipcad.load_robot("puma560")
             >>> loaded = puma.with_payload(2.0, com=(0, 0, 0.1))
         """
-        i = self.joint_index(link)
+        R_l, p_l = np.eye(3), np.zeros(3)
+        if isinstance(link, str) and link in self.all_link_names:
+            i, R_l, p_l = self.link_frame(link)
+            if i < 0:
+                raise ModelError(f"payload link {link!r} is fixed to the base")
+        else:
+            i = self.joint_index(link)
         m_p = float(mass)
         if not np.isfinite(m_p) or m_p < 0:
             raise ModelError(f"payload mass must be >= 0 kg, got {mass}")
-        c_p = np.asarray(com, dtype=float).reshape(3)
+        c_p = R_l @ np.asarray(com, dtype=float).reshape(3) + p_l
         I_p = np.zeros((3, 3)) if inertia is None else np.asarray(inertia, float).reshape(3, 3)
+        I_p = R_l @ I_p @ R_l.T
         m, c, Ic = combine_bodies(self.mass[i], self.com[i], self.inertia[i], m_p, c_p, I_p)
         mass_new, com_new, in_new = self.mass.copy(), self.com.copy(), self.inertia.copy()
         mass_new[i], com_new[i], in_new[i] = m, c, Ic
         return self.replace(mass=mass_new, com=com_new, inertia=in_new)
+
+    def save(self, path) -> Path:
+        """Write this robot, drives included, to a robot file that loads back to an
+        identical model (the tree form of :mod:`manipcad.model.tree_file`).
+
+        Args:
+            path: the .yaml file to write, str or Path.
+
+        Returns:
+            The path written.
+
+        Example:
+            >>> import manipcad, tempfile, os
+            >>> puma = manipcad.load_robot("puma560")
+            >>> f = puma.save(os.path.join(tempfile.mkdtemp(), "puma.yaml"))
+            >>> bool((manipcad.load_robot(f).table == puma.table).all())
+            True
+        """
+        from manipcad.model.tree_file import save_robot
+
+        return save_robot(self, path)
 
     def without_drives(self) -> Robot:
         """The same robot with no drives (pure rigid body)."""

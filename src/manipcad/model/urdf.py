@@ -42,7 +42,12 @@ Mapping onto :class:`~manipcad.model.robot.Robot` (joint motion about local z):
   earliest joint in file order whose parent is already placed. A file that
   lists parents first keeps its order exactly.
 - ``link_names`` are the child links of the movable joints; the tool frame is
-  the identity on the last link.
+  the identity on the last link. ``Robot.frames`` keeps every URDF link's own
+  frame in the body that carries it (:meth:`Robot.link_frame`), so a centre of
+  mass or a tool given in a URDF link frame can be placed exactly.
+- ``lock`` (joint name -> value) turns movable joints into fixed joints at
+  that value before the tree is built (a gripper's fingers, a joint held by a
+  brake); the value must lie within the joint's limits.
 
 An inertia that is positive semi-definite but breaks the triangle inequality
 (no rigid body has it) loads with a :class:`~manipcad.errors.ManipcadWarning`.
@@ -72,11 +77,14 @@ SUPPORTED_TYPES = ("revolute", "continuous", "prismatic", "fixed")
 UNSUPPORTED_TYPES = ("floating", "planar")
 
 
-def load_urdf(path: str | Path) -> Robot:
+def load_urdf(path: str | Path, lock: dict[str, float] | None = None) -> Robot:
     """Load a fixed-base robot from a URDF file.
 
     Args:
         path: the URDF file.
+        lock: joint name -> fixed value (rad or m): these movable joints become
+            fixed joints at that value (e.g. a gripper's fingers), so the robot
+            has fewer joints. Default none.
 
     Returns:
         The validated :class:`Robot` (SI units; no drives; gravity (0, 0, -9.81) m/s²).
@@ -101,17 +109,30 @@ def load_urdf(path: str | Path) -> Robot:
         text = path.read_bytes()
     except OSError as exc:
         raise InputError(source, "", f"cannot read file ({exc.strerror or exc})") from None
-    return _build(_parse_xml(text, source), source, default_name=path.stem)
+    return _build(_parse_xml(text, source), source, default_name=path.stem, lock=lock)
 
 
-def robot_from_urdf_string(text: str | bytes, source: str = "<string>") -> Robot:
+def robot_from_urdf_string(text: str | bytes, source: str = "<string>",
+                           lock: dict[str, float] | None = None) -> Robot:
     """Load a robot from URDF text (see :func:`load_urdf`).
 
     Args:
         text: the URDF document.
         source: the name used in error messages and stored as ``Robot.source``.
+        lock: joint name -> fixed value, rad or m (see :func:`load_urdf`).
     """
-    return _build(_parse_xml(text, source), source, default_name="robot")
+    return _build(_parse_xml(text, source), source, default_name="robot", lock=lock)
+
+
+def _locked_origin(j: _Joint, value: float) -> tuple[np.ndarray, np.ndarray]:
+    """The fixed transform of a movable joint held at ``value`` (rad or m):
+    its origin followed by the motion about (or along) its axis."""
+    if MOVABLE[j.kind] == REVOLUTE:
+        a = j.axis
+        K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+        Rm = np.eye(3) + np.sin(value) * K + (1.0 - np.cos(value)) * (K @ K)
+        return j.R @ Rm, j.p.copy()
+    return j.R.copy(), j.p + j.R @ (j.axis * value)
 
 
 # ---------------------------------------------------------------- parsing
@@ -310,8 +331,10 @@ def _read_joint(elem: ET.Element, index: int, source: str, links: dict[str, ET.E
 # --------------------------------------------------------------- building
 
 
-def _build(root: ET.Element, source: str, default_name: str) -> Robot:
+def _build(root: ET.Element, source: str, default_name: str,
+           lock: dict[str, float] | None = None) -> Robot:
     name = root.get("name") or default_name
+    lock = dict(lock or {})
 
     links: dict[str, ET.Element] = {}
     for i, el in enumerate(root.findall("link")):
@@ -336,8 +359,22 @@ def _build(root: ET.Element, source: str, default_name: str) -> Robot:
                              f"link {j.child!r} already has the parent joint {other.name!r}; "
                              "a link with two parents closes a loop, which URDF cannot describe")
         parent_joint[j.child] = j
+        if j.name in lock:
+            if j.kind not in MOVABLE:
+                raise InputError(source, f"lock.{j.name}", f"joint {j.name!r} is {j.kind}, "
+                                 "not movable; only movable joints can be locked")
+            value = float(lock.pop(j.name))
+            lo, hi = j.limits
+            if not np.isfinite(value) or not lo <= value <= hi:
+                raise InputError(source, f"lock.{j.name}", f"must be a finite value within "
+                                 f"the joint's limits [{lo:g}, {hi:g}], got {value}")
+            j.R, j.p = _locked_origin(j, value)
+            j.kind = "fixed"
         joints.append(j)
 
+    if lock:
+        raise InputError(source, f"lock.{next(iter(lock))}", "no joint of that name; joints "
+                         "are " + ", ".join(j.name for j in joints))
     roots = [link for link in links if link not in parent_joint]
     if len(roots) > 1:
         raise InputError(source, "", f"{len(roots)} root links (links no joint carries): "
@@ -438,6 +475,8 @@ def _build(root: ET.Element, source: str, default_name: str) -> Robot:
             limits=np.array([j.limits for j in ordered]).reshape(n, 2),
             link_names=[j.child for j in ordered],
             source=source,
+            frames=[(link, -1 if link_body[link] < 0 else new_index[link_body[link]],
+                     link_T[link][0], link_T[link][1]) for link in links],
         )
     except ModelError as exc:
         raise InputError(source, "", str(exc)) from None

@@ -42,12 +42,17 @@ Mapping onto the internal tree (see :mod:`manipcad.model.dh`):
   the last row's distal part becomes the tool frame (composed with ``tool:``).
 
 Drives: explicit fields ``J, ratio, k_v, M_f, R, L, k_m, k_w, k_u, u_max`` (and
-the ratings), or ``motor:`` and/or ``gear:`` names from the catalog (a gear may
-be a list, a chain from the motor outwards), with any explicit field
-overriding the composed value. Composition: ``J = J_motor + sum_k J_gear_k /
+the ratings), ``elasticity`` (k_s N·m/rad, or [k_s, d_s]) and ``backlash`` (b,
+rad, half the gap; joint side), ``efficiency`` and the gear ratings, or
+``motor:`` and/or ``gear:`` names from the catalog (a gear may be a list, a
+chain from the motor outwards), with any explicit field overriding the
+composed value. Composition: ``J = J_motor + sum_k J_gear_k /
 (i_1···i_{k-1})²`` on the motor shaft, ``ratio = prod_k direction_k·i_k``, the
 electrical data and friction from the motor, ``u_max`` defaulting to the
-motor's rated voltage.
+motor's rated voltage, the gear's efficiency and ratings referred to the joint
+(:func:`compose_gears`). A drive is rigid unless it gives ``elasticity`` or
+``backlash`` (backlash alone takes the catalog gear's torsional stiffness as
+the contact stiffness).
 
 Every bad input raises :class:`~manipcad.errors.InputError` naming the file,
 the dotted field (``joints[2].link.mass``) and the reason.
@@ -244,14 +249,40 @@ class LinkSpec(_Spec):
     inertia: InertiaSpec = InertiaSpec()
 
 
+def _elasticity(v: Any) -> tuple[float, float] | None:
+    """elasticity: a stiffness k_s (N·m/rad) or a [k_s, d_s] pair (N·m/rad, N·m·s/rad)."""
+    if v is None:
+        return None
+    if isinstance(v, list | tuple):
+        if len(v) != 2:
+            raise ValueError(f"expected a stiffness or a [stiffness, damping] pair, got {v!r}")
+        return _to_float(v[0]), _to_float(v[1])
+    return _to_float(v), 0.0
+
+
+Elasticity = Annotated[tuple[float, float] | None, BeforeValidator(_elasticity)]
+
+
 class DriveSpec(_Spec):
     """A joint drive: catalog motor/gear names and/or explicit fields (SI units,
     motor side: J kg·m², ratio rad/rad or rad/m, k_v N·m·s/rad, M_f N·m, R Ω, L H,
     k_m N·m/A, k_w V·s/rad, k_u V/V, u_max V, rated/peak torque N·m, max_speed
-    rad/s, rated_voltage V, rated_current A)."""
+    rad/s, rated_voltage V, rated_current A; joint side: elasticity k_s N·m/rad
+    or [k_s N·m/rad, d_s N·m·s/rad], backlash b rad (half the gap), gear
+    ratings gear_rated_torque / gear_peak_torque N·m; gear_max_input_speed
+    rad/s on the motor shaft; efficiency η in (0, 1]; motor_name / gear_name
+    are labels for reports when no catalog part is named)."""
 
     motor: str | None = None
     gear: NameList = None
+    motor_name: str | None = None
+    gear_name: str | None = None
+    elasticity: Elasticity = None
+    backlash: OptNum = None
+    efficiency: OptNum = None
+    gear_rated_torque: OptNum = None
+    gear_peak_torque: OptNum = None
+    gear_max_input_speed: OptNum = None
     J: OptNum = None
     ratio: OptNum = None
     k_v: OptNum = None
@@ -342,7 +373,9 @@ class GearSpec(_Spec):
     """A catalog transmission: ratio i (input rad per output rad, or per output m
     for screws, racks and belts), direction ±1, input-side inertia J kg·m²,
     efficiency, output torque limits (N·m, or N for linear ones), max input speed
-    rad/s, mass kg, and the source."""
+    rad/s, torsional stiffness on the output N·m/rad (N/m; used as the contact
+    stiffness when a drive gives backlash without elasticity), mass kg, and the
+    source."""
 
     source: str = Field(min_length=1)
     description: str = ""
@@ -356,6 +389,7 @@ class GearSpec(_Spec):
     max_continuous_torque: OptNum = None
     max_intermittent_torque: OptNum = None
     max_input_speed: OptNum = None
+    stiffness: OptNum = None
     mass: OptNum = None
 
     @property
@@ -671,29 +705,40 @@ def build_drive(spec: DriveSpec, label: str, where: str, base_dir: Path | None =
                              + exc.reason.removeprefix("unknown motor; ")) from None
         fields.update(motor.drive_fields())
         motor_name = spec.motor
+    gear_stiffness = None
     if spec.gear is not None:
-        J_ref, ratio = 0.0, 1.0
+        gears = []
         for k, g in enumerate(spec.gear):
             try:
-                gear = load_gear(g, base_dir)
+                gears.append(load_gear(g, base_dir))
             except InputError as exc:
                 if exc.field:
                     raise
                 sub = f"{where}.gear" + (f"[{k}]" if len(spec.gear) > 1 else "")
                 raise InputError(label, sub, f"unknown gear {g!r}; "
                                  + exc.reason.removeprefix("unknown gear; ")) from None
-            J_ref += gear.J / ratio**2
-            ratio *= gear.direction * gear.ratio
-        fields["J"] = fields.get("J", 0.0) + J_ref
-        fields["ratio"] = ratio
+        composed, gear_stiffness = compose_gears(gears)
+        fields["J"] = fields.get("J", 0.0) + composed.pop("J")
+        fields.update(composed)
         gear_name = " + ".join(spec.gear)
-    explicit = spec.model_dump(exclude={"motor", "gear"}, exclude_none=True)
+    explicit = spec.model_dump(exclude={"motor", "gear", "motor_name", "gear_name",
+                                        "elasticity"}, exclude_none=True)
     fields.update(explicit)
+    motor_name = spec.motor_name or motor_name
+    gear_name = spec.gear_name or gear_name
+    if spec.elasticity is not None:
+        fields["stiffness"], fields["damping"] = spec.elasticity
+    elif spec.backlash:
+        if gear_stiffness is None:
+            raise InputError(label, f"{where}.backlash", "backlash needs a contact stiffness: "
+                             "give elasticity (k_s N·m/rad or [k_s, d_s]) or a catalog gear "
+                             "with a torsional stiffness")
+        fields["stiffness"] = gear_stiffness
     if spec.motor is None and spec.gear is None and ("J" not in fields or "ratio" not in fields):
         missing = "J" if "J" not in fields else "ratio"
         raise InputError(label, f"{where}.{missing}", "required field is missing (a drive "
                          "needs J and ratio, or a catalog motor:/gear:)")
-    for key in ("J", "k_v", "R", "L", "k_m", "k_w", "u_max", "k_u"):
+    for key in ("J", "k_v", "R", "L", "k_m", "k_w", "u_max", "k_u", "backlash"):
         if key in fields and fields[key] < 0:
             raise InputError(label, f"{where}.{key}", f"must be >= 0, got {fields[key]}")
     if "ratio" in fields and fields["ratio"] == 0:
@@ -704,6 +749,60 @@ def build_drive(spec: DriveSpec, label: str, where: str, base_dir: Path | None =
         raise InputError(label, where, str(exc)) from None
 
 
+def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None]:
+    """The drive fields a gear chain sets (gears from the motor outwards).
+
+    ``J = sum_k J_k / (i_1···i_{k-1})²`` (kg·m², motor shaft), ``ratio = prod_k
+    direction_k·i_k``, ``efficiency = prod_k η_k`` (a gear without one counts
+    as 1), the output torque ratings referred to the joint (gear k's limit
+    times ``prod_{m>k} i_m·η_m``, the tightest over the chain, N·m or N) and
+    the input-speed limit referred to the motor shaft (gear k's limit times
+    ``i_1···i_{k-1}``, the tightest, rad/s). Ratings no gear gives are left out.
+
+    Returns:
+        (fields, stiffness): the :class:`Drive` fields, and the chain's
+        torsional stiffness on the joint side (N·m/rad, springs in series,
+        gear k's referred by ``(prod_{m>k} i_m)²``), or None unless every gear
+        gives one.
+
+    Example:
+        >>> f, k = compose_gears([load_gear("harmonic_csf20_100")])
+        >>> f["ratio"], f["gear_rated_torque"]
+        (-100.0, 40.0)
+    """
+    J = 0.0
+    before = 1.0
+    eta = 1.0
+    ratio = 1.0
+    rated, peak, speed = math.inf, math.inf, math.inf
+    compliance = 0.0
+    for k, g in enumerate(gears):
+        J += g.J / before**2
+        after = 1.0
+        for m in gears[k + 1:]:
+            after *= m.ratio * (m.efficiency or 1.0)
+        after_i = math.prod(m.ratio for m in gears[k + 1:])
+        if g.max_continuous_torque is not None:
+            rated = min(rated, g.max_continuous_torque * after)
+        if g.max_intermittent_torque is not None:
+            peak = min(peak, g.max_intermittent_torque * after)
+        if g.max_input_speed is not None:
+            speed = min(speed, g.max_input_speed * before)
+        if compliance is not None:
+            compliance = (None if g.stiffness is None or g.stiffness <= 0
+                          else compliance + 1.0 / (g.stiffness * after_i**2))
+        eta *= g.efficiency if g.efficiency is not None else 1.0
+        before *= g.ratio
+        ratio *= g.direction * g.ratio
+    out: dict[str, float] = {"J": J, "ratio": ratio, "efficiency": eta}
+    for key, v in (("gear_rated_torque", rated), ("gear_peak_torque", peak),
+                   ("gear_max_input_speed", speed)):
+        if math.isfinite(v):
+            out[key] = v
+    stiffness = None if not compliance else 1.0 / compliance
+    return out, stiffness
+
+
 def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Rotation Rot_z(yaw)·Rot_y(pitch)·Rot_x(roll) (fixed axes x, y, z; rad), as URDF."""
     cy, sy = math.cos(pitch), math.sin(pitch)
@@ -712,7 +811,8 @@ def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
 
 
 __all__ = [
-    "load_yaml_robot", "build_robot", "build_drive", "load_motor", "load_gear",
+    "load_yaml_robot", "build_robot", "build_drive", "compose_gears", "load_motor",
+    "load_gear",
     "read_yaml", "validate", "evaluate", "catalog_entry", "rpy_to_matrix", "CONSTANTS",
     "RobotSpec", "JointSpec", "LinkSpec", "DHSpec", "InertiaSpec", "DriveSpec", "ToolSpec",
     "MotorSpec", "GearSpec", "PRISMATIC", "REVOLUTE",

@@ -281,6 +281,7 @@ def test_store_failed_swap_restores_old_folder(tmp_path, small_result, monkeypat
         return real_rename(src, dst)
 
     monkeypatch.setattr(store.os, "rename", flaky)
+    monkeypatch.setattr(store, "exchange", lambda a, b: False)  # the two-rename fallback
     with pytest.raises(KeyboardInterrupt):
         save_result(res, out, joint_types=arm.joint_types, force=True)
     assert os.listdir(out) == ["keep.txt"] and leftovers(tmp_path) == []

@@ -33,8 +33,9 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
         except ManipcadError as exc:
             err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
             raise typer.Exit(2) from None
-        except KeyboardInterrupt:
-            err_console.print("[bold red]interrupted[/]")
+        except KeyboardInterrupt as exc:
+            # a save interrupted after its result was in place says so (store.SaveInterrupted)
+            err_console.print(f"[bold red]{exc or 'interrupted'}[/]", highlight=False)
             raise typer.Exit(130) from None
 
     return wrapper

@@ -4,27 +4,57 @@
 
     DIR/inputs/           copies of the files the run used (robot, trajectory,
                           regulators), or YAML dumps of in-memory inputs
-    DIR/timeseries.csv    t and, per joint, q, qd, q_ref, qd_ref, error, u,
-                          current, tau; units in the header ("waist.q [rad]")
-    DIR/timeseries.npz    the same arrays at full precision (``load_result``)
+    DIR/timeseries.npz    t and, per joint, q, qd, q_ref, qd_ref, error, u,
+                          current, tau at full precision (float64), compressed
+                          (``load_result``); units in ``metrics.json``
+    DIR/timeseries.csv    the same as text with units in the header
+                          ("waist.q [rad]"); only with ``csv=True`` (the
+                          workspace writes it on export, :func:`write_csv`)
     DIR/metrics.json      status, robot, settings, per-joint metrics and their units
     DIR/errors.png        the tracking errors over time, one panel per joint
 
+How much is stored is set by the run's ``record_every`` (see
+:func:`record_every_for`: the regulators' sampling period by default).
+
 Atomicity: everything is written into a hidden temporary sibling folder
-(``.DIR.partial-XXXX``), flushed to disk, and renamed to DIR only when
-complete. An interrupted or failed save removes the temporary folder and
-leaves DIR as it was. A DIR that exists and is not empty is refused unless
-``force=True``; then the old DIR is moved aside, the new one renamed in, and
-the old one deleted (moved back if the rename fails), so DIR is never a mix of
-two runs.
+(``.DIR.partial-PID-XXXX``), flushed to disk, and only then installed as DIR:
+
+- DIR absent: one ``rename``.
+- DIR present (``force=True``): one ``renameat2(RENAME_EXCHANGE)`` (Linux,
+  through ctypes) swaps the two folders in a single step, so DIR is at every
+  instant either the old result or the new one; the old one, now under the
+  temporary name, is then deleted.
+- Where the exchange is not available (other systems, some file systems), DIR
+  is a symbolic link to a versioned folder ``.DIR.v-PID-XXXX`` beside it and
+  the link is replaced atomically (``rename`` of a new link over it). An
+  existing real folder is replaced there by two renames through
+  ``.DIR.old-PID-XXXX``; a writer killed between them leaves DIR missing and
+  the next save (or :func:`clean_stale`) renames the old folder back.
+
+A writer killed at any moment (SIGKILL, SIGTERM) leaves DIR complete (old or
+new) and at worst a hidden ``.DIR.partial-*``/``.DIR.old-*``/``.DIR.v-*``
+folder; each name holds the writer's process id, and :func:`clean_stale`
+(called by every save into the same folder) removes those of dead writers
+(and versions older than the one the link points to, whoever made them).
+An interrupted (Ctrl-C) or failed save removes its temporary folder and leaves
+DIR as it was; Ctrl-C after the new result is in place raises
+:class:`SaveInterrupted`, which says so. A DIR that exists and is not empty is
+refused unless ``force=True``.
 """
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import errno
 import json
 import os
+import re
 import shutil
+import sys
 import tempfile
+import zipfile
+import zlib
 from collections.abc import Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
@@ -139,10 +169,47 @@ def _describe_input(v: Any) -> Any:
     return f"<{type(v).__name__}> (dumped to {INPUTS_DIR}/)"
 
 
+class SaveInterrupted(KeyboardInterrupt):
+    """Ctrl-C arrived after the new result was installed: the save is complete.
+
+    The message says where the result is; the old copy still being deleted is
+    removed by the next save (:func:`clean_stale`).
+    """
+
+    def __str__(self) -> str:  # KeyboardInterrupt prints nothing by default
+        return str(self.args[0]) if self.args else "interrupted"
+
+
+def record_every_for(dt: float, periods: Sequence[float] = ()) -> int:
+    """Record stride for a run: one sample per regulator period (the shortest one).
+
+    Args:
+        dt: the integration step, s (> 0).
+        periods: the regulators' sampling periods, s (multiples of ``dt``).
+
+    Returns:
+        The number of steps between stored samples (>= 1): the largest step
+        count that divides every period (so every regulator update is
+        stored); 1 without regulators.
+
+    Example:
+        >>> record_every_for(1e-4, [1e-3, 5e-4])
+        5
+        >>> record_every_for(1e-4)
+        1
+    """
+    import math
+
+    steps = [int(round(float(p) / dt)) for p in periods]
+    steps = [k for k in steps if k >= 1]
+    return max(1, math.gcd(*steps)) if steps else 1
+
+
 def save_result(result, out_dir: str | Path, *, inputs: Mapping[str, Any] | None = None,
                 joint_types: Sequence[str] | None = None, force: bool = False,
                 status: str = "ok", message: str = "",
-                run: Mapping[str, Any] | None = None, plot: bool = True) -> Path:
+                run: Mapping[str, Any] | None = None, plot: bool = True,
+                csv: bool = True, extra: Mapping[str, Any] | None = None) -> Path:
     """Write a simulation result to a folder, atomically (see the module docstring).
 
     Args:
@@ -160,6 +227,8 @@ def save_result(result, out_dir: str | Path, *, inputs: Mapping[str, Any] | None
         message: the divergence message, recorded in metrics.json.
         run: extra facts of the run (command-line settings) for metrics.json.
         plot: also write errors.png.
+        csv: also write timeseries.csv (text, units in the header).
+        extra: more JSON files to write in the folder: file name -> document.
 
     Returns:
         The result folder.
@@ -167,6 +236,7 @@ def save_result(result, out_dir: str | Path, *, inputs: Mapping[str, Any] | None
     Raises:
         InputError: the folder is a file or is not empty (without ``force``),
             an input file cannot be read, or the disk refuses the write.
+        SaveInterrupted: Ctrl-C after the new result was installed (it is complete).
 
     Example:
         >>> import manipcad
@@ -177,28 +247,94 @@ def save_result(result, out_dir: str | Path, *, inputs: Mapping[str, Any] | None
         >>> save_result(res, "/tmp/run1", joint_types=arm.joint_types, force=True)  # doctest: +SKIP
         PosixPath('/tmp/run1')
     """
-    out = check_out_dir(out_dir, force=force)
+    out = Path(out_dir)
     parent = out.parent if str(out.parent) else Path(".")
+    if parent.is_dir():
+        clean_stale(parent, out.name)
+    check_out_dir(out, force=force)
     try:
         parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=parent))
+        tmp = _temp_dir(parent, out.name, "partial")
     except OSError as exc:
         raise InputError(str(out), "", f"cannot create the folder: {exc.strerror or exc}") from None
-    try:
-        _write_all(tmp, result, inputs or {}, joint_types, status, message, run, plot)
-        _install(tmp, out, force)
-    except BaseException as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
-        if isinstance(exc, OSError):
-            raise InputError(str(out), "", f"cannot write the result: "
-                             f"{exc.strerror or exc}") from None
-        raise
+    with _discard_on_failure(tmp, out, "write"):
+        _write_all(tmp, result, inputs or {}, joint_types, status, message, run, plot, csv,
+                   extra or {})
+    install_folder(tmp, out, force=force)
     return out
 
 
+def install_folder(tmp: str | Path, out: str | Path, *, force: bool = False) -> Path:
+    """Install a complete folder ``tmp`` as ``out`` atomically (the module docstring's steps).
+
+    ``tmp`` must be a sibling of ``out`` (same file system). On failure or
+    Ctrl-C before the new folder is in place, ``tmp`` is deleted and ``out``
+    is left as it was.
+
+    Args:
+        tmp: the complete new folder (e.g. made by :func:`temp_dir`).
+        out: the target folder (or link, in the versioned layout).
+        force: replace a non-empty existing ``out``.
+
+    Returns:
+        ``out``.
+
+    Raises:
+        InputError: ``out`` is a file, or a non-empty folder without ``force``,
+            or the disk refuses the rename.
+        SaveInterrupted: Ctrl-C after the new folder was installed.
+    """
+    tmp, out = Path(tmp), Path(out)
+    with _discard_on_failure(tmp, out, "install"):
+        old = _install(tmp, out, force)
+    if old is not None:
+        try:
+            _remove(old)
+        except KeyboardInterrupt:
+            raise SaveInterrupted(f"interrupted after the new result was saved in {out}; "
+                                  f"the old copy {old.name} is removed on the next save") from None
+    return out
+
+
+@contextlib.contextmanager
+def _discard_on_failure(tmp: Path, out: Path, step: str):
+    """Delete ``tmp`` if the block fails or is interrupted; OSError -> InputError on ``out``."""
+    try:
+        yield
+    except BaseException as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError):
+            raise InputError(str(out), "", f"cannot {step} the result: "
+                             f"{exc.strerror or exc}") from None
+        raise
+
+
+def _temp_dir(parent: Path, name: str, tag: str) -> Path:
+    """A new hidden sibling folder ``.NAME.TAG-PID-XXXX`` (mode 0o755)."""
+    tmp = Path(tempfile.mkdtemp(prefix=f".{name}.{tag}-{os.getpid()}-", dir=parent))
+    os.chmod(tmp, 0o755)
+    return tmp
+
+
+def temp_dir(out: str | Path) -> Path:
+    """A new temporary folder beside ``out`` to build its next content in (see
+    :func:`install_folder`); its name marks it as this process's, so
+    :func:`clean_stale` removes it if the process dies."""
+    out = Path(out)
+    parent = out.parent if str(out.parent) else Path(".")
+    parent.mkdir(parents=True, exist_ok=True)
+    return _temp_dir(parent, out.name, "partial")
+
+
+def _remove(path: Path) -> None:
+    if path.is_symlink() or path.is_file():
+        path.unlink(missing_ok=True)
+    else:
+        shutil.rmtree(path, ignore_errors=True)
+
+
 def _write_all(tmp: Path, result, inputs: Mapping[str, Any], joint_types, status: str,
-               message: str, run, plot: bool) -> None:
-    drives = bool(result.settings.get("drives", True))
+               message: str, run, plot: bool, csv: bool, extra: Mapping[str, Any]) -> None:
     names = list(result.joint_names)
     n = len(names)
     types = list(joint_types) if joint_types is not None else [None] * n
@@ -211,27 +347,21 @@ def _write_all(tmp: Path, result, inputs: Mapping[str, Any], joint_types, status
     for key, value in inputs.items():
         _write_input(folder, key, value)
 
-    # time series: the npz at full precision, the CSV for people and spreadsheets
-    arrays = {"t": np.asarray(result.t, dtype=float)}
-    for name in SERIES:
-        arrays[name] = np.asarray(getattr(result, name), dtype=float)
-    np.savez(tmp / TIMESERIES_NPZ, joint_names=np.array(names), **arrays)
-    header = ["t [s]"]
-    cols = [arrays["t"][:, None]]
-    for j, (name, jt) in enumerate(zip(names, types, strict=True)):
-        units = series_units(jt, drives)
-        for s in SERIES:
-            header.append(f"{name}.{s} [{units[s]}]")
-            cols.append(arrays[s][:, j:j + 1])
-    table = np.hstack(cols) if len(arrays["t"]) else np.empty((0, len(header)))
-    with open(tmp / TIMESERIES_CSV, "w", encoding="utf-8", newline="") as fh:
-        fh.write(",".join(header) + "\n")
-        np.savetxt(fh, table, delimiter=",", fmt="%.10g")
+    # time series: the npz at full precision, compressed; the CSV on request
+    arrays = result_arrays(result)
+    np.savez_compressed(tmp / TIMESERIES_NPZ, joint_names=np.array(names), **arrays)
+    if csv:
+        write_csv(result, tmp / TIMESERIES_CSV, joint_types=joint_types)
 
     # metrics
     doc = result_document(result, joint_types=joint_types, status=status, message=message,
                           inputs=inputs, run=run)
     (tmp / METRICS_JSON).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    for fname, document in extra.items():
+        if Path(fname).name != fname:
+            raise InputError("extra", fname, "must be a plain file name")
+        (tmp / fname).write_text(json.dumps(jsonable(document), indent=2) + "\n",
+                                 encoding="utf-8")
 
     if plot:
         from manipcad.report.plots import plot_errors
@@ -242,6 +372,48 @@ def _write_all(tmp: Path, result, inputs: Mapping[str, Any], joint_types, status
         plot_errors(result, tmp / ERRORS_PNG, joint_types=joint_types, title=title)
 
     _fsync_tree(tmp)
+
+
+def result_arrays(result) -> dict[str, np.ndarray]:
+    """The stored arrays of a result: ``t`` (K,) s and each of :data:`SERIES` (K, n), float64."""
+    arrays = {"t": np.asarray(result.t, dtype=float)}
+    for name in SERIES:
+        arrays[name] = np.asarray(getattr(result, name), dtype=float)
+    return arrays
+
+
+def write_csv(result, path: str | Path, *, joint_types: Sequence[str] | None = None) -> Path:
+    """Write a result's time series as CSV: ``t [s]`` then, per joint, each of
+    :data:`SERIES` with its unit in the header ("waist.q [rad]"), 10 significant digits.
+
+    Args:
+        result: a :class:`manipcad.sim.SimulationResult`.
+        path: the CSV file to write (replaced atomically).
+        joint_types: "revolute"/"prismatic" per joint for the units; None: "rad|m".
+
+    Returns:
+        The path written.
+    """
+    from manipcad.fileio import atomic_write
+
+    drives = bool(result.settings.get("drives", True))
+    names = list(result.joint_names)
+    types = list(joint_types) if joint_types is not None else [None] * len(names)
+    arrays = result_arrays(result)
+    header = ["t [s]"]
+    cols = [arrays["t"][:, None]]
+    for j, (name, jt) in enumerate(zip(names, types, strict=True)):
+        units = series_units(jt, drives)
+        for s in SERIES:
+            header.append(f"{name}.{s} [{units[s]}]")
+            cols.append(arrays[s][:, j:j + 1])
+    table = np.hstack(cols) if len(arrays["t"]) else np.empty((0, len(header)))
+
+    def write(fh) -> None:
+        fh.write(",".join(header) + "\n")
+        np.savetxt(fh, table, delimiter=",", fmt="%.10g")
+
+    return atomic_write(path, write)
 
 
 def _write_input(folder: Path, key: str, value: Any) -> None:
@@ -288,21 +460,78 @@ def _fsync_tree(root: Path) -> None:
         os.close(fd)
 
 
-def _install(tmp: Path, out: Path, force: bool) -> None:
-    """Rename the complete temporary folder to ``out``; replace a non-empty one only if forced."""
-    os.chmod(tmp, 0o755)
+# --------------------------------------------------------------------------- swapping
+
+#: renameat2 flag: swap the two names atomically (Linux >= 3.15)
+RENAME_EXCHANGE = 2
+_AT_FDCWD = -100
+_EXCHANGE_OFF = os.environ.get("MANIPCAD_NO_RENAME_EXCHANGE", "") not in ("", "0")
+
+
+def exchange(a: str | Path, b: str | Path) -> bool:
+    """Swap two existing paths in one atomic step (``renameat2(RENAME_EXCHANGE)``).
+
+    Returns:
+        True when swapped; False when the platform or file system has no such
+        call (then nothing changed). Other failures raise :class:`OSError`.
+    """
+    if _EXCHANGE_OFF:
+        return False
+    fn = _renameat2()
+    if fn is None:
+        return False
+    rc = fn(_AT_FDCWD, os.fsencode(str(a)), _AT_FDCWD, os.fsencode(str(b)), RENAME_EXCHANGE)
+    if rc == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.ENOSYS, errno.EINVAL, errno.EOPNOTSUPP, errno.ENOTSUP):
+        return False
+    raise OSError(err, os.strerror(err), str(b))
+
+
+_RENAMEAT2: list[Any] = []
+
+
+def _renameat2():
+    if not _RENAMEAT2:
+        fn = None
+        if sys.platform.startswith("linux"):
+            try:
+                fn = getattr(ctypes.CDLL(None, use_errno=True), "renameat2", None)
+            except OSError:
+                fn = None
+            if fn is not None:
+                fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p,
+                               ctypes.c_uint]
+                fn.restype = ctypes.c_int
+        _RENAMEAT2.append(fn)
+    return _RENAMEAT2[0]
+
+
+def _install(tmp: Path, out: Path, force: bool) -> Path | None:
+    """Install ``tmp`` as ``out``; return what is left to delete (the old copy) or None."""
+    if out.is_symlink():  # the versioned layout: replace the link atomically
+        if not force and any(out.iterdir()):
+            raise InputError(str(out), "", "folder exists and is not empty; use --force "
+                             "(force=True) to replace it")
+        return _relink(tmp, out)
     if not out.exists():
-        os.rename(tmp, out)
-        return
+        if exchange_supported(out.parent):
+            os.rename(tmp, out)
+            return None
+        return _relink(tmp, out)
     if not out.is_dir():
         raise InputError(str(out), "", "exists and is not a folder")
     if not any(out.iterdir()):
         os.replace(tmp, out)  # POSIX rename may replace an empty folder
-        return
+        return None
     if not force:
         raise InputError(str(out), "", "folder exists and is not empty; use --force "
                          "(force=True) to replace it")
-    old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
+    if exchange(tmp, out):
+        return tmp  # now holds the old result
+    # no exchange: two renames; a kill between them is repaired by clean_stale
+    old = _temp_dir(out.parent, out.name, "old")
     os.rmdir(old)
     os.rename(out, old)
     try:
@@ -310,32 +539,191 @@ def _install(tmp: Path, out: Path, force: bool) -> None:
     except BaseException:
         os.rename(old, out)
         raise
-    shutil.rmtree(old, ignore_errors=True)
+    return old
+
+
+def _relink(tmp: Path, out: Path) -> Path | None:
+    """The versioned layout: rename ``tmp`` to ``.NAME.v-PID-X`` and point the link at it."""
+    version = _temp_dir(out.parent, out.name, "v")
+    os.rmdir(version)
+    os.rename(tmp, version)
+    link = out.parent / f".{out.name}.link-{os.getpid()}-{version.name[-8:]}"
+    try:
+        os.symlink(version.name, link)
+        previous = out.resolve() if out.is_symlink() else None
+        os.replace(link, out)
+    except BaseException:
+        link.unlink(missing_ok=True)
+        os.rename(version, tmp)
+        raise
+    if previous is not None and previous != version.resolve() and previous.parent == out.parent:
+        return previous
+    return None
+
+
+def exchange_supported(folder: str | Path) -> bool:
+    """Whether :func:`exchange` works in ``folder`` (tried once on two empty folders)."""
+    folder = Path(folder)
+    key = str(folder.resolve())
+    if key not in _SUPPORTED:
+        a = b = None
+        try:
+            a = Path(tempfile.mkdtemp(prefix=f".probe.partial-{os.getpid()}-", dir=folder))
+            b = Path(tempfile.mkdtemp(prefix=f".probe.partial-{os.getpid()}-", dir=folder))
+            _SUPPORTED[key] = exchange(a, b)
+        except OSError:
+            _SUPPORTED[key] = False
+        finally:
+            for p in (a, b):
+                if p is not None:
+                    shutil.rmtree(p, ignore_errors=True)
+    return _SUPPORTED[key]
+
+
+_SUPPORTED: dict[str, bool] = {}
+
+#: hidden names the store makes beside a result: .NAME.TAG-PID-RANDOM
+_LEFTOVER = re.compile(r"^\.(?P<name>.+)\.(?P<tag>partial|old|v|link)-(?P<pid>\d+)-[^-/]+$")
+_LEGACY = re.compile(r"^\.(?P<name>.+)\.(?P<tag>partial|old)-[^-/]+$")
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    except OSError:
+        return False
+    return True
+
+
+def leftovers(folder: str | Path, name: str | None = None) -> list[tuple[Path, str, bool]]:
+    """The store's hidden temporary entries in a folder.
+
+    Args:
+        folder: the folder holding result folders.
+        name: only those of this result name (None: all).
+
+    Returns:
+        (path, tag, writer_alive) per entry; tag is "partial", "old", "v"
+        (a version of the versioned layout) or "link". Entries of an earlier
+        manipcad without a process id in the name count as of a dead writer.
+    """
+    out = []
+    folder = Path(folder)
+    try:
+        entries = list(folder.iterdir())
+    except OSError:
+        return []
+    for p in entries:
+        m = _LEFTOVER.match(p.name)
+        if m is not None:
+            alive = _alive(int(m["pid"]))
+        else:
+            m = _LEGACY.match(p.name)
+            if m is None:
+                continue
+            alive = False
+        if name is None or m["name"] == name:
+            out.append((p, m["tag"], alive))
+    return out
+
+
+def clean_stale(folder: str | Path, name: str | None = None) -> list[str]:
+    """Remove the leftovers of dead writers beside result folders; repair a half swap.
+
+    A result folder NAME found missing while a dead writer's ``.NAME.old-*``
+    exists (a kill between the two renames of the fallback swap) gets that
+    folder back. Versions of the versioned layout no link points to are removed.
+
+    Args:
+        folder: the folder holding result folders.
+        name: only the leftovers of this result name (None: all).
+
+    Returns:
+        One line per action taken ("removed .r.partial-12-ab", "restored r from ...").
+    """
+    folder = Path(folder)
+    done: list[str] = []
+    found = leftovers(folder, name)
+    for p, tag, alive in found:
+        if alive and not (tag == "v" and _superseded(p, folder)):
+            continue
+        m = _LEFTOVER.match(p.name) or _LEGACY.match(p.name)
+        assert m is not None
+        target = folder / m["name"]
+        try:
+            if tag == "old" and not target.exists() and not target.is_symlink():
+                os.rename(p, target)
+                done.append(f"restored {target.name} from {p.name}")
+                continue
+            if tag == "v":
+                if target.is_symlink() and target.resolve() == p.resolve():
+                    continue
+                if not target.is_symlink() and not target.exists():
+                    os.symlink(p.name, target)  # a link lost before it was made: keep data
+                    done.append(f"restored {target.name} -> {p.name}")
+                    continue
+            _remove(p)
+            done.append(f"removed {p.name}")
+        except OSError:
+            continue
+    return done
+
+
+def _superseded(version: Path, folder: Path) -> bool:
+    """A version folder older than the one its link points to (no writer will link it)."""
+    m = _LEFTOVER.match(version.name)
+    link = folder / m["name"] if m else None
+    if link is None or not link.is_symlink():
+        return False
+    try:
+        current = link.resolve()
+        return current != version.resolve() and (
+            version.lstat().st_ctime_ns < current.lstat().st_ctime_ns)
+    except OSError:
+        return False
+
+
+# --------------------------------------------------------------------------- reading
 
 
 def load_result(out_dir: str | Path):
     """Read back a result folder written by :func:`save_result`.
+
+    Args:
+        out_dir: the result folder.
 
     Returns:
         (result, document): a :class:`manipcad.sim.SimulationResult` with the
         stored arrays, settings and metrics, and the metrics.json document.
 
     Raises:
-        InputError: the folder or one of its files is missing or unreadable.
+        InputError: naming the file and what is wrong: missing, truncated or
+            not an npz archive, an array missing or of the wrong shape, JSON
+            that does not parse.
     """
     from manipcad.sim.simulate import SimulationResult
 
     out = Path(out_dir)
+    if not out.is_dir():
+        raise InputError(str(out), "", "no such result folder" if not out.exists()
+                         else "is not a folder (a manipcad result is a folder)")
     npz, meta = out / TIMESERIES_NPZ, out / METRICS_JSON
     for f in (npz, meta):
         if not f.is_file():
             raise InputError(str(f), "", "no such file (not a manipcad result folder?)")
     try:
         doc = json.loads(meta.read_text(encoding="utf-8"))
-        with np.load(npz) as data:
-            arrays = {k: data[k] for k in data.files}
     except (OSError, ValueError) as exc:
-        raise InputError(str(out), "", f"cannot read the result: {exc}") from None
+        raise InputError(str(meta), "", f"cannot read the metrics document: {exc}") from None
+    if not isinstance(doc, dict):
+        raise InputError(str(meta), "", "expected a JSON object")
+    arrays = _read_npz(npz)
     res = SimulationResult(
         t=arrays["t"], q=arrays["q"], qd=arrays["qd"], q_ref=arrays["q_ref"],
         qd_ref=arrays["qd_ref"], u=arrays["u"], current=arrays["current"], tau=arrays["tau"],
@@ -344,5 +732,39 @@ def load_result(out_dir: str | Path):
     return res, doc
 
 
+def _read_npz(npz: Path) -> dict[str, np.ndarray]:
+    """The arrays of timeseries.npz, checked: all present, float (K,) / (K, n)."""
+    src = str(npz)
+    try:
+        with np.load(npz, allow_pickle=False) as data:
+            missing = [k for k in ("joint_names", "t", *SERIES) if k not in data.files]
+            if missing:
+                raise InputError(src, missing[0], "array missing from the archive"
+                                 + (f" (also {', '.join(missing[1:])})" if missing[1:] else ""))
+            arrays = {k: data[k] for k in ("joint_names", "t", *SERIES)}
+    except InputError:
+        raise
+    except (zipfile.BadZipFile, EOFError) as exc:
+        raise InputError(src, "", f"truncated or not an npz archive ({exc})") from None
+    except (OSError, ValueError, KeyError, zlib.error) as exc:
+        raise InputError(src, "", f"corrupt archive: {type(exc).__name__}: {exc}") from None
+    names = arrays["joint_names"]
+    if names.ndim != 1:
+        raise InputError(src, "joint_names", f"expected a 1-D array, got shape {names.shape}")
+    k, n = arrays["t"].shape[0] if arrays["t"].ndim == 1 else -1, names.shape[0]
+    if k < 0:
+        raise InputError(src, "t", f"expected a 1-D array, got shape {arrays['t'].shape}")
+    for s in SERIES:
+        a = arrays[s]
+        if a.shape != (k, n):
+            raise InputError(src, s, f"has shape {a.shape}, expected ({k}, {n}) "
+                             "(samples, joints)")
+        if a.dtype.kind != "f":
+            raise InputError(src, s, f"has dtype {a.dtype}, expected float")
+    return arrays
+
+
 __all__ = ["save_result", "load_result", "check_out_dir", "result_document", "series_units",
-           "metric_units", "SERIES", "jsonable"]
+           "metric_units", "SERIES", "jsonable", "write_csv", "clean_stale", "leftovers",
+           "install_folder", "temp_dir", "exchange", "SaveInterrupted", "record_every_for",
+           "result_arrays"]

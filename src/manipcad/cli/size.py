@@ -5,12 +5,16 @@
 trajectory file, runs :func:`manipcad.sizing.required_drive` and prints two
 tables: what each drive must deliver (joint and motor side, SI units) and the
 check of each motor against its continuous and peak torque, speed and voltage
-limits (margins in % of the limit, green pass, red fail, grey unknown).
+limits and of each gear against its rated and peak output torque and its
+input speed (margins in % of the limit, green pass, red fail, grey unknown).
 ``--json`` prints the same as JSON (``DriveRequirements.to_dict``);
-``--plot`` writes the torque-speed plot. A failed check is a result, not an
-error: the exit status is 0. Bad input (no such file, a bad trajectory file,
-a trajectory with the wrong number of joints, dt <= 0, a negative payload)
-exits with status 2 and one line on stderr.
+``--plot`` writes the torque-speed plot.
+
+Exit status: 0 when every check passes; 1 when a check fails, or when a
+check cannot be made ("unknown": no drive, a motor without ratings or
+electrical data, a gear without ratings) unless ``--allow-unknown``; 2 for
+bad input (no such file, a bad trajectory file, a trajectory with the wrong
+number of joints, dt <= 0, a negative payload), with one line on stderr.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from rich.table import Table
 from manipcad.cli.app import app, console, guarded
 from manipcad.errors import InputError, ManipcadWarning
 
-_COLOUR = {"pass": "green", "fail": "red", "unknown": "grey50"}
+_COLOUR = {"pass": "green", "fail": "red", "unknown": "grey50", "n/a": "grey50"}
 
 
 def _fmt(x: float, unit: str = "", fmt: str = ".4g") -> str:
@@ -43,9 +47,10 @@ def _fmt(x: float, unit: str = "", fmt: str = ".4g") -> str:
 @guarded
 def size(
     robot: Annotated[str, typer.Argument(
-        help="A catalog robot name (see 'manipcad robots list') or a .yaml/.urdf file.")],
+        help="A catalog robot name (see 'manipcad robots list'), a robot file (DH, URDF + "
+        "drives or tree form, docs/robot-files.md) or a .urdf file.")],
     trajectory: Annotated[Path, typer.Option(
-        "--trajectory", "-t", help="Trajectory YAML file (see docs/trajectories).")],
+        "--trajectory", "-t", help="Trajectory YAML file (see docs/trajectories.md).")],
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
     = False,
     plot: Annotated[Path | None, typer.Option(
@@ -53,12 +58,18 @@ def size(
     = None,
     dt: Annotated[float, typer.Option("--dt", help="Sampling step, s.")] = 1e-3,
     payload: Annotated[float | None, typer.Option(
-        "--payload", help="Payload mass on the last link, kg (at its frame origin).")] = None,
+        "--payload", help="Payload mass on the last link, kg (at its frame origin; a "
+        "payload with a centre of mass on a named link goes in the robot file).")] = None,
     t_end: Annotated[float | None, typer.Option(
         "--t-end", help="End of the run, s (default the trajectory's duration).")] = None,
+    allow_unknown: Annotated[bool, typer.Option(
+        "--allow-unknown", help="Exit 0 even when a check cannot be made (a rating or the "
+        "motor's electrical data unknown); failed checks still exit 1.")] = False,
 ) -> None:
     """Size the drives: torques, currents, voltages and powers a trajectory needs, and the
-    motor checks (continuous and peak torque, speed, voltage) with margins."""
+    motor checks (continuous and peak torque, speed, voltage) and gear checks (rated and
+    peak output torque, input speed) with margins. Exit 1 when a check fails or cannot
+    be made (unless --allow-unknown)."""
     from manipcad.model.load import load_robot
     from manipcad.sizing import required_drive, torque_speed_plot
     from manipcad.trajectories import load_trajectory
@@ -82,10 +93,24 @@ def size(
         out["trajectory"] = str(trajectory)
         out["plot"] = str(written) if written is not None else None
         typer.echo(json.dumps(out, indent=2, allow_nan=False))
-        return
-    _print_tables(req, str(trajectory))
-    if written is not None:
-        console.print(f"torque-speed plot written to {escape(str(written))}")
+    else:
+        _print_tables(req, str(trajectory))
+        if written is not None:
+            console.print(f"torque-speed plot written to {escape(str(written))}")
+    raise typer.Exit(exit_status(req.status, allow_unknown))
+
+
+def exit_status(status: tuple[str, ...], allow_unknown: bool) -> int:
+    """The exit status of ``size`` for per-joint statuses: 1 if any fails, or if any
+    is unknown and unknowns are not allowed; else 0.
+
+    Example:
+        >>> exit_status(("pass", "unknown"), False), exit_status(("pass", "unknown"), True)
+        (1, 0)
+    """
+    if "fail" in status or ("unknown" in status and not allow_unknown):
+        return 1
+    return 0
 
 
 def _print_tables(req, source: str) -> None:
@@ -108,6 +133,8 @@ def _print_tables(req, source: str) -> None:
         ("peak joint torque |P|", nm, req.peak_torque),
         ("RMS joint torque", nm, req.rms_torque),
         ("peak joint speed |q̇|", rad_s, req.peak_speed),
+        ("peak gear output |P_rigid|", nm, req.peak_gear_torque),
+        ("RMS gear output torque", nm, req.rms_gear_torque),
         ("peak motor torque |T_m|", "N·m", req.peak_motor_torque),
         ("RMS motor torque", "N·m", req.rms_motor_torque),
         ("peak motor speed |ω_m|", "rad/s", req.peak_motor_speed),
@@ -124,34 +151,45 @@ def _print_tables(req, source: str) -> None:
         need.add_row(label, unit, *(_fmt(float(v)) for v in values))
     console.print(need)
 
-    check = Table(title="motor check (margin = 1 - required/rating; negative: over it)",
-                  box=box.SIMPLE_HEAD,
+    check = Table(title="motor and gear check (margin = 1 - required/rating; negative: "
+                  "over it)", box=box.SIMPLE_HEAD,
                   caption="continuous: RMS T_m vs rated torque; peak: peak |T_m| vs peak "
                   "torque; speed: peak |ω_m| vs max speed; voltage: peak |u_a| vs the "
-                  "amplifier limit (else the rated voltage)")
-    for col, just in (("joint / motor", "left"), ("limit", "left"), ("required", "right"),
+                  "amplifier limit (else the rated voltage); gear_continuous / gear_peak: "
+                  "RMS / peak gear output torque |P_rigid| vs the gear's rated / "
+                  "repeated-peak torque; gear_speed: peak |ω_m| vs the gear's max input "
+                  "speed; n/a: no gear")
+    for col, just in (("joint", "left"), ("limit", "left"),
+                      ("required", "right"),
                       ("rating", "right"), ("unit", "left"), ("margin", "right"),
                       ("status", "left")):
         check.add_column(col, justify=just, no_wrap=True)
     for j in range(req.n):
         d = req.drives[j]
-        motor = "(no drive)" if d is None else (d.name or "(unnamed motor)")
-        first = [escape(req.joint_names[j]), f"[grey50]{escape(motor)}[/]", "", ""]
+        first = [escape(req.joint_names[j])]
         for k, c in enumerate(req.checks.values()):
             st = c.status[j]
             m = c.margin[j]
             check.add_row(
                 first[k] if k < len(first) else "", c.name, _fmt(c.required[j]),
-                _fmt(c.limit[j]), c.unit,
-                f"[{_COLOUR[st]}]{m:+.0%}[/]" if st != "unknown" else "",
+                _fmt(c.limit[j]),
+                "N" if c.unit == "N·m" and c.name.startswith("gear_")
+                and req.robot.joint_types[j] == "prismatic" else c.unit,
+                f"[{_COLOUR[st]}]{m:+.0%}[/]" if st in ("pass", "fail") else "",
                 f"[{_COLOUR[st]}]{st}[/]", end_section=k == len(req.checks) - 1)
+    console.print("drives:")
+    for j in range(req.n):
+        d = req.drives[j]
+        parts = ("no drive" if d is None else
+                 f"motor {d.name or '(unnamed)'}, gear {d.gear or '(none named)'}")
+        console.print(f"  {escape(req.joint_names[j])}: {escape(parts)}", soft_wrap=True)
     console.print(check)
     fails = [req.joint_names[j] for j in range(req.n) if req.status[j] == "fail"]
     unknown = [req.joint_names[j] for j in range(req.n) if req.status[j] == "unknown"]
     if fails:
         console.print(f"[red]over a limit:[/] {escape(', '.join(fails))}")
     if unknown:
-        console.print(f"[grey50]not fully checked (a rating or the motor's electrical data "
-                      f"unknown):[/] {escape(', '.join(unknown))}")
+        console.print(f"[yellow]not fully checked (a rating or the motor's electrical data "
+                      f"unknown; exit 1 unless --allow-unknown):[/] {escape(', '.join(unknown))}")
     if not fails and not unknown:
-        console.print("[green]every motor meets every limit[/]")
+        console.print("[green]every motor and gear meets every limit[/]")

@@ -749,6 +749,11 @@ def build_drive(spec: DriveSpec, label: str, where: str, base_dir: Path | None =
         raise InputError(label, where, str(exc)) from None
 
 
+def _nan_first(x: float) -> float:
+    """Sort key putting nan below every number (so min() keeps an unknown)."""
+    return -math.inf if math.isnan(x) else x
+
+
 def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None]:
     """The drive fields a gear chain sets (gears from the motor outwards).
 
@@ -757,7 +762,8 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None
     as 1), the output torque ratings referred to the joint (gear k's limit
     times ``prod_{m>k} i_m·η_m``, the tightest over the chain, N·m or N) and
     the input-speed limit referred to the motor shaft (gear k's limit times
-    ``i_1···i_{k-1}``, the tightest, rad/s). Ratings no gear gives are left out.
+    ``i_1···i_{k-1}``, the tightest, rad/s). A rating that any gear of the
+    chain lacks is left out (unknown).
 
     Returns:
         (fields, stiffness): the :class:`Drive` fields, and the chain's
@@ -782,12 +788,13 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None
         for m in gears[k + 1:]:
             after *= m.ratio * (m.efficiency or 1.0)
         after_i = math.prod(m.ratio for m in gears[k + 1:])
-        if g.max_continuous_torque is not None:
-            rated = min(rated, g.max_continuous_torque * after)
-        if g.max_intermittent_torque is not None:
-            peak = min(peak, g.max_intermittent_torque * after)
-        if g.max_input_speed is not None:
-            speed = min(speed, g.max_input_speed * before)
+        # a rating one gear of the chain lacks is unknown for the chain (nan)
+        rated = min(rated, math.nan if g.max_continuous_torque is None
+                    else g.max_continuous_torque * after, key=_nan_first)
+        peak = min(peak, math.nan if g.max_intermittent_torque is None
+                   else g.max_intermittent_torque * after, key=_nan_first)
+        speed = min(speed, math.nan if g.max_input_speed is None
+                    else g.max_input_speed * before, key=_nan_first)
         if compliance is not None:
             compliance = (None if g.stiffness is None or g.stiffness <= 0
                           else compliance + 1.0 / (g.stiffness * after_i**2))

@@ -19,6 +19,16 @@ of T_m (everything but the dry-friction step, see
 
     dT_m/dt = (dP_rigid/dt) / i_r + J·i_r·q⃛ + k_v·i_r·q̈
 
+Gear efficiency η (``Drive.efficiency``, 1 when unknown) acts on the load
+torque the gear passes, P_rigid: while the motor drives the load
+(P_rigid·q̇ >= 0, holding at rest included) it must supply P_rigid/(i_r·η);
+while the load drives the motor back (braking) only P_rigid·η/i_r:
+
+    T_m = P_rigid·f / i_r + J·ω̇_m + k_v·ω_m + M_f(ω_m),   f = 1/η or η
+
+(the rotor inertia and the motor's friction sit before the gear and are not
+scaled). With η = 1 this is P / i_r.
+
 The functions broadcast: ``ratio`` may be an array of shape (R, 1) against
 samples of shape (N,), giving (R, N) — this is how the ratio sweep evaluates
 every ratio in one pass.
@@ -85,25 +95,47 @@ def joint_torque(drive: Drive, ratio, tau_rigid: np.ndarray, qd: np.ndarray,
             + np.abs(r) * coulomb_direction(drive, qd))
 
 
+def efficiency_factor(drive: Drive, tau_rigid: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """The factor f on the load torque (module docstring): 1/η while the motor
+    drives the load or holds it (P_rigid·q̇ >= 0), η while the load drives it back.
+
+    Example:
+        >>> import numpy as np
+        >>> from manipcad.model.robot import Drive
+        >>> efficiency_factor(Drive(efficiency=0.8), np.array([10.0, 10.0]),
+        ...                   np.array([1.0, -1.0])).tolist()
+        [1.25, 0.8]
+    """
+    eta = float(drive.efficiency)
+    return np.where(tau_rigid * qd >= 0, 1.0 / eta, eta)
+
+
 def motor_series(drive: Drive, ratio, tau: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
-                 dtau_rigid: np.ndarray, jerk: np.ndarray) -> MotorSeries:
+                 dtau_rigid: np.ndarray, jerk: np.ndarray,
+                 tau_rigid: np.ndarray | None = None) -> MotorSeries:
     """Motor torque, speed, current and voltage of one drive (module docstring).
 
     Args:
-        drive: the drive (R, L, k_m, k_w, J, k_v are used).
+        drive: the drive (R, L, k_m, k_w, J, k_v, efficiency are used).
         ratio: i_r, rad/rad (rad/m); scalar or (R, 1).
         tau: joint torque with the drive terms at this ratio, N·m (N); (N,) or (R, N).
         qd, qdd: (N,) joint velocity and acceleration (rad/s, rad/s² or m/s, m/s²).
         dtau_rigid: (N,) d/dt of the rigid-body joint torque, N·m/s (N/s).
         jerk: (N,) d(q̈)/dt, rad/s³ (m/s³).
+        tau_rigid: (N,) rigid-body joint torque P_rigid, N·m (N): the load the
+            gear passes, scaled by the efficiency factor; None ignores the
+            efficiency (η = 1).
 
     Returns:
         :class:`MotorSeries` with the broadcast shape.
     """
     r = np.asarray(ratio, dtype=float)
+    f = 1.0 if tau_rigid is None else efficiency_factor(drive, tau_rigid, qd)
+    if tau_rigid is not None:
+        tau = tau + tau_rigid * (f - 1.0)
     torque = tau / r
     speed = r * qd
-    torque_rate = dtau_rigid / r + drive.J * r * jerk + drive.k_v * r * qdd
+    torque_rate = dtau_rigid * f / r + drive.J * r * jerk + drive.k_v * r * qdd
     current = torque / drive.k_m
     current_rate = torque_rate / drive.k_m
     voltage = drive.R * current + drive.L * current_rate + drive.k_w * speed

@@ -6,19 +6,24 @@ plus J·i_r²·q̈ + k_v·i_r²·q̇ + |i_r|·M_f·sign(q̇), exactly what the R
 Toolbox's ``rne`` returns) and refers the result to each motor
 (:mod:`manipcad.sizing.motor`):
 
-    motor torque  T_m = k_m·i = P / i_r          N·m
+    motor torque  T_m = k_m·i = P / i_r          N·m   (η = 1; see below)
     motor speed   ω_m = i_r·q̇                    rad/s
     current       i = T_m / k_m                  A
     voltage       u_a = R·i + L·di/dt + k_w·ω_m  V   (amplifier input U = u_a / k_u)
-    mechanical    p_m = P·q̇ = T_m·ω_m            W   (power into the drive's shaft)
+    mechanical    p_m = P·q̇                      W   (power into the joint, drive terms included)
     electrical    p_e = u_a·i                    W   (power the amplifier delivers)
 
-so p_e - p_m = R·i² + L·i·di/dt + (k_w - k_m)·ω_m·i: the copper loss, the
-change of magnetic energy and the rounding between catalog k_w and k_m.
-The mechanical power includes the rotor's kinetic energy and the motor and
-gear friction; both powers are negative while the motor brakes.
+With a gear efficiency η < 1 the load torque P_rigid is scaled by 1/η while
+the motor drives it and by η while it brakes (:mod:`manipcad.sizing.motor`),
+so the motor torque, the current, the voltage and the electrical power carry
+the gear loss: p_e - p_m = R·i² + L·i·di/dt + (k_w - k_m)·ω_m·i + gear
+loss: the copper loss, the change of magnetic energy, the rounding between
+catalog k_w and k_m, and the gear's friction. Both powers are negative while
+the motor brakes.
 
-Then it checks every motor against its ratings (:mod:`manipcad.sizing.limits`).
+Then it checks every motor and every gear against its ratings
+(:mod:`manipcad.sizing.limits`): the gear's output torque is P_rigid (RMS and
+peak) and its input speed the motor speed.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ import numpy as np
 
 from manipcad.fileio import json_safe
 from manipcad.model.robot import PRISMATIC, Drive, Robot
-from manipcad.sizing.limits import LIMITS, LimitCheck, check_limits, overall_status
+from manipcad.sizing.limits import ALL_LIMITS, LimitCheck, check_limits, overall_status
 from manipcad.sizing.motion import SampledMotion, sample_motion
 from manipcad.sizing.motor import motor_series
 from manipcad.sizing.stats import peak, time_mean, time_rms
@@ -41,6 +46,8 @@ FIELDS: dict[str, tuple[str, str, str]] = {
     "peak_torque": ("N·m", "N", "peak joint torque |P| (drive terms included)"),
     "rms_torque": ("N·m", "N", "RMS joint torque"),
     "peak_speed": ("rad/s", "m/s", "peak joint speed |q̇|"),
+    "peak_gear_torque": ("N·m", "N", "peak gear output torque |P_rigid|"),
+    "rms_gear_torque": ("N·m", "N", "RMS gear output torque"),
     "peak_motor_torque": ("N·m", "N·m", "peak motor torque |k_m·i| = |P/i_r|"),
     "rms_motor_torque": ("N·m", "N·m", "RMS motor torque"),
     "peak_motor_speed": ("rad/s", "rad/s", "peak motor speed |i_r·q̇|"),
@@ -85,6 +92,9 @@ class DriveRequirements:
         peak_torque: (n,) peak joint torque |P|, N·m (N).
         rms_torque: (n,) RMS joint torque, N·m (N).
         peak_speed: (n,) peak joint speed, rad/s (m/s).
+        peak_gear_torque: (n,) peak gear output torque |P_rigid| (the
+            rigid-body joint torque the gear passes), N·m (N).
+        rms_gear_torque: (n,) RMS gear output torque, N·m (N).
         peak_motor_torque: (n,) peak motor torque, N·m.
         rms_motor_torque: (n,) RMS motor torque, N·m.
         peak_motor_speed: (n,) peak motor speed, rad/s.
@@ -98,8 +108,9 @@ class DriveRequirements:
         peak_elec_power: (n,) peak |u_a·i|, W.
         mean_elec_power: (n,) mean u_a·i, W.
         checks: limit name -> :class:`~manipcad.sizing.limits.LimitCheck`
-            ("continuous", "peak", "speed", "voltage").
-        status: per joint "pass", "fail" or "unknown" over all four limits.
+            ("continuous", "peak", "speed", "voltage" for the motor;
+            "gear_continuous", "gear_peak", "gear_speed" for the gear).
+        status: per joint "pass", "fail" or "unknown" over all the limits.
     """
 
     robot: Robot
@@ -121,6 +132,8 @@ class DriveRequirements:
     peak_torque: np.ndarray
     rms_torque: np.ndarray
     peak_speed: np.ndarray
+    peak_gear_torque: np.ndarray
+    rms_gear_torque: np.ndarray
     peak_motor_torque: np.ndarray
     rms_motor_torque: np.ndarray
     peak_motor_speed: np.ndarray
@@ -191,7 +204,7 @@ class DriveRequirements:
         out: dict[str, Any] = {
             "robot": self.robot.name, "t_end": self.t_end, "dt": self.dt,
             "payload_mass": self.payload_mass, "ok": self.ok,
-            "limits": {k: v[0] for k, v in LIMITS.items()}, "joints": joints,
+            "limits": {k: v[0] for k, v in ALL_LIMITS.items()}, "joints": joints,
         }
         if series:
             out["series"] = {key: json_safe(getattr(self, key)) for key in (
@@ -220,7 +233,7 @@ def motor_side(motion: SampledMotion) -> dict[str, np.ndarray]:
         if d is None:
             continue
         s = motor_series(d, d.ratio, motion.tau[:, j], motion.qd[:, j], motion.qdd[:, j],
-                         motion.dtau_rigid[:, j], motion.jerk[:, j])
+                         motion.dtau_rigid[:, j], motion.jerk[:, j], motion.tau_rigid[:, j])
         out["motor_torque"][:, j] = s.torque
         out["motor_speed"][:, j] = s.speed
         out["current"][:, j] = s.current
@@ -272,6 +285,8 @@ def required_drive(robot: Robot, trajectory: Trajectory, *, t_end: float | None 
     summary = {
         "peak_torque": peak(motion.tau), "rms_torque": time_rms(motion.tau, t),
         "peak_speed": peak(motion.qd),
+        "peak_gear_torque": peak(motion.tau_rigid),
+        "rms_gear_torque": time_rms(motion.tau_rigid, t),
         "peak_motor_torque": peak(ms["motor_torque"]),
         "rms_motor_torque": time_rms(ms["motor_torque"], t),
         "peak_motor_speed": peak(ms["motor_speed"]),
@@ -285,6 +300,8 @@ def required_drive(robot: Robot, trajectory: Trajectory, *, t_end: float | None 
     checks = check_limits({
         "continuous": summary["rms_motor_torque"], "peak": summary["peak_motor_torque"],
         "speed": summary["peak_motor_speed"], "voltage": summary["peak_voltage"],
+        "gear_continuous": summary["rms_gear_torque"], "gear_peak": summary["peak_gear_torque"],
+        "gear_speed": summary["peak_motor_speed"],
     }, drives)
     return DriveRequirements(
         robot=motion.robot, drives=drives, t_end=motion.t_end, dt=motion.dt,

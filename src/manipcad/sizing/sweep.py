@@ -147,7 +147,7 @@ class _Evaluator:
         for k in range(0, r_abs.shape[0], step):
             r = self.sign * r_abs[k:k + step, None]
             tau = joint_torque(self.drive, r, tau_rigid, qd, qdd)
-            s = motor_series(self.drive, r, tau, qd, qdd, dtau, jerk)
+            s = motor_series(self.drive, r, tau, qd, qdd, dtau, jerk, tau_rigid)
             parts.append({
                 "rms_motor_torque": time_rms(s.torque, self.t, axis=1),
                 "peak_motor_torque": peak(s.torque, axis=1),

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import math
 import os
+import re
+import stat
 import tempfile
 from collections.abc import Callable, Collection, Mapping, Sequence
 from importlib.abc import Traversable
@@ -36,30 +38,296 @@ if TYPE_CHECKING:
 
 # --------------------------------------------------------------------------- reading
 
+#: Limits of every YAML file manipcad reads (robot, motor, gear, trajectory,
+#: regulator, requirement files): larger or deeper files are refused with an
+#: :class:`InputError` before they can take unbounded memory or time.
+MAX_FILE_BYTES = 16 * 2**20
+#: nodes (scalars, lists, mappings) of the data, counted with every alias expanded
+MAX_NODES = 200_000
+#: nesting depth of lists and mappings, counted with every alias expanded
+MAX_DEPTH = 100
 
-class UniqueKeyLoader(yaml.SafeLoader):
-    """SafeLoader that rejects duplicate mapping keys (PyYAML keeps the last silently)."""
+# One float rule for every file: YAML 1.1 floats (PyYAML's rule, which needs a
+# dot and a signed exponent) plus YAML 1.2's "1e-1", "1e5", "1.0e12", "-.5".
+_FLOAT = re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+
+    |[-+]?\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?
+    |[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+\.[0-9_]*
+    |[-+]?\.(?:inf|Inf|INF)
+    |\.(?:nan|NaN|NAN))$""", re.VERBOSE)
+_FLOAT_TAG = "tag:yaml.org,2002:float"
 
 
-def _construct_mapping(loader: UniqueKeyLoader, node: yaml.MappingNode,
-                       deep: bool = False) -> dict[Any, Any]:
-    seen: set[Any] = set()
-    for key_node, _ in node.value:
-        key = loader.construct_object(key_node, deep=deep)
-        if key in seen:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key {key!r}", key_node.start_mark)
-        seen.add(key)
-    return loader.construct_mapping(node, deep=deep)
+class _Refused(yaml.MarkedYAMLError):
+    """A YAML file refused for its content (duplicate key, size limits, aliases)."""
 
 
-UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG,
-                                _construct_mapping)
+class _Constructor(yaml.constructor.SafeConstructor):
+    """SafeConstructor (no Python objects) that refuses a key given twice in one mapping."""
+
+    def construct_mapping(self, node: Any, deep: bool = False) -> dict[Any, Any]:
+        if isinstance(node, yaml.MappingNode):
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    dup = key in seen
+                    seen.add(key)
+                except TypeError:
+                    raise _Refused("while reading a mapping", node.start_mark,
+                                   f"a key must be text or a number, got {type(key).__name__}",
+                                   key_node.start_mark) from None
+                if dup:
+                    raise _Refused(None, None, f"duplicate key {key!r}", key_node.start_mark)
+        return super().construct_mapping(node, deep=deep)
+
+
+class _Resolver(yaml.resolver.Resolver):
+    """PyYAML's resolver with the one float rule (:data:`_FLOAT`)."""
+
+    yaml_implicit_resolvers = {
+        first: [(_FLOAT_TAG, _FLOAT) if tag == _FLOAT_TAG else (tag, rx) for tag, rx in rules]
+        for first, rules in yaml.resolver.Resolver.yaml_implicit_resolvers.items()}
+    for _first in "0123456789-+.":
+        _rules = yaml_implicit_resolvers.setdefault(_first, [])
+        if not any(tag == _FLOAT_TAG for tag, _ in _rules):
+            _rules.insert(0, (_FLOAT_TAG, _FLOAT))
+    del _first, _rules
+
+
+if getattr(yaml, "__with_libyaml__", False):
+    class SafeYamlLoader(yaml.cyaml.CParser, _Constructor, _Resolver):
+        """The one YAML loader of manipcad (libyaml's parser; see :func:`parse_yaml`)."""
+
+        def __init__(self, stream: Any) -> None:
+            yaml.cyaml.CParser.__init__(self, stream)
+            _Constructor.__init__(self)
+            _Resolver.__init__(self)
+else:  # pragma: no cover - PyYAML built without libyaml
+    class SafeYamlLoader(yaml.reader.Reader, yaml.scanner.Scanner,  # type: ignore[no-redef]
+                         yaml.parser.Parser, yaml.composer.Composer, _Constructor, _Resolver):
+        """The one YAML loader of manipcad (pure Python; see :func:`parse_yaml`)."""
+
+        def __init__(self, stream: Any) -> None:
+            yaml.reader.Reader.__init__(self, stream)
+            yaml.scanner.Scanner.__init__(self)
+            yaml.parser.Parser.__init__(self)
+            yaml.composer.Composer.__init__(self)
+            _Constructor.__init__(self)
+            _Resolver.__init__(self)
+
+
+def _prescan(text: str) -> None:
+    """Refuse text of more than MAX_NODES values or nested deeper than MAX_DEPTH, as
+    written (before composing, whose recursion follows the nesting)."""
+    loader = SafeYamlLoader(text)
+    try:
+        depth = count = 0
+        while loader.check_event():
+            event = loader.get_event()
+            if isinstance(event, yaml.CollectionStartEvent):
+                depth += 1
+                if depth > MAX_DEPTH:
+                    raise _Refused(None, None, f"nested deeper than {MAX_DEPTH} levels",
+                                   event.start_mark)
+            elif not isinstance(event, yaml.NodeEvent):
+                depth -= isinstance(event, yaml.CollectionEndEvent)
+                continue
+            count += 1
+            if count > MAX_NODES:
+                raise _Refused(None, None, f"more than {MAX_NODES:,} values",
+                               event.start_mark)
+    finally:
+        loader.dispose()
+
+
+def _measure(root: yaml.Node) -> None:
+    """Refuse a node graph that expands (aliases followed) to more than MAX_NODES
+    nodes or MAX_DEPTH levels, or in which an alias refers to a node containing it.
+    Linear in the graph's size: each node is measured once."""
+    memo: dict[int, tuple[int, int]] = {}  # id -> (expanded nodes, height)
+    active: set[int] = set()
+
+    def walk(node: yaml.Node, depth: int) -> tuple[int, int]:
+        key = id(node)
+        if key in active:
+            raise _Refused(None, None, "an alias refers to the node that contains it "
+                           "(recursive data)", node.start_mark)
+        if key not in memo:
+            active.add(key)
+            if isinstance(node, yaml.SequenceNode):
+                kids = node.value
+            elif isinstance(node, yaml.MappingNode):
+                kids = [k for pair in node.value for k in pair]
+            else:
+                kids = []
+            count = height = 1
+            for kid in kids:
+                c, h = walk(kid, depth + 1)
+                count, height = count + c, max(height, h + 1)
+                if count > MAX_NODES:
+                    raise _Refused(None, None, f"more than {MAX_NODES:,} values once "
+                                   "aliases are expanded", node.start_mark)
+            active.discard(key)
+            memo[key] = count, height
+        count, height = memo[key]
+        if depth + height - 1 > MAX_DEPTH:
+            raise _Refused(None, None, f"nested deeper than {MAX_DEPTH} levels once aliases "
+                           "are expanded", node.start_mark)
+        return count, height
+
+    walk(root, 1)
+
+
+#: the name older callers use for :class:`SafeYamlLoader`
+UniqueKeyLoader = SafeYamlLoader
+
+
+def check_readable(path: str | Path | Traversable, name: str | None = None) -> None:
+    """Check that ``path`` names a regular file that may be read, else say what it is.
+
+    Args:
+        path: a path, or an :mod:`importlib.resources` entry (the catalog).
+        name: how errors name the file (default ``str(path)``).
+
+    Raises:
+        InputError: "empty file name", "no such file", "is a directory, not a file",
+            "is a FIFO (named pipe), not a file", "is a socket / device, not a file",
+            "cannot read: <reason>" (e.g. permission denied), or
+            "is N bytes, more than the limit of M bytes".
+
+    Example:
+        >>> check_readable("/")
+        Traceback (most recent call last):
+        ...
+        manipcad.errors.InputError: /: is a directory, not a file
+    """
+    label = str(path) if name is None else name
+    if isinstance(path, str) and not path.strip():
+        raise InputError(repr(path), "", "empty file name")
+    if not isinstance(path, str | Path):  # a resource entry
+        if not path.is_file():
+            raise InputError(label, "", "is a directory, not a file" if path.is_dir()
+                             else "no such file")
+        return
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise InputError(label, "", "no such file") from None
+    except NotADirectoryError:
+        raise InputError(label, "", "no such file (a part of the path is not a folder)") from None
+    except OSError as exc:
+        raise InputError(label, "", f"cannot read: {exc.strerror or exc}") from None
+    mode = st.st_mode
+    for test, what in ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device")):
+        if test(mode):
+            raise InputError(label, "", f"is {what}, not a file")
+    if st.st_size > MAX_FILE_BYTES:
+        raise InputError(label, "", f"is {st.st_size:,} bytes, more than the limit of "
+                         f"{MAX_FILE_BYTES:,} bytes")
+
+
+def read_text(path: str | Path | Traversable, name: str | None = None) -> str:
+    """The UTF-8 text of a file; every failure is an :class:`InputError` naming it.
+
+    Checks the file first (:func:`check_readable`: not a directory, FIFO or
+    device, at most :data:`MAX_FILE_BYTES`), then reads it.
+
+    Raises:
+        InputError: as :func:`check_readable`, or "not a UTF-8 text file (...)".
+    """
+    label = str(path) if name is None else name
+    check_readable(path, label)
+    if isinstance(path, str):
+        path = Path(path)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError(label, "", "no such file") from None
+    except OSError as exc:
+        raise InputError(label, "", f"cannot read: {exc.strerror or exc}") from None
+    if len(data) > MAX_FILE_BYTES:  # grew since the check
+        raise InputError(label, "", f"more than the limit of {MAX_FILE_BYTES:,} bytes")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(label, "", f"not a UTF-8 text file ({exc.reason})") from None
+
+
+def parse_yaml(text: str, name: str, what: str | None = None) -> Any:
+    """Parse YAML text with :class:`SafeYamlLoader`; every failure is an :class:`InputError`.
+
+    Args:
+        text: the YAML text.
+        name: how errors name its source (a file path, or e.g. ``"<string>"``).
+        what: what the data should be, for the error on empty data (see :func:`read_yaml`).
+
+    Returns:
+        The parsed data (dict, list, str, int, float, bool, None...).
+
+    Raises:
+        InputError: "YAML syntax error at line L, column C: <problem>", or
+            "refused at line L, column C: <reason>" for a duplicate key, data
+            too large or too deep, a recursive alias; "bad value at line L...:
+            <reason>" for a value YAML cannot build (a date like 2020-02-30, an
+            integer of more than 4300 digits); "empty file; expected <what>".
+
+    Example:
+        >>> parse_yaml("dt: 1e-4\\ngains: [1.0e3, .5]", "<string>")
+        {'dt': 0.0001, 'gains': [1000.0, 0.5]}
+        >>> parse_yaml("a: 1\\na: 2", "<string>")
+        Traceback (most recent call last):
+        ...
+        manipcad.errors.InputError: <string>: refused at line 2, column 1: duplicate key 'a'
+    """
+    if len(text) > MAX_FILE_BYTES:
+        raise InputError(name, "", f"more than the limit of {MAX_FILE_BYTES:,} characters")
+    try:
+        _prescan(text)
+        loader = SafeYamlLoader(text)
+        try:
+            node = loader.get_single_node()
+            if node is not None:
+                _measure(node)
+            data = None if node is None else loader.construct_document(node)
+        finally:
+            loader.dispose()
+    except _Refused as exc:
+        raise InputError(name, "", f"refused{_where(exc)}: {exc.problem}") from None
+    except yaml.reader.ReaderError as exc:
+        raise InputError(name, "", f"not YAML text: character #x{exc.character:04x} at "
+                         f"position {exc.position} is not allowed") from None
+    except yaml.YAMLError as exc:
+        problem = getattr(exc, "problem", None) or str(exc)
+        if getattr(exc, "context", None):
+            problem = f"{exc.context}: {problem}"
+        raise InputError(name, "", f"YAML syntax error{_where(exc)}: {problem}") from None
+    except (ValueError, OverflowError, TypeError) as exc:
+        # a value YAML's own constructors fail on (dates, huge integers, base64)
+        raise InputError(name, "", f"bad value: {exc}") from None
+    except RecursionError:
+        raise InputError(name, "", f"refused: nested too deeply (limit {MAX_DEPTH})") from None
+    if data is None and what is not None:
+        raise InputError(name, "", f"empty file; expected {what}")
+    return data
+
+
+def _where(exc: yaml.YAMLError) -> str:
+    mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
+    return f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
 
 
 def read_yaml(path: str | Path | Traversable, what: str | None = None, *,
               label: str | None = None, unique_keys: bool = True) -> Any:
     """Read and parse a YAML file; every failure is an :class:`InputError` naming the file.
+
+    The one reader of every YAML file kind (robot, motor, gear, trajectory,
+    regulator, requirement files): :func:`read_text` then :func:`parse_yaml`
+    (duplicate keys refused, node count, depth and size limited, one float rule).
 
     Args:
         path: the file: a path, or an :mod:`importlib.resources` entry (the catalog).
@@ -67,47 +335,23 @@ def read_yaml(path: str | Path | Traversable, what: str | None = None, *,
             holding only ``null``): ``"a mapping with a 'type'"`` gives "empty
             file; expected a mapping with a 'type'". None: such a file gives None.
         label: how errors name the file (default ``str(path)``).
-        unique_keys: reject a key given twice in one mapping, at its line
-            ("duplicate key 'name'"); False keeps PyYAML's default (the last wins).
+        unique_keys: kept for older callers and ignored: a duplicate key is
+            refused in every file.
 
     Returns:
         The parsed data (a dict, list, str, number... as written).
 
     Raises:
-        InputError: no such file, not a file, not UTF-8 text, cannot be read,
-            "YAML syntax error at line L, column C: <problem>", duplicate key,
-            empty file (when ``what`` is given).
+        InputError: as :func:`read_text` and :func:`parse_yaml`.
 
     Example:
         >>> data = read_yaml("examples/fig3_laws.yaml", "a mapping with a 'type'")  # doctest: +SKIP
         >>> data["type"]  # doctest: +SKIP
         'cosine'
     """
+    del unique_keys
     name = label or str(path)
-    if isinstance(path, str):
-        path = Path(path)
-    if not path.is_file():
-        present = path.exists() if isinstance(path, Path) else path.is_dir()
-        raise InputError(name, "", "not a file" if present else "no such file")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(name, "", "no such file") from None
-    except UnicodeDecodeError as exc:
-        raise InputError(name, "", f"not a UTF-8 text file ({exc.reason})") from None
-    except OSError as exc:
-        raise InputError(name, "", f"cannot read: {exc.strerror or exc}") from None
-    loader = UniqueKeyLoader if unique_keys else yaml.SafeLoader
-    try:
-        data = yaml.load(text, Loader=loader)  # noqa: S506 (SafeLoader or a subclass)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or getattr(exc, "context", None) or str(exc)
-        raise InputError(name, "", f"YAML syntax error{where}: {problem}") from None
-    if data is None and what is not None:
-        raise InputError(name, "", f"empty file; expected {what}")
-    return data
+    return parse_yaml(read_text(path, name), name, what)
 
 
 # --------------------------------------------------------------------------- pydantic
@@ -307,6 +551,7 @@ def json_safe(x: Any) -> Any:
 
 
 __all__ = [
-    "read_yaml", "UniqueKeyLoader", "field_path", "describe_error", "validation_error",
+    "read_yaml", "read_text", "parse_yaml", "check_readable", "SafeYamlLoader",
+    "UniqueKeyLoader", "MAX_FILE_BYTES", "MAX_NODES", "MAX_DEPTH", "field_path", "describe_error", "validation_error",
     "writable_target", "atomic_write", "atomic_write_text", "atomic_write_bytes", "json_safe",
 ]

@@ -259,7 +259,7 @@ def load_trajectory(path: str | Path, *, robot: Robot | None = None) -> Trajecto
         >>> traj.n, traj.duration  # doctest: +SKIP
         (3, 1.6)
     """
-    data = read_yaml(path, "a mapping with a 'type'", unique_keys=False)
+    data = read_yaml(path, "a mapping with a 'type'")
     return trajectory_from_dict(data, str(path), robot=robot, base_dir=Path(path).parent)
 
 

@@ -8,7 +8,17 @@ class ManipcadError(ValueError):
 
 
 class ModelError(ManipcadError):
-    """A robot description that is not physical or not consistent."""
+    """A robot description that is not physical or not consistent.
+
+    Args:
+        message: what is wrong, in words.
+        field: the offending field when one is known (e.g. ``"R"`` of a drive),
+            so that a file loader can name it as ``joints[1].drive.R``; "" if none.
+    """
+
+    def __init__(self, message: str = "", field: str = "") -> None:
+        self.field = field
+        super().__init__(message)
 
 
 class InputError(ManipcadError):

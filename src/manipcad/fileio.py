@@ -147,10 +147,10 @@ def _measure(root: yaml.Node) -> None:
     """Refuse a node graph that expands (aliases followed) to more than MAX_NODES
     nodes or MAX_DEPTH levels, or in which an alias refers to a node containing it.
     Linear in the graph's size: each node is measured once."""
-    memo: dict[int, tuple[int, int]] = {}  # id -> (expanded nodes, height)
+    memo: dict[int, tuple[int, int]] = {}  # id -> (expanded nodes, nested collections)
     active: set[int] = set()
 
-    def walk(node: yaml.Node, depth: int) -> tuple[int, int]:
+    def walk(node: yaml.Node, above: int) -> tuple[int, int]:
         key = id(node)
         if key in active:
             raise _Refused(None, None, "an alias refers to the node that contains it "
@@ -163,9 +163,9 @@ def _measure(root: yaml.Node) -> None:
                 kids = [k for pair in node.value for k in pair]
             else:
                 kids = []
-            count = height = 1
+            count, height = 1, int(not isinstance(node, yaml.ScalarNode))
             for kid in kids:
-                c, h = walk(kid, depth + 1)
+                c, h = walk(kid, above + 1)
                 count, height = count + c, max(height, h + 1)
                 if count > MAX_NODES:
                     raise _Refused(None, None, f"more than {MAX_NODES:,} values once "
@@ -173,12 +173,12 @@ def _measure(root: yaml.Node) -> None:
             active.discard(key)
             memo[key] = count, height
         count, height = memo[key]
-        if depth + height - 1 > MAX_DEPTH:
+        if above + height > MAX_DEPTH:
             raise _Refused(None, None, f"nested deeper than {MAX_DEPTH} levels once aliases "
                            "are expanded", node.start_mark)
         return count, height
 
-    walk(root, 1)
+    walk(root, 0)
 
 
 #: the name older callers use for :class:`SafeYamlLoader`
@@ -231,14 +231,14 @@ def check_readable(path: str | Path | Traversable, name: str | None = None) -> N
                          f"{MAX_FILE_BYTES:,} bytes")
 
 
-def read_text(path: str | Path | Traversable, name: str | None = None) -> str:
-    """The UTF-8 text of a file; every failure is an :class:`InputError` naming it.
+def read_bytes(path: str | Path | Traversable, name: str | None = None) -> bytes:
+    """The bytes of a file; every failure is an :class:`InputError` naming it.
 
     Checks the file first (:func:`check_readable`: not a directory, FIFO or
-    device, at most :data:`MAX_FILE_BYTES`), then reads it.
+    device, which would block or fail, and at most :data:`MAX_FILE_BYTES`).
 
     Raises:
-        InputError: as :func:`check_readable`, or "not a UTF-8 text file (...)".
+        InputError: as :func:`check_readable`, or "cannot read: <reason>".
     """
     label = str(path) if name is None else name
     check_readable(path, label)
@@ -252,10 +252,24 @@ def read_text(path: str | Path | Traversable, name: str | None = None) -> str:
         raise InputError(label, "", f"cannot read: {exc.strerror or exc}") from None
     if len(data) > MAX_FILE_BYTES:  # grew since the check
         raise InputError(label, "", f"more than the limit of {MAX_FILE_BYTES:,} bytes")
+    return data
+
+
+def read_text(path: str | Path | Traversable, name: str | None = None, *,
+              encoding: str = "utf-8") -> str:
+    """The text of a file (UTF-8; ``"utf-8-sig"`` drops a byte-order mark), read by
+    :func:`read_bytes`; every failure is an :class:`InputError` naming the file.
+
+    Raises:
+        InputError: as :func:`read_bytes`, or "not a UTF-8 text file (<reason> at byte N)".
+    """
+    label = str(path) if name is None else name
+    data = read_bytes(path, label)
     try:
-        return data.decode("utf-8")
+        return data.decode(encoding)
     except UnicodeDecodeError as exc:
-        raise InputError(label, "", f"not a UTF-8 text file ({exc.reason})") from None
+        raise InputError(label, "", f"not a UTF-8 text file ({exc.reason} at byte "
+                         f"{exc.start})") from None
 
 
 def parse_yaml(text: str, name: str, what: str | None = None) -> Any:
@@ -551,7 +565,8 @@ def json_safe(x: Any) -> Any:
 
 
 __all__ = [
-    "read_yaml", "read_text", "parse_yaml", "check_readable", "SafeYamlLoader",
-    "UniqueKeyLoader", "MAX_FILE_BYTES", "MAX_NODES", "MAX_DEPTH", "field_path", "describe_error", "validation_error",
+    "read_yaml", "read_text", "read_bytes", "parse_yaml", "check_readable", "SafeYamlLoader",
+    "UniqueKeyLoader", "MAX_FILE_BYTES", "MAX_NODES", "MAX_DEPTH", "field_path",
+    "describe_error", "validation_error",
     "writable_target", "atomic_write", "atomic_write_text", "atomic_write_bytes", "json_safe",
 ]

@@ -47,6 +47,7 @@ import numpy as np
 
 from manipcad.dynamics.api import inverse_dynamics
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.fileio import read_text
 from manipcad.model.robot import REVOLUTE, Robot
 
 SOURCE = "identify_payload"
@@ -345,14 +346,7 @@ def load_torque_data(path: str | Path, robot: Robot) -> TorqueData:
             number of fields, a value that is not a finite number, no data).
     """
     src = str(path)
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(src, "", "no such file" if not p.exists() else "not a file")
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise InputError(src, "", f"not a UTF-8 text file ({exc.reason} at byte "
-                         f"{exc.start})") from None
+    text = read_text(path, src, encoding="utf-8-sig")
     accepted = column_names(robot)
     header: list[str] | None = None
     cols: list[tuple[str, int] | None] = []

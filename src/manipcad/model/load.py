@@ -6,6 +6,7 @@ from importlib import resources
 from pathlib import Path
 
 from manipcad.errors import InputError
+from manipcad.fileio import check_readable
 from manipcad.model.robot import Robot
 
 CATALOG = resources.files("manipcad.model") / "catalog"
@@ -42,10 +43,11 @@ def load_robot(source: str | Path | Robot) -> Robot:
     if isinstance(source, Robot):
         return source
     text = str(source)
+    if not text.strip():
+        check_readable(text)  # "empty file name"
     path = Path(text)
     if path.suffix.lower() in (".yaml", ".yml", ".urdf") or path.exists():
-        if not path.is_file():
-            raise InputError(text, "", "no such file")
+        check_readable(text)
         return _load_path(path)
     for ext in (".yaml", ".urdf"):
         entry = CATALOG / "robots" / f"{text}{ext}"

@@ -125,12 +125,7 @@ class Drive:
             raise ModelError("drive M_f must be one value or a [positive, negative] pair")
         # the negative-motion value may be given signed, as Corke's Tc-
         object.__setattr__(self, "M_f", (abs(float(mf[0])), abs(float(mf[1]))))
-        for name in ("J", "k_v", "R", "L", "k_m", "k_w", "u_max"):
-            v = float(getattr(self, name))
-            if v < 0:
-                raise ModelError(f"drive {name} must be >= 0, got {v}")
-        if self.ratio == 0:
-            raise ModelError("drive ratio must be non-zero")
+        _check_drive_values(self)
         if not (float(self.stiffness) > 0):
             raise ModelError(f"drive stiffness must be > 0 N·m/rad (inf: rigid), "
                              f"got {self.stiffness}")
@@ -157,6 +152,37 @@ class Drive:
     def replace(self, **changes) -> Drive:
         """A copy with some fields changed."""
         return dataclasses.replace(self, **changes)
+
+
+def _check_drive_values(d: Drive) -> None:
+    """Every drive value finite and physical (nan only for "unknown", inf only for
+    "no limit"); a :class:`ModelError` naming the field otherwise."""
+
+    def fail(name: str, rule: str, v: object) -> ModelError:
+        return ModelError(f"drive {name} must be {rule}, got {v}", field=name)
+
+    for name in ("J", "k_v", "k_u"):
+        v = float(getattr(d, name))
+        if not (math.isfinite(v) and v >= 0):
+            raise fail(name, "finite and >= 0", v)
+    if not (math.isfinite(float(d.ratio)) and d.ratio != 0):
+        raise fail("ratio", "finite and non-zero", d.ratio)
+    if not all(math.isfinite(x) for x in d.M_f):
+        raise fail("M_f", "finite (N·m)", d.M_f)
+    # the electrical data: nan = unknown (no simulation), else finite; R > 0
+    for name in ("L", "k_m", "k_w"):
+        v = float(getattr(d, name))
+        if not (math.isnan(v) or (math.isfinite(v) and v >= 0)):
+            raise fail(name, "finite and >= 0 (nan: unknown)", v)
+    if not (math.isnan(float(d.R)) or (math.isfinite(float(d.R)) and d.R > 0)):
+        raise fail("R", "> 0 Ω and finite (nan: unknown)", d.R)
+    if not float(d.u_max) > 0:
+        raise fail("u_max", "> 0 V (inf: no limit)", d.u_max)
+    for name in ("rated_torque", "peak_torque", "max_speed", "rated_voltage", "rated_current",
+                 "gear_rated_torque", "gear_peak_torque", "gear_max_input_speed"):
+        v = float(getattr(d, name))
+        if not (math.isnan(v) or (math.isfinite(v) and v >= 0)):
+            raise fail(name, "finite and >= 0 (nan: unknown)", v)
 
 
 @dataclass(frozen=True)
@@ -295,6 +321,7 @@ class Robot:
             if (np.shape(R) != (3, 3) or np.shape(p) != (3,)
                     or not np.allclose(R @ R.T, np.eye(3), atol=1e-9)):
                 raise ModelError(f"frame {name!r}: not a rotation (3, 3) and origin (3,)")
+        _check_finite(self)
         for i in range(n):
             where = f"link of joint {self.joint_names[i]!r}"
             if not np.isfinite(self.mass[i]) or self.mass[i] < 0:
@@ -438,8 +465,17 @@ class Robot:
         m_p = float(mass)
         if not np.isfinite(m_p) or m_p < 0:
             raise ModelError(f"payload mass must be >= 0 kg, got {mass}")
-        c_p = R_l @ np.asarray(com, dtype=float).reshape(3) + p_l
+        c_p = np.asarray(com, dtype=float).reshape(3)
+        if not np.isfinite(c_p).all():
+            raise ModelError(f"payload com must be finite (m), got {c_p}", field="com")
+        c_p = R_l @ c_p + p_l
         I_p = np.zeros((3, 3)) if inertia is None else np.asarray(inertia, float).reshape(3, 3)
+        if not np.isfinite(I_p).all() or not np.allclose(I_p, I_p.T):
+            raise ModelError("payload inertia must be a finite symmetric (3, 3) tensor, "
+                             "kg·m²", field="inertia")
+        if np.linalg.eigvalsh(I_p).min() < -1e-12 * max(1.0, np.abs(I_p).max()):
+            raise ModelError("payload inertia must be positive semi-definite, principal "
+                             f"moments {np.linalg.eigvalsh(I_p)} kg·m²", field="inertia")
         I_p = R_l @ I_p @ R_l.T
         m, c, Ic = combine_bodies(self.mass[i], self.com[i], self.inertia[i], m_p, c_p, I_p)
         mass_new, com_new, in_new = self.mass.copy(), self.com.copy(), self.inertia.copy()
@@ -474,6 +510,29 @@ class Robot:
     def __repr__(self) -> str:
         kinds = "".join("R" if t == REVOLUTE else "P" for t in self.joint_types)
         return f"Robot({self.name!r}, n={self.n}, joints={kinds})"
+
+
+def _check_finite(robot: Robot) -> None:
+    """Every model number finite (limits may be ±inf, never nan, lower <= upper)."""
+    arrays = {"placement_R": robot.placement_R, "placement_p": robot.placement_p,
+              "offset": robot.offset, "mass": robot.mass, "com": robot.com,
+              "inertia": robot.inertia}
+    for key, a in arrays.items():
+        bad = np.argwhere(~np.isfinite(a.reshape(robot.n, -1)))
+        if len(bad):
+            i = int(bad[0][0])
+            raise ModelError(f"joint {robot.joint_names[i]!r}: {key} must be finite, got "
+                             f"{a[i].tolist()}", field=key)
+    for key in ("gravity", "tool_R", "tool_p"):
+        a = np.asarray(getattr(robot, key))
+        if not np.isfinite(a).all():
+            raise ModelError(f"{key} must be finite, got {a.tolist()}", field=key)
+    lim = robot.limits
+    bad = np.argwhere(np.isnan(lim) | (lim[:, :1] > lim[:, 1:]))
+    if len(bad):
+        i = int(bad[0][0])
+        raise ModelError(f"joint {robot.joint_names[i]!r}: limits must be lower <= upper "
+                         f"(±inf: none, never nan), got {lim[i].tolist()}", field="limits")
 
 
 def combine_bodies(m1: float, c1: np.ndarray, I1: np.ndarray,

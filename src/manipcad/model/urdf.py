@@ -14,7 +14,9 @@ Only the standard library's XML parser is used. What is read:
   (rad or m). Continuous joints are revolute joints without limits (±inf); a
   missing ``lower`` or ``upper`` attribute means no limit on that side (the URDF
   specification's default of 0 would freeze the joint). ``<mimic>`` is read
-  as an independent joint, as Pinocchio does by default; ``<dynamics>``,
+  as an independent joint, as Pinocchio does by default, with a loud
+  :class:`~manipcad.errors.ManipcadWarning` naming both joints (the coupling is
+  not modelled; lock the joint to remove it); ``<dynamics>``,
   ``<calibration>`` and ``<safety_controller>`` are ignored, so the robot has
   no drives. Floating and planar joints are not supported.
 
@@ -70,6 +72,7 @@ from pathlib import Path
 import numpy as np
 
 from manipcad.errors import InputError, ManipcadWarning, ModelError
+from manipcad.fileio import read_bytes
 from manipcad.model.robot import PRISMATIC, REVOLUTE, Robot, combine_bodies
 
 MOVABLE = {"revolute": REVOLUTE, "continuous": REVOLUTE, "prismatic": PRISMATIC}
@@ -105,10 +108,7 @@ def load_urdf(path: str | Path, lock: dict[str, float] | None = None) -> Robot:
     """
     path = Path(path)
     source = str(path)
-    try:
-        text = path.read_bytes()
-    except OSError as exc:
-        raise InputError(source, "", f"cannot read file ({exc.strerror or exc})") from None
+    text = read_bytes(path, source)
     return _build(_parse_xml(text, source), source, default_name=path.stem, lock=lock)
 
 
@@ -122,6 +122,18 @@ def robot_from_urdf_string(text: str | bytes, source: str = "<string>",
         lock: joint name -> fixed value, rad or m (see :func:`load_urdf`).
     """
     return _build(_parse_xml(text, source), source, default_name="robot", lock=lock)
+
+
+def _warn_mimic(source: str, joint: str, mimic: ET.Element) -> None:
+    """Warn that a ``<mimic>`` joint is loaded as an independent joint (no coupling)."""
+    leader = mimic.get("joint", "?")
+    factor, offset = mimic.get("multiplier", "1"), mimic.get("offset", "0")
+    warnings.warn(
+        f"{source}: joint {joint!r} mimics {leader!r} (q = {factor}·q_{leader} + {offset}) "
+        "but manipcad loads it as an INDEPENDENT joint: the coupling is not modelled, so "
+        "torques, dynamics and simulations treat it as a free degree of freedom; lock it "
+        f"(load_urdf(..., lock={{{joint!r}: value}})) or drive it to follow {leader!r}",
+        ManipcadWarning, stacklevel=4)
 
 
 def _locked_origin(j: _Joint, value: float) -> tuple[np.ndarray, np.ndarray]:
@@ -370,6 +382,9 @@ def _build(root: ET.Element, source: str, default_name: str,
                                  f"the joint's limits [{lo:g}, {hi:g}], got {value}")
             j.R, j.p = _locked_origin(j, value)
             j.kind = "fixed"
+        mimic = el.find("mimic")
+        if mimic is not None and j.kind in MOVABLE:
+            _warn_mimic(source, j.name, mimic)
         joints.append(j)
 
     if lock:

@@ -100,6 +100,10 @@ _BINOPS: dict[type, Callable[[float, float], float]] = {
 _UNARY: dict[type, Callable[[float], float]] = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 
 
+#: the longest numeric expression a file may hold, characters
+MAX_EXPRESSION = 200
+
+
 def evaluate(text: str) -> float:
     """Evaluate a numeric field written as text: a number or an arithmetic
     expression over numbers and :data:`CONSTANTS` with ``+ - * / **`` and
@@ -108,8 +112,11 @@ def evaluate(text: str) -> float:
                f"{', '.join(CONSTANTS)} are allowed")
 
     def fail(detail: str) -> ValueError:
-        return ValueError(f"expected a number, got {text!r}: {detail}")
+        shown = text if len(text) <= 60 else f"{text[:40]}...({len(text)} characters)"
+        return ValueError(f"expected a number, got {shown!r}: {detail}")
 
+    if len(text) > MAX_EXPRESSION:  # bounds the parser's and ev's recursion and time
+        raise fail(f"expression too long ({len(text)} characters; at most {MAX_EXPRESSION})")
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError:
@@ -146,7 +153,11 @@ def _to_float(v: Any) -> float:
     if isinstance(v, bool) or v is None:
         raise ValueError(f"expected a number, got {v!r}")
     if isinstance(v, int | float):
-        x = float(v)
+        try:
+            x = float(v)
+        except OverflowError:  # an integer of hundreds of digits
+            raise ValueError(f"expected a number, got an integer too large for a float "
+                             f"({len(str(v))} digits)") from None
     elif isinstance(v, str):
         x = evaluate(v)
     else:
@@ -644,8 +655,17 @@ def build_robot(spec: RobotSpec, label: str, base_dir: Path | None = None) -> Ro
                 raise InputError(label, f"{where}.limits",
                                  f"lower limit {lo} is above upper limit {hi}")
             limits[i] = lo, hi
-        drives.append(None if j.drive is None
-                      else build_drive(j.drive, label, f"{where}.drive", base_dir))
+        for key in ("a", "alpha", "d", "theta"):
+            if not math.isfinite(getattr(row, key)):
+                raise InputError(label, f"{where}.dh.{key}", f"must be finite, got "
+                                 f"{getattr(row, key)} (joint {j.name!r})")
+        try:
+            drives.append(None if j.drive is None
+                          else build_drive(j.drive, label, f"{where}.drive", base_dir))
+        except InputError as exc:
+            if exc.source != label or "(joint " in exc.reason:
+                raise
+            raise InputError(label, exc.field, f"{exc.reason} (joint {j.name!r})") from None
 
     tool_R, tool_p = np.eye(3), np.zeros(3)
     if spec.tool is not None:
@@ -662,7 +682,9 @@ def build_robot(spec: RobotSpec, label: str, base_dir: Path | None = None) -> Ro
             source=spec.source.strip(),
         )
     except ModelError as exc:
-        raise InputError(label, "", str(exc)) from None
+        field = "tool" if exc.field.startswith("tool") else (
+            exc.field if exc.field == "gravity" else "")
+        raise InputError(label, field, str(exc)) from None
 
 
 def _check_link(link: LinkSpec, label: str, where: str) -> tuple[float, np.ndarray, np.ndarray]:
@@ -746,7 +768,8 @@ def build_drive(spec: DriveSpec, label: str, where: str, base_dir: Path | None =
     try:
         return Drive(name=motor_name, gear=gear_name, **fields)
     except ModelError as exc:
-        raise InputError(label, where, str(exc)) from None
+        raise InputError(label, f"{where}.{exc.field}" if exc.field else where,
+                         str(exc)) from None
 
 
 def _nan_first(x: float) -> float:

@@ -1,0 +1,251 @@
+"""Issue 15 reproducers: each bad input must give the project's own error (or a
+correct result), never a traceback, a silent wrong answer or a runaway resource.
+
+Grouped by the issue's classes: reading files, values, API inputs, the CLI's
+guard, saves. Each case failed before its fix (run against the tree before
+issue 15 to see them fail).
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.fileio import MAX_DEPTH, MAX_NODES, parse_yaml, read_yaml
+from manipcad.model.load import load_robot
+from manipcad.trajectories import load_trajectory
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+TWO_LINK = (EXAMPLES / "two_link.yaml").read_text()
+
+
+def laughs(levels: int = 9) -> str:
+    """The 'billion laughs' alias bomb: 9**levels values from a few lines."""
+    out = ["l0: &l0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]"]
+    for k in range(1, levels):
+        out.append(f"l{k}: &l{k} [" + ", ".join([f"*l{k - 1}"] * 9) + "]")
+    return "\n".join(out) + "\n"
+
+
+def write(tmp_path: Path, text: str, name: str = "f.yaml") -> Path:
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+# --------------------------------------------------------------------------- reading files
+
+BOMBS = {
+    "laughs": laughs(),
+    "laughs_as_gain": "type: pid\nkp: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n"
+                      + "".join(f"k{i}: &{chr(98 + i)} [" + ", ".join(
+                          [f"*{chr(97 + i)}"] * 10) + "]\n" for i in range(7)),
+    "deep_flow": "name: x\njoints: " + "[" * 20000 + "]" * 20000 + "\n",
+    "deep_block": "name: x\n" + "".join(" " * i + f"k{i}:\n" for i in range(5000)) + " " * 5000
+                  + "v: 1\n",
+    "recursive_alias": "name: &a [x, *a]\n",
+    "deep_by_alias": "a: &a " + "[" * 60 + "1" + "]" * 60 + "\nb: " + "[" * 60 + "*a"
+                     + "]" * 60 + "\n",
+}
+
+
+@pytest.mark.parametrize("kind", BOMBS)
+@pytest.mark.parametrize("loader", ["robot", "trajectory", "yaml"])
+def test_yaml_bombs_refused(tmp_path, kind, loader):
+    p = write(tmp_path, BOMBS[kind])
+    load = {"robot": load_robot, "trajectory": load_trajectory, "yaml": read_yaml}[loader]
+    with pytest.raises(InputError, match=r"refused .*(values|deeper|recursive)") as err:
+        load(str(p))
+    assert err.value.source == str(p)
+
+
+def test_limits_are_generous_enough_for_real_files():
+    assert parse_yaml("a: " + "[" * (MAX_DEPTH - 1) + "1" + "]" * (MAX_DEPTH - 1), "x")
+    rows = (MAX_NODES - 10) // 7
+    text = "points:\n" + "".join("- [0, 1, 2, 3, 4, 5]\n" for _ in range(rows))
+    assert len(parse_yaml(text, "x")["points"]) == rows
+
+
+@pytest.mark.parametrize("expr", ["1+" * 50000 + "1", "-" * 100000 + "1",
+                                  "(" * 5000 + "1" + ")" * 5000],
+                         ids=["50k_terms", "100k_minus", "5k_parens"])
+def test_huge_expression_refused(tmp_path, expr):
+    text = TWO_LINK.replace("mass: 0.8", f"mass: '{expr}'")
+    with pytest.raises(InputError, match="joints\\[1\\].link.mass.*(too long|characters)"):
+        load_robot(str(write(tmp_path, text)))
+
+
+def test_duplicate_key_refused_in_trajectory(tmp_path):
+    p = write(tmp_path, "type: cosine\namplitude: [0.5]\nomega: [4.0]\namplitude: [9.0]\n")
+    with pytest.raises(InputError, match="line 4.*duplicate key 'amplitude'"):
+        load_trajectory(p)
+
+
+def test_duplicate_key_refused_in_every_reader(tmp_path):
+    # read_yaml's old unique_keys=False (regulator and requirement files) is ignored
+    p = write(tmp_path, "type: pid\nkp: 1\nkp: 2\n")
+    with pytest.raises(InputError, match="duplicate key 'kp'"):
+        read_yaml(p, unique_keys=False)
+
+
+@pytest.mark.parametrize("text,value", [("1e-1", 0.1), ("1.0e12", 1e12), ("2.5E+3", 2500.0),
+                                        ("1e5", 1e5), ("-.5", -0.5), ("0.5", 0.5)])
+def test_one_float_rule(tmp_path, text, value):
+    p = write(tmp_path, f"type: quintic\nq_start: [0]\nq_end: [{text}]\nduration: 2\n")
+    assert load_trajectory(p).q_end[0] == value
+    robot = TWO_LINK.replace("mass: 0.8", f"mass: {text.lstrip('-')}")
+    assert load_robot(str(write(tmp_path, robot, "r.yaml"))).mass[1] == abs(value)
+
+
+def test_directory_fifo_empty_name(tmp_path):
+    d = tmp_path / "d.yaml"
+    d.mkdir()
+    for load in (load_robot, load_trajectory, read_yaml):
+        with pytest.raises(InputError, match="is a directory"):
+            load(str(d))
+    with pytest.raises(InputError, match="empty file name"):
+        load_robot("")
+    with pytest.raises(InputError, match="empty file name"):
+        load_trajectory("")
+    fifo = tmp_path / "pipe.yaml"
+    os.mkfifo(fifo)
+    for load in (load_robot, load_trajectory, read_yaml):
+        with pytest.raises(InputError, match="is a FIFO"):
+            load(str(fifo))
+
+
+def test_urdf_directory_and_fifo(tmp_path):
+    d = tmp_path / "d.urdf"
+    d.mkdir()
+    with pytest.raises(InputError, match="is a directory"):
+        load_robot(str(d))
+    fifo = tmp_path / "p.urdf"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match="is a FIFO"):
+        load_robot(str(fifo))
+
+
+@pytest.mark.parametrize("text,match", [
+    ("d: 2020-02-30\n", "bad value"),              # ValueError from the date constructor
+    ("x: " + "1" * 5000 + "\n", "bad value"),     # int of more than 4300 digits
+    ("? [a, b]\n: 1\n", "key must be text"),      # unhashable key: TypeError
+    ("a: 1\n---\nb: 2\n", "single document"),
+], ids=["bad_date", "huge_int", "list_key", "two_documents"])
+def test_yaml_constructor_errors(tmp_path, text, match):
+    with pytest.raises(InputError, match=match):
+        read_yaml(write(tmp_path, text))
+
+
+def test_csv_directory_fifo(tmp_path):
+    from manipcad.dynamics.identification import load_torque_data
+
+    robot = load_robot("puma560")
+    fifo = tmp_path / "t.csv"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match="is a FIFO"):
+        load_torque_data(fifo, robot)
+
+
+def test_urdf_mimic_warns(tmp_path):
+    from manipcad.model.urdf import robot_from_urdf_string
+
+    text = """<robot name="g"><link name="base"/><link name="f1"/><link name="f2"/>
+    <joint name="j1" type="prismatic"><parent link="base"/><child link="f1"/>
+      <limit lower="0" upper="0.04"/></joint>
+    <joint name="j2" type="prismatic"><parent link="base"/><child link="f2"/>
+      <limit lower="0" upper="0.04"/><mimic joint="j1" multiplier="1" offset="0"/></joint>
+    </robot>"""
+    with pytest.warns(ManipcadWarning, match="'j2' mimics 'j1'.*INDEPENDENT"):
+        r = robot_from_urdf_string(text)
+    assert r.n == 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert robot_from_urdf_string(text, lock={"j2": 0.0}).n == 1
+
+
+# --------------------------------------------------------------------------- values
+
+def _puma_arrays():
+    r = load_robot("puma560")
+    return r, dict(name="p", joint_types=r.joint_types, parent=r.parent,
+                   placement_R=r.placement_R, placement_p=r.placement_p, mass=r.mass,
+                   com=r.com, inertia=r.inertia)
+
+
+@pytest.mark.parametrize("field,index,value,match", [
+    ("com", (2, 0), np.nan, "com.*finite"),
+    ("placement_p", (1, 2), np.inf, "placement.*finite"),
+    ("inertia", (3, 0, 0), np.nan, "inertia.*finite"),
+    ("mass", (0,), np.inf, "mass"),
+])
+def test_from_arrays_refuses_non_finite(field, index, value, match):
+    from manipcad.model.robot import Robot
+
+    _, kw = _puma_arrays()
+    a = np.array(kw[field], dtype=float)
+    a[index] = value
+    kw[field] = a
+    with pytest.raises(ManipcadError, match=match):
+        Robot.from_arrays(**kw)
+
+
+@pytest.mark.parametrize("kw,match", [
+    (dict(gravity=(0, 0, np.inf)), "gravity.*finite"),
+    (dict(offset=[0, np.nan, 0, 0, 0, 0]), "offset.*finite"),
+    (dict(tool_p=(np.inf, 0, 0)), "tool.*finite"),
+    (dict(limits=np.tile([np.nan, 1.0], (6, 1))), "limits"),
+])
+def test_from_arrays_refuses_non_finite_extras(kw, match):
+    from manipcad.model.robot import Robot
+
+    _, base = _puma_arrays()
+    with pytest.raises(ManipcadError, match=match):
+        Robot.from_arrays(**base, **kw)
+
+
+@pytest.mark.parametrize("kw,match", [
+    (dict(J=np.nan), "J.*finite"), (dict(ratio=np.inf), "ratio.*finite"),
+    (dict(k_v=np.nan), "k_v"), (dict(M_f=(np.nan, 0.0)), "M_f"),
+    (dict(R=0.0), "R.*> 0"), (dict(k_m=np.inf), "k_m"), (dict(L=np.inf), "L"),
+    (dict(u_max=np.nan), "u_max"), (dict(k_u=np.nan), "k_u"),
+])
+def test_drive_refuses_non_physical(kw, match):
+    from manipcad.model.robot import Drive
+
+    with pytest.raises(ManipcadError, match=match):
+        Drive(**kw)
+
+
+def test_with_payload_refuses_non_finite():
+    r = load_robot("puma560")
+    with pytest.raises(ManipcadError, match="payload com.*finite"):
+        r.with_payload(1.0, com=(np.nan, 0, 0))
+    with pytest.raises(ManipcadError, match="payload inertia"):
+        r.with_payload(1.0, inertia=np.full((3, 3), np.inf))
+    with pytest.raises(ManipcadError, match="payload inertia"):
+        r.with_payload(1.0, inertia=-np.eye(3))
+
+
+@pytest.mark.parametrize("old,new,field", [
+    ("dh: {a: 0.3, alpha: 0, d: 0, theta: 0}", "dh: {a: .inf, alpha: 0, d: 0, theta: 0}",
+     "joints[1].dh.a"),
+    ("dh: {a: 0.3, alpha: 0, d: 0, theta: 0}", "dh: {a: 1e400, alpha: 0, d: 0, theta: 0}",
+     "joints[1].dh.a"),
+    ("gravity: [0, 0, -9.81]", "gravity: [0, 0, -.inf]", "gravity"),
+    ("R: 2.45 ", "R: 0 ", "joints[1].drive.R"),
+    ("com: [0.125, 0, 0]", "com: [1e400, 0, 0]", "joints[1].link.com"),
+    ("mass: 0.8", "mass: " + "9" * 400, "joints[1].link.mass"),
+], ids=["dh_inf", "dh_1e400", "gravity_inf", "R_zero", "com_1e400", "mass_400_digits"])
+def test_robot_file_non_physical_values(tmp_path, old, new, field):
+    assert old in TWO_LINK
+    p = write(tmp_path, TWO_LINK.replace(old, new))
+    with pytest.raises(InputError) as err:
+        load_robot(str(p))
+    assert err.value.source == str(p) and err.value.field == field, str(err.value)
+    if "drive" in field:
+        assert "elbow" in str(err.value)

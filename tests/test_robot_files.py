@@ -225,3 +225,49 @@ def test_link_frame_errors_name_links():
         puma.link_frame("x")
     with pytest.raises(ModelError, match="1..6"):
         puma.link_frame(0)
+
+
+# ------------------------------------------------------------------ CLI and examples
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def test_cli_robots_show_and_save(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from manipcad.cli import app
+
+    runner = CliRunner()
+    res = runner.invoke(app, ["robots", "show", str(EXAMPLES / "panda" / "panda.yaml"), "--json"])
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.stdout)
+    assert [j["number"] for j in data["joints"]] == list(range(1, 8))
+    assert data["joints"][6]["link"] == "panda_link7"
+    assert "panda_hand_tcp" in [f["name"] for f in data["links"]]
+    assert data["joints"][0]["drive"]["gear_rated_torque"] == 40.0
+    out = tmp_path / "panda_saved.yaml"
+    res = runner.invoke(app, ["robots", "save", str(EXAMPLES / "panda" / "panda.yaml"), str(out)])
+    assert res.exit_code == 0, res.output
+    assert_same_robot(manipcad.load_robot(EXAMPLES / "panda" / "panda.yaml"),
+                      manipcad.load_robot(out))
+    res = runner.invoke(app, ["robots", "show", str(tmp_path / "nope.yaml")])
+    assert res.exit_code == 2 and "Traceback" not in res.output
+
+
+@pytest.mark.parametrize("which", ["ur5", "panda"])
+def test_examples_load_and_size(which):
+    """The worked examples load from their own folder (no absolute path) and every check
+    that can be made passes on their trajectory; the EC 90 flat's maximum speed is not in
+    its source, so those speed checks stay unknown."""
+    from manipcad.sizing import required_drive
+    from manipcad.trajectories import load_trajectory
+
+    robot = manipcad.load_robot(EXAMPLES / which / f"{which}.yaml")
+    assert all(d is not None and d.has_electrics for d in robot.drives)
+    req = required_drive(robot, load_trajectory(EXAMPLES / which / "pick.yaml", robot=robot))
+    assert "fail" not in req.status
+    unknown = {(name, j) for name, c in req.checks.items() for j, s in enumerate(c.status)
+               if s == "unknown"}
+    assert unknown == {("speed", j) for j, d in enumerate(robot.drives)
+                       if d.name == "maxon_ec90flat_244879"}

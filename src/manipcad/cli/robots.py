@@ -1,9 +1,11 @@
 """``manipcad robots``: list the catalog and show one robot.
 
 ``manipcad robots list`` prints the catalog's robots, motors and gears;
-``manipcad robots show NAME_OR_FILE [--json]`` prints a robot's joints (type,
-parent, limits, mass, drive) and totals. Bad input exits with status 2 and one
-line on stderr.
+``manipcad robots show NAME_OR_FILE [--json]`` prints a robot's joints (number
+1..n, name, link, type, parent, limits, mass, drive) and totals;
+``manipcad robots save NAME_OR_FILE OUT.yaml`` writes any robot with its
+drives as one self-contained robot file (tree form, docs/robot-files.md).
+Bad input exits with status 2 and one line on stderr.
 """
 
 from __future__ import annotations
@@ -70,15 +72,17 @@ def list_catalog() -> None:
     console.print(motors)
 
     gears = Table(title="gears (drive: {gear: NAME or [NAME, ...]}); "
-                        "ratio rad/rad (rad/m linear), J g·cm², max N·m (N)")
-    for col in ("name", "type", "ratio", "J", "eff.", "max cont."):
+                        "ratio rad/rad (rad/m linear), J g·cm², max N·m (N), n_in rpm")
+    for col in ("name", "type", "ratio", "J", "eff.", "max cont.", "peak", "n_in max"):
         gears.add_column(col, justify="left" if col in ("name", "type") else "right",
                          no_wrap=True)
     for name in catalog_names("gears"):
         g = load_gear(name)
         gears.add_row(name, g.type, f"{g.direction * g.ratio:.5g}", _num(g.J * 1e7, ".4g"),
                       _num(g.efficiency or math.nan, ".2f"),
-                      _num(g.max_continuous_torque or math.nan))
+                      _num(g.max_continuous_torque or math.nan),
+                      _num(g.max_intermittent_torque or math.nan),
+                      _num((g.max_input_speed or math.nan) * 60 / (2 * math.pi), ".0f"))
     console.print(gears)
 
 
@@ -95,11 +99,16 @@ def robot_summary(robot: Any) -> dict[str, Any]:
                 "k_u": d.k_u, "u_max": d.u_max, "rated_torque": d.rated_torque,
                 "peak_torque": d.peak_torque, "max_speed": d.max_speed,
                 "rated_voltage": d.rated_voltage, "rated_current": d.rated_current,
-                "J_joint": d.J * d.ratio**2,
+                "J_joint": d.J * d.ratio**2, "efficiency": d.efficiency,
+                "gear_rated_torque": d.gear_rated_torque,
+                "gear_peak_torque": d.gear_peak_torque,
+                "gear_max_input_speed": d.gear_max_input_speed,
+                "stiffness": d.stiffness, "damping": d.damping, "backlash": d.backlash,
             }
         p = int(robot.parent[i])
         joints.append({
-            "name": robot.joint_names[i], "type": robot.joint_types[i],
+            "number": i + 1, "name": robot.joint_names[i], "type": robot.joint_types[i],
+            "link": robot.link_names[i],
             "parent": "base" if p < 0 else robot.joint_names[p],
             "limits": robot.limits[i], "offset": float(robot.offset[i]),
             "placement_R": robot.placement_R[i], "placement_p": robot.placement_p[i],
@@ -111,6 +120,8 @@ def robot_summary(robot: Any) -> dict[str, Any]:
         "source": robot.source, "tool_R": robot.tool_R, "tool_p": robot.tool_p,
         "total_mass": float(robot.mass.sum()),
         "joints": joints,
+        "links": [{"name": nm, "body": "base" if b < 0 else robot.joint_names[b],
+                   "R": R, "p": pos} for nm, b, R, pos in robot.frames],
     })
 
 
@@ -118,7 +129,8 @@ def robot_summary(robot: Any) -> dict[str, Any]:
 @guarded
 def show(
     name_or_file: Annotated[str, typer.Argument(
-        help="A catalog robot name (see 'manipcad robots list') or a .yaml/.urdf file.")],
+        help="A catalog robot name (see 'manipcad robots list'), a robot file (DH, URDF + "
+        "drives or tree form, docs/robot-files.md) or a .urdf file.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
     = False,
 ) -> None:
@@ -138,10 +150,11 @@ def show(
 
     kinds = "".join("R" if t == "revolute" else "P" for t in robot.joint_types)
     table = Table(title=f"{robot.name} — {robot.n} joints ({kinds})")
-    for col in ("#", "joint", "type", "parent", "limits", "mass kg", "drive (motor + gears)",
-                "ratio", "J·i_r²"):
+    for col in ("#", "joint", "link", "type", "parent", "limits", "mass kg",
+                "drive (motor + gears)", "ratio", "J·i_r²"):
         table.add_column(col, justify="right" if col in ("#", "mass kg", "ratio") else "left",
-                         no_wrap=col in ("#", "joint", "type", "mass kg", "ratio"))
+                         no_wrap=col in ("#", "joint", "type", "mass kg", "ratio"),
+                         overflow="fold")
     for i in range(robot.n):
         p = int(robot.parent[i])
         lo, hi = robot.limits[i]
@@ -154,7 +167,8 @@ def show(
             drive = " + ".join(x for x in (d.name, d.gear) if x) or "(explicit)"
             unit = "kg·m²" if robot.joint_types[i] == "revolute" else "kg"
             ratio, jref = _num(d.ratio, ".5g"), f"{_num(d.J * d.ratio**2, '.4g')} {unit}"
-        table.add_row(str(i + 1), robot.joint_names[i], robot.joint_types[i][0].upper(),
+        table.add_row(str(i + 1), robot.joint_names[i], robot.link_names[i],
+                      robot.joint_types[i][0].upper(),
                       "base" if p < 0 else robot.joint_names[p], limits,
                       _num(float(robot.mass[i])), drive, ratio, jref)
     console.print(table)
@@ -163,7 +177,29 @@ def show(
     console.print(f"total mass {robot.mass.sum():.4g} kg; drives on {n_drv} of {robot.n} joints "
                   f"({n_el} with electrical data); gravity {robot.gravity.tolist()} m/s²",
                   highlight=False)
+    extra = [nm for nm in robot.all_link_names if nm not in robot.link_names]
+    if extra:
+        console.print("other named links (for payload/tool/--link): " + ", ".join(extra),
+                      highlight=False, soft_wrap=True)
     if robot.source:
         console.print(f"source: {robot.source}", highlight=False, soft_wrap=True)
     for note in notes:
         console.print(f"[yellow]warning:[/] {note}", highlight=False, soft_wrap=True)
+
+
+@robots_app.command("save")
+@guarded
+def save(
+    name_or_file: Annotated[str, typer.Argument(
+        help="A catalog robot name, a robot file (docs/robot-files.md) or a .urdf file.")],
+    out: Annotated[str, typer.Argument(help="The robot file to write (.yaml, tree form).")],
+) -> None:
+    """Write a robot with its drives as one self-contained robot file (tree form) that
+    loads back to the identical model: no URDF or catalog needed to read it."""
+    from manipcad.model.load import load_robot
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        robot = load_robot(name_or_file)
+    path = robot.save(out)
+    console.print(f"{robot.name}: {robot.n} joints written to {path}", highlight=False)

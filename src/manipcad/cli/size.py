@@ -66,10 +66,12 @@ def size(
         "--allow-unknown", help="Exit 0 even when a check cannot be made (a rating or the "
         "motor's electrical data unknown); failed checks still exit 1.")] = False,
 ) -> None:
-    """Size the drives: torques, currents, voltages and powers a trajectory needs, and the
-    motor checks (continuous and peak torque, speed, voltage) and gear checks (rated and
-    peak output torque, input speed) with margins. Exit 1 when a check fails or cannot
-    be made (unless --allow-unknown)."""
+    """Size the drives: torques, currents, voltages, powers; motor and gear checks.
+
+    What a trajectory needs of each drive, and each motor (continuous and peak
+    torque, speed, voltage) and gear (rated and peak output torque, input speed)
+    checked with margins. Exit 1 when a check fails, or cannot be made unless
+    --allow-unknown; 2 for bad input."""
     from manipcad.model.load import load_robot
     from manipcad.sizing import required_drive, torque_speed_plot
     from manipcad.trajectories import load_trajectory

@@ -10,6 +10,6 @@ from __future__ import annotations
 from manipcad.cli.app import app, main
 
 # sub-commands register on import
-from manipcad.cli import demo, robots, simulate, size, identify, coupling, recommend, study  # noqa: E402,F401  isort: skip
+from manipcad.cli import demo, robots, simulate, size, identify, coupling, recommend, study, warmup  # noqa: E402,F401  isort: skip
 
 __all__ = ["app", "main"]

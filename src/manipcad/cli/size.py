@@ -87,6 +87,9 @@ def size(
         raise InputError("--dt", "", f"must be a number > 0 s, got {dt}")
     if payload is not None and (not math.isfinite(payload) or payload < 0):
         raise InputError("--payload", "", f"must be a mass >= 0 kg, got {payload}")
+    from manipcad.cli.warmup import ensure_warm
+
+    ensure_warm("dynamics")
     req = required_drive(arm, traj, t_end=t_end, dt=dt, payload=payload)
     written = torque_speed_plot(req, plot) if plot is not None else None
 

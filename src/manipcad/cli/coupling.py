@@ -37,7 +37,8 @@ def _pct(x: float) -> str:
 @guarded
 def coupling(
     robot: Annotated[str, typer.Argument(help="Catalog robot name or robot file (YAML, URDF).")],
-    trajectory: Annotated[str, typer.Option("--trajectory", help="Trajectory YAML file.")],
+    trajectory: Annotated[str, typer.Option(
+        "--trajectory", "-t", help="Trajectory YAML file (docs/trajectories.md).")],
     dt: Annotated[float, typer.Option("--dt", help="Sampling step, s.")] = 1e-3,
     threshold: Annotated[float, typer.Option(
         "--threshold", help="Classification threshold, a fraction (0.05 = 5 %).")] = 0.05,

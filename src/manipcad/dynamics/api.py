@@ -40,8 +40,13 @@ def _not_pd(state: int) -> ManipcadError:
                          "a joint moves no mass (add inertia or a drive)")
 
 
+def _generated(robot: Robot, use: bool):
+    """The customized kernels :func:`manipcad.codegen.generate` attached to this robot, or None."""
+    return robot.__dict__.get("_generated") if use else None
+
+
 def inverse_dynamics(robot: Robot, q, qd, qdd, *, gravity=None, f_ext=None,
-                     drives: bool = True) -> np.ndarray:
+                     drives: bool = True, use_generated: bool = True) -> np.ndarray:
     """Joint torques that produce a motion: the recursive algorithm of paper 4.1.
 
     Args:
@@ -55,6 +60,9 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, *, gravity=None, f_ext=None,
             They act on the robot, so they lower the torques needed.
         drives: add the drive terms J·i_r²·q̈ + k_v·i_r²·q̇ + |i_r|·M_f·sign(q̇)
             (False: the pure rigid body).
+        use_generated: call the robot's customized kernels when
+            :func:`manipcad.codegen.generate` made them for this robot object (and
+            gravity and f_ext are not given); False: always the general kernels.
 
     Returns:
         Joint torques P (N·m, or N for prismatic joints), shape like q.
@@ -66,6 +74,9 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, *, gravity=None, f_ext=None,
         >>> tau.shape
         (6,)
     """
+    gen = _generated(robot, use_generated)
+    if gen is not None and gravity is None and f_ext is None:
+        return gen.inverse_dynamics(q, qd, qdd, drives)
     if gravity is None and f_ext is None and type(q) is np.ndarray and q.ndim == 1:
         tau = np.empty(q.shape[0])
         try:
@@ -81,13 +92,15 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, *, gravity=None, f_ext=None,
     return tau[0] if single else tau
 
 
-def mass_matrix(robot: Robot, q, *, drives: bool = True) -> np.ndarray:
+def mass_matrix(robot: Robot, q, *, drives: bool = True,
+                use_generated: bool = True) -> np.ndarray:
     """Joint-space inertia matrix H(q): the composite algorithm of paper 4.2 (method 1).
 
     Args:
         robot: the manipulator.
         q: joint positions, rad or m, shape (n,) or (N, n).
         drives: add the rotor inertias J·i_r² on the diagonal.
+        use_generated: as in :func:`inverse_dynamics`.
 
     Returns:
         H, shape (n, n) or (N, n, n); kg·m² between revolute joints, kg between
@@ -97,6 +110,9 @@ def mass_matrix(robot: Robot, q, *, drives: bool = True) -> np.ndarray:
         >>> import numpy as np, manipcad
         >>> H = manipcad.mass_matrix(manipcad.load_robot("puma560"), np.zeros(6))
     """
+    gen = _generated(robot, use_generated)
+    if gen is not None:
+        return gen.mass_matrix(q, drives)
     if type(q) is np.ndarray and q.ndim == 1:
         H = np.empty((robot.n, robot.n))
         try:
@@ -111,7 +127,7 @@ def mass_matrix(robot: Robot, q, *, drives: bool = True) -> np.ndarray:
 
 
 def forward_dynamics(robot: Robot, q, qd, tau, *, method: str = "aba", gravity=None,
-                     f_ext=None, drives: bool = True) -> np.ndarray:
+                     f_ext=None, drives: bool = True, use_generated: bool = True) -> np.ndarray:
     """Joint accelerations under given joint torques (paper 4.2).
 
     Args:
@@ -120,7 +136,9 @@ def forward_dynamics(robot: Robot, q, qd, tau, *, method: str = "aba", gravity=N
         tau: joint torques, N·m or N, same shape.
         method: "aba", the O(n) articulated-body ("pursuit") method, or "crba",
             the mass matrix with Cholesky, O(n³).
-        gravity, f_ext, drives: as in :func:`inverse_dynamics`.
+        gravity, f_ext, drives, use_generated: as in :func:`inverse_dynamics`; the
+            customized kernels solve with the generated mass matrix and Cholesky
+            whatever ``method`` says (the same accelerations).
 
     Returns:
         q̈, rad/s² or m/s², shape like q.
@@ -130,6 +148,9 @@ def forward_dynamics(robot: Robot, q, qd, tau, *, method: str = "aba", gravity=N
         >>> puma = manipcad.load_robot("puma560")
         >>> qdd = manipcad.forward_dynamics(puma, np.zeros(6), np.zeros(6), np.zeros(6))
     """
+    gen = _generated(robot, use_generated)
+    if gen is not None and gravity is None and f_ext is None and method in ("aba", "crba"):
+        return gen.forward_dynamics(q, qd, tau, drives)
     if (gravity is None and f_ext is None and type(q) is np.ndarray and q.ndim == 1
             and (method == "aba" or method == "crba")):
         qdd = np.empty(q.shape[0])

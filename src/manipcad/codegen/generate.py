@@ -1,0 +1,675 @@
+"""Customized per-robot dynamics: generate, cache by content hash, load, call.
+
+:func:`generate` builds the symbolic model (:mod:`manipcad.codegen.symbolic`),
+prints it as a numba module and as C99 (:mod:`manipcad.codegen.emit`), and
+keeps both under ``$XDG_CACHE_HOME/manipcad/codegen/<hash>/`` (default
+``~/.cache/manipcad/codegen``). The hash covers everything the kernels read
+(the robot's packed table and gravity) and the generator's own source, so a
+changed robot or generator gets a new folder and a stale module is never
+loaded; a folder whose recorded hash differs from its name is regenerated.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+import os
+import re
+import shutil
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import symengine as se
+
+from manipcad.codegen import emit
+from manipcad.codegen.emit import AddTo, Check, Friction, IfDrives, Let, Store
+from manipcad.codegen.symbolic import Dynamics, dynamics, num
+from manipcad.dynamics._inputs import as_states
+from manipcad.errors import ManipcadError, ManipcadWarning
+from manipcad.model.robot import Robot
+
+#: the largest number of joints customized: the mass matrix alone has n(n+1)/2
+#: expressions whose trees grow with n, and numba's compile time with the code's
+#: length (about 30 s at 20 joints); a larger robot runs on the general kernels
+MAX_JOINTS = 20
+FUNCTIONS = ("inverse_dynamics", "mass_matrix", "moment_components", "forward_dynamics")
+_PREFIX_TOKEN = "@PREFIX@"
+_loaded: dict[str, object] = {}  # hash -> module
+
+
+def cache_root() -> Path:
+    """The folder of generated modules: $XDG_CACHE_HOME/manipcad/codegen (~/.cache default)."""
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return base / "manipcad" / "codegen"
+
+
+def _generator_digest() -> str:
+    h = hashlib.sha256()
+    for name in ("symbolic.py", "emit.py", "generate.py"):
+        h.update((Path(__file__).parent / name).read_bytes())
+    h.update(se.__version__.encode())
+    return h.hexdigest()
+
+
+def robot_hash(robot: Robot) -> str:
+    """Content hash of what the generated kernels depend on (hex, 64 characters).
+
+    Args:
+        robot: the manipulator.
+
+    Returns:
+        sha256 of the packed model table, the gravity vector and the generator's source.
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.codegen import robot_hash
+        >>> puma = manipcad.load_robot("puma560")
+        >>> robot_hash(puma) == robot_hash(puma.with_payload(1.0))
+        False
+    """
+    h = hashlib.sha256()
+    h.update(_generator_digest().encode())
+    h.update(np.ascontiguousarray(robot.table, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(robot.gravity, dtype=np.float64).tobytes())
+    return h.hexdigest()
+
+
+def c_identifier(name: str) -> str:
+    """A robot name as a C identifier: other characters become ``_``, lower case.
+
+    Example:
+        >>> c_identifier("UR5 arm-2")
+        'ur5_arm_2'
+    """
+    s = re.sub(r"[^0-9A-Za-z_]", "_", name).lower()
+    if not s or s[0].isdigit():
+        s = "r_" + s
+    return s
+
+
+# ------------------------------------------------------------------ functions
+def _drive_expr(rotor: float, viscous: float, qdd, qd):
+    return num(rotor) * qdd + num(viscous) * qd
+
+
+def _id_stmts(d: Dynamics) -> list:
+    fr = d.frames
+    lets, red = emit.cse(d.tau)
+    st = lets + [Store(("tau", i), e) for i, e in enumerate(red)]
+    body = []
+    for i in range(fr.n):
+        e = _drive_expr(d.rotor[i], d.viscous[i], fr.qdd[i], fr.qd[i])
+        if e != 0:
+            body.append(AddTo(("tau", i), e))
+        if d.dry_pos[i] or d.dry_neg[i]:
+            body.append(Friction(("tau", i), f"qd{i}", d.dry_pos[i], d.dry_neg[i]))
+    return st + [IfDrives(body)]
+
+
+def _lower(d: Dynamics):
+    return [(i, j) for i in range(d.frames.n) for j in range(i + 1)]
+
+
+def _mass_stmts(d: Dynamics) -> list:
+    idx = _lower(d)
+    lets, red = emit.cse([d.H[i][j] for i, j in idx])
+    st = list(lets)
+    for (i, j), e in zip(idx, red, strict=True):
+        if i != j and not (isinstance(e, se.Symbol) or e.is_Number):
+            st.append(Let(f"H{i}_{j}", e))
+            e = se.Symbol(f"H{i}_{j}")
+        st.append(Store(("H", i, j), e))
+        if i != j:
+            st.append(Store(("H", j, i), e))
+    body = [AddTo(("H", i, i), num(d.rotor[i])) for i in range(d.frames.n) if d.rotor[i]]
+    return st + [IfDrives(body)]
+
+
+def _components_stmts(d: Dynamics) -> list:
+    n = d.frames.n
+    lets, red = emit.cse([d.H[i][i] for i in range(n)] + d.velocity + d.gravity)
+    st = list(lets)
+    for i in range(n):
+        st.append(Store(("H_ii", i), red[i]))
+        st.append(Store(("h", i), red[n + i]))
+        st.append(Store(("Qg", i), red[2 * n + i]))
+    return st
+
+
+def _fd_stmts(d: Dynamics) -> list:
+    fr = d.frames
+    n = fr.n
+    idx = _lower(d)
+    lets, red = emit.cse([d.H[i][j] for i, j in idx] + d.bias)
+    st = list(lets)
+    H = [[se.Integer(0)] * n for _ in range(n)]
+    for (i, j), e in zip(idx, red[:len(idx)], strict=True):
+        if e != 0:
+            st.append(Let(f"H{i}_{j}", e, mutable=i == j))
+            H[i][j] = H[j][i] = se.Symbol(f"H{i}_{j}")
+    body = []
+    for i, e in enumerate(red[len(idx):]):
+        st.append(Let(f"b{i}", e, mutable=True))
+        if d.rotor[i]:
+            body.append(AddTo(f"H{i}_{i}", num(d.rotor[i])))
+        if d.viscous[i]:
+            body.append(AddTo(f"b{i}", num(d.viscous[i]) * fr.qd[i]))
+        if d.dry_pos[i] or d.dry_neg[i]:
+            body.append(Friction(f"b{i}", f"qd{i}", d.dry_pos[i], d.dry_neg[i]))
+        if d.rotor[i] and H[i][i] == 0:
+            raise ManipcadError("internal: a rotor on a joint that moves no mass")
+    st.append(IfDrives(body))
+    # Cholesky H = L Lᵀ, then L y = tau - b, Lᵀ x = y; inv_j = 1/L_jj
+    L = [[se.Integer(0)] * n for _ in range(n)]
+    inv = [None] * n
+    for j in range(n):
+        dj = H[j][j] - sum((L[j][k] ** 2 for k in range(j)), se.Integer(0))
+        st.append(Let(f"d{j}", dj))
+        st.append(Check(f"d{j}", j))
+        st.append(Let(f"iv{j}", se.Pow(se.Symbol(f"d{j}"), se.Rational(-1, 2))))
+        inv[j] = se.Symbol(f"iv{j}")
+        for i in range(j + 1, n):
+            e = (H[i][j] - sum((L[i][k] * L[j][k] for k in range(j)), se.Integer(0))) * inv[j]
+            if e != 0:
+                st.append(Let(f"L{i}_{j}", e))
+                L[i][j] = se.Symbol(f"L{i}_{j}")
+    tau = [se.Symbol(f"tau{i}") for i in range(n)]
+    y = [None] * n
+    for i in range(n):
+        e = (tau[i] - se.Symbol(f"b{i}")
+             - sum((L[i][k] * y[k] for k in range(i)), se.Integer(0))) * inv[i]
+        st.append(Let(f"y{i}", e))
+        y[i] = se.Symbol(f"y{i}")
+    x = [None] * n
+    for i in range(n - 1, -1, -1):
+        e = (y[i] - sum((L[k][i] * x[k] for k in range(i + 1, n)), se.Integer(0))) * inv[i]
+        st.append(Let(f"sol{i}", e))
+        x[i] = se.Symbol(f"sol{i}")
+        st.append(Store(("qdd", i), x[i]))
+    return st
+
+
+def _free_names(stmts: list) -> set[str]:
+    names: set[str] = set()
+    for s in stmts:
+        if isinstance(s, IfDrives):
+            names |= _free_names(s.body)
+            continue
+        if isinstance(s, Friction):
+            names.add(s.qd)
+            continue
+        e = getattr(s, "expr", None)
+        if e is not None and not isinstance(e, (int, float)):
+            names |= {str(v) for v in se.sympify(e).free_symbols}
+    return names
+
+
+# the inputs each function reads: (argument, local prefix)
+_INPUTS = {
+    "inverse_dynamics": (("q", "q"), ("qd", "qd"), ("qdd", "qdd")),
+    "mass_matrix": (("q", "q"),),
+    "moment_components": (("q", "q"), ("qd", "qd")),
+    "forward_dynamics": (("q", "q"), ("qd", "qd"), ("tau", "tau")),
+}
+_OUTPUTS = {
+    "inverse_dynamics": ("tau",),
+    "mass_matrix": ("H",),
+    "moment_components": ("H_ii", "h", "Qg"),
+    "forward_dynamics": ("qdd",),
+}
+
+
+def _read_lines(func: str, d: Dynamics, stmts: list, lang: str, indent: str, batch: bool):
+    """Input reads and trig calls the statements need."""
+    used = _free_names(stmts)
+    # trig symbols may hide inside Let expressions: iterate until closed
+    out = []
+    fr = d.frames
+    for arg, pre in _INPUTS[func]:
+        for i in range(fr.n):
+            name = f"{pre}{i}"
+            need = name in used or (pre == "q" and any(
+                f"{k}{i}" in used for k in ("c", "s")))
+            if need:
+                src = f"{arg.upper()}[k, {i}]" if batch else f"{arg}[{i}]"
+                if lang == "c":
+                    out.append(f"{indent}const double {name} = {arg}[{i}];")
+                else:
+                    out.append(f"{indent}{name} = {src}")
+    for sym, kind, j, off in fr.trig:
+        if str(sym) not in used:
+            continue
+        arg = f"q{j}" if off == 0.0 else f"q{j} + {emit._num(off)}"
+        if lang == "c":
+            out.append(f"{indent}const double {sym} = {kind}({arg});")
+        else:
+            out.append(f"{indent}{sym} = math.{kind}({arg})")
+    return out
+
+
+def _py_function(func: str, n: int, d: Dynamics, stmts: list, batch: bool) -> list[str]:
+    outs = _OUTPUTS[func]
+    ins = [a for a, _ in _INPUTS[func]]
+    vec, mat, m3 = "float64[::1]", "float64[:, ::1]", "float64[:, :, ::1]"
+    drives = func in ("inverse_dynamics", "mass_matrix", "forward_dynamics")
+    if batch:
+        A = [a.upper() for a in ins]
+        O = [o.upper() for o in outs]
+        arg_t = [mat] * len(A) + (["boolean"] if drives else []) + \
+            [m3 if o == "H" else mat for o in outs]
+        args = A + (["drives"] if drives else []) + O
+    else:
+        arg_t = [vec] * len(ins) + (["boolean"] if drives else []) + \
+            [mat if o == "H" else vec for o in outs]
+        args = ins + (["drives"] if drives else []) + list(outs)
+    ret = "int64" if func == "forward_dynamics" else "void"
+    name = func + ("_batch" if batch else "")
+    lines = [f'@nb.njit("{ret}({", ".join(arg_t)})", cache=True, nogil=True, '
+             f'error_model="numpy")', f"def {name}({', '.join(args)}):"]
+    if batch:
+        first = A[0]
+        conds = [f"{first}.shape[1] != {n}"] + [f"{a}.shape != {first}.shape" for a in A[1:]]
+        conds += [f"{o}.shape[0] != {first}.shape[0]" for o in O]
+        lines.append(f"    if {' or '.join(conds)}:")
+        lines.append(f'        raise ValueError("arrays of shape (N, {n}) expected")')
+        lines.append(f"    for k in range({first}.shape[0]):")
+        ind = "        "
+        fmt = {o: (lambda *ix, o=o: f"{o.upper()}[k, {', '.join(map(str, ix))}]") for o in outs}
+        fail = "k"
+    else:
+        conds = [f"{a}.shape[0] != {n}" for a in ins + [o for o in outs if o != "H"]]
+        if "H" in outs:
+            conds += [f"H.shape[0] != {n}", f"H.shape[1] != {n}"]
+        lines.append(f"    if {' or '.join(conds)}:")
+        lines.append(f'        raise ValueError("vectors of length {n} expected")')
+        ind = "    "
+        fmt = {o: (lambda *ix, o=o: f"{o}[{', '.join(map(str, ix))}]") for o in outs}
+        fail = "{j}"
+    lines += _read_lines(func, d, stmts, "python", ind, batch)
+    lines += emit.lines(stmts, "python", fmt, ind, fail)
+    if func == "forward_dynamics":
+        lines.append(f"{ind[:-4] if batch else ind}return -1")
+    return lines + [""]
+
+
+def python_source(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> str:
+    """The numba module's source (single-state and batch functions of each kind)."""
+    n = d.frames.n
+    head = [
+        f'"""Customized dynamics of {robot_name!r}, {n} joints: generated by manipcad.codegen.',
+        "",
+        "Do not edit: the file is regenerated when the robot or the generator changes.",
+        "SI units: q rad or m, qd rad/s or m/s, qdd rad/s² or m/s², tau N·m or N.",
+        '"""',
+        "",
+        "import math",
+        "",
+        "import numba as nb",
+        "",
+        f"N = {n}",
+        f'ROBOT_HASH = "{digest}"',
+        "",
+    ]
+    body = []
+    for func in FUNCTIONS:
+        body += _py_function(func, n, d, stmts[func], batch=False)
+        body += _py_function(func, n, d, stmts[func], batch=True)
+    return "\n".join(head + body) + "\n"
+
+
+_C_SIGNATURES = {
+    "inverse_dynamics": ("void", "const double *q, const double *qd, const double *qdd, "
+                                 "double *tau"),
+    "mass_matrix": ("void", "const double *q, double *H"),
+    "moment_components": ("void", "const double *q, const double *qd, double *H_ii, double *h, "
+                                  "double *Qg"),
+    "forward_dynamics": ("int", "const double *q, const double *qd, const double *tau, "
+                                "double *qdd"),
+}
+_C_DOCS = {
+    "inverse_dynamics": "Joint torques tau[n] (N·m or N) from q (rad or m), qd, qdd; drive "
+                        "terms included\n   (rotor inertia J·i_r², viscous and dry friction).",
+    "mass_matrix": "Joint-space inertia matrix H[n*n] (row-major, kg·m², kg or kg·m) with the "
+                   "rotor inertias\n   J·i_r² on the diagonal.",
+    "moment_components": "The moment components of paper 4.1: H_ii[n] (links only), h[n] "
+                         "(velocity constituent,\n   N·m or N) and Qg[n] (gravity constituent).",
+    "forward_dynamics": "Joint accelerations qdd[n] (rad/s² or m/s²) under torques tau[n], "
+                        "drive terms included\n   (mass matrix and Cholesky). Returns -1, or "
+                        "the joint index where H is not positive definite.",
+}
+
+
+def c_sources(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> tuple[str, str]:
+    """(header, source) templates with the prefix as ``@PREFIX@``: portable C99."""
+    n = d.frames.n
+    P = _PREFIX_TOKEN
+    guard = f"{P}_DYNAMICS_H"
+    hdr = [f"/* Customized dynamics of {robot_name!r} ({n} joints), generated by manipcad.codegen.",
+           "   Portable C99: no allocation, libm's sin, cos and sqrt only. SI units.",
+           f"   Robot hash {digest}. */",
+           f"#ifndef {guard}", f"#define {guard}", "", f"#define {P}_N {n}", ""]
+    src = [f"/* Customized dynamics of {robot_name!r}, generated by manipcad.codegen. "
+           "Do not edit. */", f'#include "{P}.h"', "#include <math.h>", ""]
+    for func in FUNCTIONS:
+        ret, args = _C_SIGNATURES[func]
+        proto = f"{ret} {P}_{func}({args})"
+        hdr += [f"/* {_C_DOCS[func]} */", proto + ";", ""]
+        st = stmts[func]
+        fmt = {"tau": lambda i: f"tau[{i}]", "H": lambda i, j: f"H[{i * n + j}]",
+               "H_ii": lambda i: f"H_ii[{i}]", "h": lambda i: f"h[{i}]",
+               "Qg": lambda i: f"Qg[{i}]", "qdd": lambda i: f"qdd[{i}]"}
+        src += [proto, "{"]
+        src += _read_lines(func, d, st, "c", "    ", False)
+        src += emit.lines(st, "c", fmt, "    ", "{j}")
+        if func == "forward_dynamics":
+            src.append("    return -1;")
+        src += ["}", ""]
+    hdr += [f"#endif /* {guard} */", ""]
+    return "\n".join(hdr), "\n".join(src)
+
+
+# ------------------------------------------------------------------ the object
+class GeneratedDynamics:
+    """Customized kernels of one robot; made by :func:`generate`.
+
+    Attributes:
+        robot: the robot generated for.
+        n: number of joints.
+        hash: :func:`robot_hash` of the robot.
+        generated: True for customized kernels, False for the general fallback.
+        reason: why the fallback is used ("" when generated).
+        ops: per function ``{"mul", "add", "trig", "sqrt"}`` counted from the
+            generated single-state code ({} for the fallback).
+        path: the cache folder holding ``kernels.py`` and the C templates, or None.
+        seconds: generation time (symbolic work and printing), s; 0 when loaded from cache.
+    """
+
+    def __init__(self, robot: Robot, digest: str, module, ops: dict, path: Path | None,
+                 seconds: float, reason: str = "") -> None:
+        self.robot, self.n, self.hash = robot, robot.n, digest
+        self.generated = module is not None
+        self.reason = reason
+        self.ops, self.path, self.seconds = ops, path, seconds
+        self._m = module
+
+    def __repr__(self) -> str:
+        kind = "generated" if self.generated else "general fallback"
+        return f"GeneratedDynamics({self.robot.name!r}, n={self.n}, {kind})"
+
+    # ---- fast single-state path, then the checked path
+    def inverse_dynamics(self, q, qd, qdd, drives: bool = True) -> np.ndarray:
+        """Joint torques of one state (n,) or a batch (N, n), as :func:`manipcad.inverse_dynamics`.
+
+        Args:
+            q, qd, qdd: joint positions (rad or m), velocities (rad/s or m/s),
+                accelerations (rad/s² or m/s²).
+            drives: add J·i_r²·q̈ + k_v·i_r²·q̇ + |i_r|·M_f·sign(q̇).
+
+        Returns:
+            tau, N·m (N for prismatic joints), shaped like q.
+
+        Example:
+            >>> import numpy as np, manipcad
+            >>> from manipcad.codegen import generate
+            >>> gen = generate(manipcad.load_robot("cylindrical"))
+            >>> gen.inverse_dynamics(np.zeros(3), np.zeros(3), np.zeros(3)).shape
+            (3,)
+        """
+        m = self._m
+        if m is None:
+            from manipcad.dynamics.api import inverse_dynamics
+            return inverse_dynamics(self.robot, q, qd, qdd, drives=drives, use_generated=False)
+        if type(q) is np.ndarray and q.ndim == 1:
+            tau = np.empty(self.n)
+            try:
+                m.inverse_dynamics(q, qd, qdd, drives, tau)
+                return tau
+            except (TypeError, ValueError):
+                pass
+        (Q, QD, QDD), single = as_states(self.n, q=q, qd=qd, qdd=qdd)
+        tau = np.empty(Q.shape)
+        m.inverse_dynamics_batch(Q, QD, QDD, bool(drives), tau)
+        return tau[0] if single else tau
+
+    def mass_matrix(self, q, drives: bool = True) -> np.ndarray:
+        """H(q), (n, n) or (N, n, n), as :func:`manipcad.mass_matrix` (kg·m², kg, kg·m).
+
+        Args:
+            q: joint positions, rad or m, (n,) or (N, n).
+            drives: add the rotor inertias J·i_r² on the diagonal.
+
+        Returns:
+            The joint-space inertia matrix.
+
+        Example:
+            >>> import numpy as np, manipcad
+            >>> from manipcad.codegen import generate
+            >>> gen = generate(manipcad.load_robot("cylindrical"))
+            >>> gen.mass_matrix(np.zeros(3)).shape
+            (3, 3)
+        """
+        m = self._m
+        if m is None:
+            from manipcad.dynamics.api import mass_matrix
+            return mass_matrix(self.robot, q, drives=drives, use_generated=False)
+        if type(q) is np.ndarray and q.ndim == 1:
+            H = np.empty((self.n, self.n))
+            try:
+                m.mass_matrix(q, drives, H)
+                return H
+            except (TypeError, ValueError):
+                pass
+        (Q,), single = as_states(self.n, q=q)
+        H = np.empty((Q.shape[0], self.n, self.n))
+        m.mass_matrix_batch(Q, bool(drives), H)
+        return H[0] if single else H
+
+    def moment_components(self, q, qd, qdd=None):
+        """H_ii, h_i and Q_i (paper 4.1) as :func:`manipcad.moment_components`.
+
+        Args:
+            q, qd: joint positions (rad or m) and velocities (rad/s or m/s), (n,) or (N, n).
+            qdd: accepted for symmetry with the other calls and unused: the three
+                constituents do not depend on the accelerations.
+
+        Returns:
+            :class:`manipcad.analysis.realtime.MomentComponents` (H_ii kg·m² or kg,
+            velocity and gravity N·m or N), shaped like q.
+
+        Example:
+            >>> import numpy as np, manipcad
+            >>> from manipcad.codegen import generate
+            >>> gen = generate(manipcad.load_robot("cylindrical"))
+            >>> mc = gen.moment_components(np.array([0.0, 0.2, 0.5]), np.array([1.0, 0, 0]))
+            >>> round(float(mc.velocity[2]), 3)  # centrifugal force on the reach, N
+            -7.3
+        """
+        from manipcad.analysis.realtime import MomentComponents, moment_components
+
+        m = self._m
+        if m is None:
+            return moment_components(self.robot, q, qd)
+        (Q, QD), single = as_states(self.n, q=q, qd=qd)
+        out = [np.empty(Q.shape) for _ in range(3)]
+        m.moment_components_batch(Q, QD, *out)
+        return MomentComponents(*(o[0] for o in out)) if single else MomentComponents(*out)
+
+    def forward_dynamics(self, q, qd, tau, drives: bool = True) -> np.ndarray:
+        """Joint accelerations (rad/s² or m/s²) under torques tau (N·m or N).
+
+        The generated mass matrix and bias (inverse dynamics at q̈ = 0) with an
+        unrolled Cholesky factorization; the same as :func:`manipcad.forward_dynamics`.
+
+        Args:
+            q, qd, tau: (n,) or (N, n).
+            drives: include the drive terms (rotor inertia, viscous and dry friction).
+
+        Returns:
+            q̈, shaped like q.
+
+        Raises:
+            ManipcadError: the mass matrix is not positive definite at some state.
+
+        Example:
+            >>> import numpy as np, manipcad
+            >>> from manipcad.codegen import generate
+            >>> gen = generate(manipcad.load_robot("cylindrical"))
+            >>> gen.forward_dynamics(np.zeros(3), np.zeros(3), np.zeros(3)).shape
+            (3,)
+        """
+        m = self._m
+        if m is None:
+            from manipcad.dynamics.api import forward_dynamics
+            return forward_dynamics(self.robot, q, qd, tau, drives=drives, method="crba",
+                                    use_generated=False)
+        if type(q) is np.ndarray and q.ndim == 1:
+            qdd = np.empty(self.n)
+            try:
+                bad = m.forward_dynamics(q, qd, tau, drives, qdd)
+            except (TypeError, ValueError):
+                pass
+            else:
+                if bad >= 0:
+                    raise ManipcadError("the mass matrix is not positive definite at "
+                                        f"joint {bad}: a joint moves no mass")
+                return qdd
+        (Q, QD, T), single = as_states(self.n, q=q, qd=qd, tau=tau)
+        qdd = np.empty(Q.shape)
+        bad = m.forward_dynamics_batch(Q, QD, T, bool(drives), qdd)
+        if bad >= 0:
+            raise ManipcadError(f"the mass matrix is not positive definite at state {bad}: "
+                                "a joint moves no mass (add inertia or a drive)")
+        return qdd[0] if single else qdd
+
+    # ---- C
+    def c_code(self, prefix: str | None = None) -> tuple[str, str]:
+        """(header, source) of the portable C99 code, functions named ``<prefix>_...``.
+
+        Args:
+            prefix: C identifier prefix; default the robot's name as a C identifier.
+
+        Returns:
+            The texts of ``<prefix>.h`` and ``<prefix>.c``.
+
+        Raises:
+            ManipcadError: the prefix is not a C identifier, or the robot was not
+                customized (the fallback has no C code).
+        """
+        if not self.generated or self.path is None:
+            raise ManipcadError(f"no C code for {self.robot.name!r}: {self.reason}")
+        p = c_identifier(self.robot.name) if prefix is None else prefix
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", p):
+            raise ManipcadError(f"--prefix must be a C identifier, got {p!r}")
+        hdr = (self.path / "kernels.h.in").read_text().replace(_PREFIX_TOKEN, p)
+        src = (self.path / "kernels.c.in").read_text().replace(_PREFIX_TOKEN, p)
+        return hdr, src
+
+    def python_source(self) -> str:
+        """The text of the generated numba module."""
+        if self.path is None:
+            raise ManipcadError(f"no generated module for {self.robot.name!r}: {self.reason}")
+        return (self.path / "kernels.py").read_text()
+
+
+# ------------------------------------------------------------------ generate
+def _load_module(path: Path, digest: str):
+    mod = _loaded.get(digest)
+    if mod is not None:
+        return mod
+    name = f"manipcad_generated_{digest[:16]}"
+    spec = importlib.util.spec_from_file_location(name, path / "kernels.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod
+    spec.loader.exec_module(mod)
+    if getattr(mod, "ROBOT_HASH", None) != digest:
+        raise ManipcadError(f"{path}: the generated module's hash does not match the robot")
+    _loaded[digest] = mod
+    return mod
+
+
+def build(robot: Robot) -> tuple[str, str, str, dict]:
+    """Generate the sources of one robot: (python, C header, C source, ops); no files."""
+    digest = robot_hash(robot)
+    d = dynamics(robot)
+    stmts = {"inverse_dynamics": _id_stmts(d), "mass_matrix": _mass_stmts(d),
+             "moment_components": _components_stmts(d), "forward_dynamics": _fd_stmts(d)}
+    py = python_source(d, stmts, robot.name, digest)
+    hdr, src = c_sources(d, stmts, robot.name, digest)
+    ops = {f: emit.count_ops(py, f) for f in FUNCTIONS}
+    return py, hdr, src, ops
+
+
+def generate(robot: Robot, *, cache_dir: str | Path | None = None, attach: bool = True,
+             max_joints: int = MAX_JOINTS) -> GeneratedDynamics:
+    """Customized dynamics kernels of one robot, generated once and cached by content hash.
+
+    Args:
+        robot: the manipulator (numbers fixed: DH, URDF or YAML, drives included).
+        cache_dir: folder of generated modules; default :func:`cache_root`.
+        attach: let :func:`manipcad.inverse_dynamics`, :func:`manipcad.mass_matrix`
+            and :func:`manipcad.forward_dynamics` use these kernels for this robot
+            object (``use_generated=True``, their default).
+        max_joints: robots with more joints fall back to the general kernels
+            (with a :class:`ManipcadWarning` saying so).
+
+    Returns:
+        :class:`GeneratedDynamics` with ``inverse_dynamics``, ``mass_matrix``,
+        ``moment_components``, ``forward_dynamics``, ``ops`` and ``c_code``.
+
+    Example:
+        >>> import numpy as np, manipcad
+        >>> from manipcad.codegen import generate
+        >>> gen = generate(manipcad.load_robot("puma560"))
+        >>> gen.ops["inverse_dynamics"]["mul"] <= 210
+        True
+    """
+    if not isinstance(robot, Robot):
+        raise ManipcadError(f"generate needs a Robot, got {type(robot).__name__}")
+    digest = robot_hash(robot)
+    if robot.n > max_joints:
+        reason = (f"{robot.name!r} has {robot.n} joints; the generator customizes robots of at "
+                  f"most {max_joints} joints (symbolic work and compile time grow with n²): "
+                  "using the general kernels")
+        warnings.warn(reason, ManipcadWarning, stacklevel=2)
+        return GeneratedDynamics(robot, digest, None, {}, None, 0.0, reason)
+    root = Path(cache_dir) if cache_dir is not None else cache_root()
+    path = root / f"{c_identifier(robot.name)[:40]}-{digest[:24]}"
+    seconds = 0.0
+    meta_file = path / "meta.json"
+    meta = None
+    if meta_file.is_file():
+        try:
+            meta = json.loads(meta_file.read_text())
+        except (OSError, ValueError):
+            meta = None
+        if not meta or meta.get("hash") != digest:
+            shutil.rmtree(path, ignore_errors=True)
+            meta = None
+    if meta is None:
+        t0 = time.perf_counter()
+        py, hdr, src, ops = build(robot)
+        seconds = time.perf_counter() - t0
+        meta = {"hash": digest, "robot": robot.name, "n": robot.n, "ops": ops,
+                "seconds": seconds}
+        tmp = root / f".tmp-{os.getpid()}-{digest[:24]}"
+        try:
+            tmp.mkdir(parents=True, exist_ok=True)
+            (tmp / "kernels.py").write_text(py)
+            (tmp / "kernels.h.in").write_text(hdr)
+            (tmp / "kernels.c.in").write_text(src)
+            (tmp / "meta.json").write_text(json.dumps(meta, indent=1))
+            try:
+                tmp.rename(path)
+            except OSError:  # another process finished first: use its copy
+                shutil.rmtree(tmp, ignore_errors=True)
+        except OSError as exc:
+            raise ManipcadError(f"cannot write the generated code under {root}: {exc}") from None
+    module = _load_module(path, digest)
+    gen = GeneratedDynamics(robot, digest, module, meta["ops"], path, seconds)
+    if attach:
+        object.__setattr__(robot, "_generated", gen)
+    return gen

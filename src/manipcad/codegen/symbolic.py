@@ -330,7 +330,7 @@ def _crba(fr: Frames, params):
                     Jc[par][k][r] = Jc[par][r][k]
         MSc[par] = [MSc[par][r] + ms[r] + m * p[r] for r in range(3)]
         Mc[par] = Mc[par] + m
-    H = [[None] * (i + 1) for i in range(n)]
+    H = [[ZERO] * (i + 1) for i in range(n)]
     for j in range(n):
         if fr.revolute[j]:
             fv = [-MSc[j][1], MSc[j][0], ZERO]

@@ -1,0 +1,254 @@
+"""Customized per-robot code (manipcad.codegen) against the general kernels, compiled C included."""
+
+from __future__ import annotations
+
+import ctypes
+import json
+import shutil
+import subprocess
+import warnings
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import manipcad
+from manipcad.analysis import moment_components
+from manipcad.cli import app
+from manipcad.codegen import generate, robot_hash
+from manipcad.codegen.emit import count_ops
+from manipcad.errors import ManipcadError, ManipcadWarning
+
+TOL = 1e-12
+
+
+def rel(a, b) -> float:
+    """Largest difference relative to the largest magnitude of the reference."""
+    a, b = np.asarray(a), np.asarray(b)
+    scale = np.abs(b).max()
+    return float(np.abs(a - b).max() / scale) if scale > 0 else float(np.abs(a).max())
+
+
+def load(name: str) -> manipcad.Robot:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        return manipcad.load_robot(name)
+
+
+def erd_robot(name: str) -> manipcad.Robot:
+    from test_urdf import ERD_URDFS, erd_robots_dir
+
+    from manipcad.model.urdf import load_urdf
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        return load_urdf(erd_robots_dir() / ERD_URDFS[name])
+
+
+def states(robot, N: int, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-2.0, 2.0, (3, N, robot.n))
+
+
+def check_against_general(robot, gen, N: int = 8) -> None:
+    """Every generated function equals the general kernels at random states, batch and single."""
+    Q, QD, QDD = states(robot, N)
+    for drives in (True, False):
+        tau = manipcad.inverse_dynamics(robot, Q, QD, QDD, drives=drives, use_generated=False)
+        assert rel(gen.inverse_dynamics(Q, QD, QDD, drives), tau) < TOL
+        H = manipcad.mass_matrix(robot, Q, drives=drives, use_generated=False)
+        assert rel(gen.mass_matrix(Q, drives), H) < TOL
+        # forward dynamics: the generated accelerations reproduce the torques (backward
+        # error) and differ from the general Cholesky solve by at most cond(H)·TOL
+        qdd = gen.forward_dynamics(Q, QD, tau, drives)
+        back = manipcad.inverse_dynamics(robot, Q, QD, qdd, drives=drives, use_generated=False)
+        assert rel(back, tau) < TOL
+        ref = manipcad.forward_dynamics(robot, Q, QD, tau, method="crba", drives=drives,
+                                        use_generated=False)
+        cond = max(np.linalg.cond(h) for h in H)
+        assert rel(qdd, ref) < TOL * max(1.0, cond)
+    mc = gen.moment_components(Q, QD)
+    ref = moment_components(robot, Q, QD)
+    for a, b in ((mc.H_ii, ref.H_ii), (mc.velocity, ref.velocity), (mc.gravity, ref.gravity)):
+        assert rel(a, b) < TOL
+    # the one-state fast path gives the batch's rows
+    k = N // 2
+    assert np.array_equal(gen.inverse_dynamics(Q[k], QD[k], QDD[k]),
+                          gen.inverse_dynamics(Q, QD, QDD)[k])
+    assert np.array_equal(gen.mass_matrix(Q[k]), gen.mass_matrix(Q)[k])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", manipcad.catalog_names())
+def test_catalog_robot_matches_general_kernels(name):
+    robot = load(name)
+    gen = generate(robot, attach=False)
+    assert gen.generated
+    check_against_general(robot, gen)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["ur5", "panda"])
+def test_example_robot_data_urdf_matches_general_kernels(name):
+    robot = erd_robot(name)
+    gen = generate(robot, attach=False)
+    assert gen.generated
+    check_against_general(robot, gen, N=5)
+
+
+def test_puma_counts_within_target_and_read_from_the_code():
+    gen = generate(load("puma560"), attach=False)
+    ops = gen.ops["inverse_dynamics"]
+    assert ops["mul"] <= 210 and ops["add"] <= 165, ops
+    assert ops["trig"] <= 10
+    src = gen.python_source()
+    for func, c in gen.ops.items():
+        assert count_ops(src, func) == c
+    # the general kernel's count at n = 6 without drives is far higher (134n - 60)
+    assert manipcad.operation_counts("rnea", 6)["mul"] > 3 * ops["mul"]
+
+
+def test_count_ops_counts_longest_branch_and_skips_unary_minus():
+    src = ("def f(a, b, t):\n    x = -a*b + a/b - math.cos(a)\n    if b > 0.0:\n"
+           "        t += 1.0\n    elif b < 0.0:\n        t -= 2.0\n    return math.sqrt(x)\n")
+    assert count_ops(src, "f") == {"mul": 2, "add": 3, "trig": 1, "sqrt": 1}
+    with pytest.raises(ManipcadError, match="no function 'g'"):
+        count_ops(src, "g")
+
+
+def _compile_c(gen, tmp_path, prefix: str):
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        pytest.fail("no system C compiler (cc or gcc) to compile the generated code")
+    hdr, src = gen.c_code(prefix)
+    (tmp_path / f"{prefix}.h").write_text(hdr)
+    (tmp_path / f"{prefix}.c").write_text(src)
+    lib = tmp_path / f"lib{prefix}.so"
+    subprocess.run([cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror",
+                    "-shared", "-fPIC", "-o", str(lib), str(tmp_path / f"{prefix}.c"), "-lm"],
+                   check=True, capture_output=True, text=True)
+    return ctypes.CDLL(str(lib))
+
+
+@pytest.mark.parametrize("name", ["puma560", "stanford"])
+def test_c_code_compiles_and_matches(name, tmp_path):
+    robot = load(name)
+    gen = generate(robot, attach=False)
+    lib = _compile_c(gen, tmp_path, "arm")
+    n = robot.n
+    ptr = ctypes.POINTER(ctypes.c_double)
+
+    def p(a):
+        return a.ctypes.data_as(ptr)
+
+    lib.arm_forward_dynamics.restype = ctypes.c_int
+    Q, QD, QDD = states(robot, 5, seed=3)
+    for q, qd, qdd in zip(Q, QD, QDD, strict=True):
+        tau = np.empty(n)
+        lib.arm_inverse_dynamics(p(q), p(qd), p(qdd), p(tau))
+        ref = manipcad.inverse_dynamics(robot, q, qd, qdd, use_generated=False)
+        assert rel(tau, ref) < TOL
+        H = np.empty((n, n))
+        lib.arm_mass_matrix(p(q), p(H))
+        assert rel(H, manipcad.mass_matrix(robot, q, use_generated=False)) < TOL
+        Hii, h, Qg = np.empty(n), np.empty(n), np.empty(n)
+        lib.arm_moment_components(p(q), p(qd), p(Hii), p(h), p(Qg))
+        mc = moment_components(robot, q, qd)
+        assert rel(Hii, mc.H_ii) < TOL and rel(h, mc.velocity) < TOL
+        assert rel(Qg, mc.gravity) < TOL
+        a = np.empty(n)
+        assert lib.arm_forward_dynamics(p(q), p(qd), p(ref), p(a)) == -1
+        back = manipcad.inverse_dynamics(robot, q, qd, a, use_generated=False)
+        assert rel(back, ref) < TOL
+    # the C code calls nothing from libm but sin, cos and sqrt, and allocates nothing
+    src = gen.c_code("arm")[1]
+    calls = set(__import__("re").findall(r"\b([a-z_]+)\(", src)) - {"if", "return"}
+    assert calls <= {"sin", "cos", "sqrt"} | {f"arm_{f}" for f in gen.ops}, calls
+    assert "malloc" not in src
+
+
+def test_cache_is_keyed_by_content_hash(tmp_path):
+    robot = load("cylindrical")
+    first = generate(robot, cache_dir=tmp_path, attach=False)
+    again = generate(robot, cache_dir=tmp_path, attach=False)
+    assert first.path == again.path and again.seconds == 0.0
+    heavier = robot.with_payload(3.0, com=(0.0, 0.0, 0.05))
+    assert robot_hash(heavier) != robot_hash(robot)
+    other = generate(heavier, cache_dir=tmp_path, attach=False)
+    assert other.path != first.path
+    Q, QD, QDD = states(robot, 4)
+    ref = manipcad.inverse_dynamics(heavier, Q, QD, QDD, use_generated=False)
+    assert rel(other.inverse_dynamics(Q, QD, QDD), ref) < TOL
+    assert rel(first.inverse_dynamics(Q, QD, QDD), ref) > 1e-3  # the old robot's torques
+    # a folder whose recorded hash is not the robot's is regenerated, never used
+    meta = first.path / "meta.json"
+    data = json.loads(meta.read_text())
+    data["hash"] = "0" * 64
+    meta.write_text(json.dumps(data))
+    fresh = generate(robot, cache_dir=tmp_path, attach=False)
+    assert fresh.seconds > 0.0
+    assert json.loads(meta.read_text())["hash"] == robot_hash(robot)
+
+
+def test_api_uses_attached_kernels_and_can_opt_out():
+    robot = load("scara")
+    Q, QD, QDD = states(robot, 3)
+    gen = generate(robot)  # attaches to this robot object
+    assert np.array_equal(manipcad.inverse_dynamics(robot, Q, QD, QDD),
+                          gen.inverse_dynamics(Q, QD, QDD))
+    assert np.array_equal(manipcad.mass_matrix(robot, Q[0]), gen.mass_matrix(Q[0]))
+    tau = gen.inverse_dynamics(Q, QD, QDD)
+    assert np.array_equal(manipcad.forward_dynamics(robot, Q, QD, tau),
+                          gen.forward_dynamics(Q, QD, tau))
+    general = manipcad.inverse_dynamics(robot, Q, QD, QDD, use_generated=False)
+    assert rel(general, tau) < TOL
+    # a changed copy is a new object: the general kernels, not the stale ones
+    heavier = robot.with_payload(2.0)
+    assert "_generated" not in heavier.__dict__
+
+
+def test_too_many_joints_falls_back_with_a_message():
+    robot = load("puma560")
+    with pytest.warns(ManipcadWarning, match="at most 3 joints"):
+        gen = generate(robot, attach=False, max_joints=3)
+    assert not gen.generated and "general kernels" in gen.reason
+    Q, QD, QDD = states(robot, 3)
+    ref = manipcad.inverse_dynamics(robot, Q, QD, QDD, use_generated=False)
+    assert np.array_equal(gen.inverse_dynamics(Q, QD, QDD), ref)
+    with pytest.raises(ManipcadError, match="no C code"):
+        gen.c_code()
+
+
+def test_bad_shapes_name_the_argument():
+    gen = generate(load("cylindrical"), attach=False)
+    with pytest.raises(ManipcadError, match="qd"):
+        gen.inverse_dynamics(np.zeros(3), np.zeros(4), np.zeros(3))
+    with pytest.raises(ManipcadError, match="q must have"):
+        gen.mass_matrix(np.zeros((2, 2, 3)))
+
+
+runner = CliRunner()
+
+
+def test_cli_stats_json_and_c_files(tmp_path):
+    res = runner.invoke(app, ["codegen", "puma560", "--stats", "--json"])
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.output)
+    assert data["inverse_dynamics"]["mul"] <= 210 and data["inverse_dynamics"]["add"] <= 165
+    assert set(data["mass_matrix"]) == {"mul", "add", "trig", "sqrt"}
+    res = runner.invoke(app, ["codegen", "puma560", "--out", str(tmp_path), "--lang", "c"])
+    assert res.exit_code == 0, res.output
+    assert "puma_560_inverse_dynamics(const double *q" in (tmp_path / "puma_560.h").read_text()
+    res = runner.invoke(app, ["codegen", "puma560", "--out", str(tmp_path), "--prefix", "p5"])
+    assert res.exit_code == 0 and (tmp_path / "p5_dynamics.py").is_file()
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["puma560", "--out", "x", "--lang", "fortran"], "--lang"),
+    (["puma560", "--out", "x", "--prefix", "9lives"], "C identifier"),
+    (["no_such_robot", "--stats"], "no_such_robot"),
+    (["puma560"], "--out"),
+])
+def test_cli_bad_input_exits_2(args, fragment):
+    res = runner.invoke(app, ["codegen", *args])
+    assert res.exit_code == 2 and fragment in res.output

@@ -215,6 +215,8 @@ def test_too_many_joints_falls_back_with_a_message():
     Q, QD, QDD = states(robot, 3)
     ref = manipcad.inverse_dynamics(robot, Q, QD, QDD, use_generated=False)
     assert np.array_equal(gen.inverse_dynamics(Q, QD, QDD), ref)
+    mc = gen.moment_components(Q, QD)
+    assert rel(mc.gravity, moment_components(robot, Q, QD).gravity) < TOL
     with pytest.raises(ManipcadError, match="no C code"):
         gen.c_code()
 

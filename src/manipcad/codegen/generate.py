@@ -21,6 +21,7 @@ import sys
 import time
 import warnings
 from pathlib import Path
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -377,6 +378,14 @@ def c_sources(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> tuple[s
 
 
 # ------------------------------------------------------------------ the object
+class MomentComponents(NamedTuple):
+    """H_ii (links only, kg·m² or kg), h_i and Q_i (N·m or N), each shaped like q."""
+
+    H_ii: np.ndarray
+    velocity: np.ndarray
+    gravity: np.ndarray
+
+
 class GeneratedDynamics:
     """Customized kernels of one robot; made by :func:`generate`.
 
@@ -450,14 +459,15 @@ class GeneratedDynamics:
             return inverse_dynamics(self.robot, q, qd, qdd, drives=drives, use_generated=False)
         if type(q) is np.ndarray and q.ndim == 1:
             tau = np.empty(self.n)
-            try:
-                (self._c.get("inverse_dynamics") or self.kernel("inverse_dynamics"))(q, qd, qdd, drives, tau)
+            try:  # the dict lookup inline: this is the call a control loop makes
+                (self._c.get("inverse_dynamics") or self.kernel("inverse_dynamics"))(
+                    q, qd, qdd, drives, tau)
                 return tau
             except (TypeError, ValueError):
                 pass
         (Q, QD, QDD), single = as_states(self.n, q=q, qd=qd, qdd=qdd)
         tau = np.empty(Q.shape)
-        (self._c.get("inverse_dynamics_batch") or self.kernel("inverse_dynamics_batch"))(Q, QD, QDD, bool(drives), tau)
+        self.kernel("inverse_dynamics_batch")(Q, QD, QDD, bool(drives), tau)
         return tau[0] if single else tau
 
     def mass_matrix(self, q, drives: bool = True) -> np.ndarray:
@@ -484,13 +494,13 @@ class GeneratedDynamics:
         if type(q) is np.ndarray and q.ndim == 1:
             H = np.empty((self.n, self.n))
             try:
-                (self._c.get("mass_matrix") or self.kernel("mass_matrix"))(q, drives, H)
+                self.kernel("mass_matrix")(q, drives, H)
                 return H
             except (TypeError, ValueError):
                 pass
         (Q,), single = as_states(self.n, q=q)
         H = np.empty((Q.shape[0], self.n, self.n))
-        (self._c.get("mass_matrix_batch") or self.kernel("mass_matrix_batch"))(Q, bool(drives), H)
+        self.kernel("mass_matrix_batch")(Q, bool(drives), H)
         return H[0] if single else H
 
     def moment_components(self, q, qd, qdd=None):
@@ -502,8 +512,9 @@ class GeneratedDynamics:
                 constituents do not depend on the accelerations.
 
         Returns:
-            :class:`manipcad.analysis.realtime.MomentComponents` (H_ii kg·m² or kg,
-            velocity and gravity N·m or N), shaped like q.
+            :class:`MomentComponents` (H_ii kg·m² or kg, velocity and gravity N·m or
+            N), each shaped like q; the fields of
+            :class:`manipcad.analysis.realtime.MomentComponents`.
 
         Example:
             >>> import numpy as np, manipcad
@@ -511,16 +522,16 @@ class GeneratedDynamics:
             >>> gen = generate(manipcad.load_robot("cylindrical"))
             >>> mc = gen.moment_components(np.array([0.0, 0.2, 0.5]), np.array([1.0, 0, 0]))
             >>> round(float(mc.velocity[2]), 3)  # centrifugal force on the reach, N
-            -7.3
+            -0.391
         """
-        from manipcad.analysis.realtime import MomentComponents, moment_components
-
         m = self._m
         if m is None:
-            return moment_components(self.robot, q, qd)
+            from manipcad.dynamics.components import torque_components
+            tc = torque_components(self.robot, q, qd, np.zeros_like(np.asarray(q, float)))
+            return MomentComponents(tc.H_ii, tc.velocity, tc.gravity)
         (Q, QD), single = as_states(self.n, q=q, qd=qd)
         out = [np.empty(Q.shape) for _ in range(3)]
-        (self._c.get("moment_components_batch") or self.kernel("moment_components_batch"))(Q, QD, *out)
+        self.kernel("moment_components_batch")(Q, QD, *out)
         return MomentComponents(*(o[0] for o in out)) if single else MomentComponents(*out)
 
     def forward_dynamics(self, q, qd, tau, drives: bool = True) -> np.ndarray:
@@ -554,7 +565,7 @@ class GeneratedDynamics:
         if type(q) is np.ndarray and q.ndim == 1:
             qdd = np.empty(self.n)
             try:
-                bad = (self._c.get("forward_dynamics") or self.kernel("forward_dynamics"))(q, qd, tau, drives, qdd)
+                bad = self.kernel("forward_dynamics")(q, qd, tau, drives, qdd)
             except (TypeError, ValueError):
                 pass
             else:
@@ -564,7 +575,7 @@ class GeneratedDynamics:
                 return qdd
         (Q, QD, T), single = as_states(self.n, q=q, qd=qd, tau=tau)
         qdd = np.empty(Q.shape)
-        bad = (self._c.get("forward_dynamics_batch") or self.kernel("forward_dynamics_batch"))(Q, QD, T, bool(drives), qdd)
+        bad = self.kernel("forward_dynamics_batch")(Q, QD, T, bool(drives), qdd)
         if bad >= 0:
             raise ManipcadError(f"the mass matrix is not positive definite at state {bad}: "
                                 "a joint moves no mass (add inertia or a drive)")

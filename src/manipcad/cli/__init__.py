@@ -12,5 +12,6 @@ from manipcad.cli.app import app, main
 # sub-commands register on import
 from manipcad.cli import demo, robots, simulate, size, identify, coupling, recommend, study, warmup  # noqa: E402,F401  isort: skip
 from manipcad.cli import codegen  # noqa: E402,F401  isort: skip
+from manipcad.cli import ws  # noqa: E402,F401  isort: skip
 
 __all__ = ["app", "main"]

@@ -16,11 +16,25 @@ app = typer.Typer(
     name="manipcad",
     help="Computer-aided design of high-accuracy control for robot manipulators.",
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,  # --install-completion / --show-completion (bash, zsh, fish)
     pretty_exceptions_enable=False,
 )
 console = Console()
 err_console = Console(stderr=True)
+
+
+def _version(value: bool) -> None:
+    if value:
+        from manipcad import __version__
+
+        typer.echo(f"manipcad {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                       help="Print the version and exit.")) -> None:
+    """Computer-aided design of high-accuracy control for robot manipulators."""
 
 
 def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
@@ -35,7 +49,7 @@ def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
             raise typer.Exit(2) from None
         except KeyboardInterrupt as exc:
             # a save interrupted after its result was in place says so (store.SaveInterrupted)
-            err_console.print(f"[bold red]{exc or 'interrupted'}[/]", highlight=False)
+            err_console.print(f"[bold red]{str(exc) or 'interrupted'}[/]", highlight=False)
             raise typer.Exit(130) from None
 
     return wrapper

@@ -382,6 +382,29 @@ def result_arrays(result) -> dict[str, np.ndarray]:
     return arrays
 
 
+def series_columns(result, joint_types: Sequence[str] | None = None
+                   ) -> list[tuple[str, np.ndarray]]:
+    """The columns of a result's table: ("t [s]", t), then per joint each of
+    :data:`SERIES` as ("JOINT.QUANTITY [UNIT]", (K,) array); the CSV and the
+    DataFrame (:func:`manipcad.workspace.results_dataframe`) use these.
+
+    Args:
+        result: a :class:`manipcad.sim.SimulationResult`.
+        joint_types: "revolute"/"prismatic" per joint for the units; None: "rad|m".
+    """
+    drives = bool(result.settings.get("drives", True))
+    names = list(result.joint_names)
+    types = list(joint_types) if joint_types is not None else [None] * len(names)
+    if len(types) != len(names):
+        raise InputError("joint_types", "", f"{len(types)} entries for {len(names)} joints")
+    arrays = result_arrays(result)
+    cols = [("t [s]", arrays["t"])]
+    for j, (name, jt) in enumerate(zip(names, types, strict=True)):
+        units = series_units(jt, drives)
+        cols += [(f"{name}.{s} [{units[s]}]", arrays[s][:, j]) for s in SERIES]
+    return cols
+
+
 def write_csv(result, path: str | Path, *, joint_types: Sequence[str] | None = None) -> Path:
     """Write a result's time series as CSV: ``t [s]`` then, per joint, each of
     :data:`SERIES` with its unit in the header ("waist.q [rad]"), 10 significant digits.
@@ -396,18 +419,9 @@ def write_csv(result, path: str | Path, *, joint_types: Sequence[str] | None = N
     """
     from manipcad.fileio import atomic_write
 
-    drives = bool(result.settings.get("drives", True))
-    names = list(result.joint_names)
-    types = list(joint_types) if joint_types is not None else [None] * len(names)
-    arrays = result_arrays(result)
-    header = ["t [s]"]
-    cols = [arrays["t"][:, None]]
-    for j, (name, jt) in enumerate(zip(names, types, strict=True)):
-        units = series_units(jt, drives)
-        for s in SERIES:
-            header.append(f"{name}.{s} [{units[s]}]")
-            cols.append(arrays[s][:, j:j + 1])
-    table = np.hstack(cols) if len(arrays["t"]) else np.empty((0, len(header)))
+    columns = series_columns(result, joint_types)
+    header = [h for h, _ in columns]
+    table = np.column_stack([a for _, a in columns])
 
     def write(fh) -> None:
         fh.write(",".join(header) + "\n")
@@ -767,4 +781,4 @@ def _read_npz(npz: Path) -> dict[str, np.ndarray]:
 __all__ = ["save_result", "load_result", "check_out_dir", "result_document", "series_units",
            "metric_units", "SERIES", "jsonable", "write_csv", "clean_stale", "leftovers",
            "install_folder", "temp_dir", "exchange", "SaveInterrupted", "record_every_for",
-           "result_arrays"]
+           "result_arrays", "series_columns"]

@@ -9,6 +9,7 @@ issue 15 to see them fail).
 from __future__ import annotations
 
 import os
+import time
 import warnings
 from pathlib import Path
 
@@ -249,3 +250,220 @@ def test_robot_file_non_physical_values(tmp_path, old, new, field):
     assert err.value.source == str(p) and err.value.field == field, str(err.value)
     if "drive" in field:
         assert "elbow" in str(err.value)
+
+
+def _zero_mass_robot():
+    from manipcad.model.robot import Robot
+
+    n = 2
+    return Robot.from_arrays("massless", ["revolute"] * n, [-1, 0], np.tile(np.eye(3), (n, 1, 1)),
+                             np.zeros((n, 3)), np.zeros(n), np.zeros((n, 3)),
+                             np.zeros((n, 3, 3)))
+
+
+@pytest.mark.parametrize("method", ["aba", "crba"])
+@pytest.mark.parametrize("batch", [False, True])
+def test_zero_mass_detected_alike(method, batch):
+    import manipcad
+
+    r = _zero_mass_robot()
+    z = np.zeros((3, 2)) if batch else np.zeros(2)
+    with pytest.raises(ManipcadError, match="not positive definite at state 0.*moves no mass"):
+        manipcad.forward_dynamics(r, z, z, z, method=method)
+    with pytest.raises(ManipcadError, match="not positive definite"):
+        manipcad.forward_dynamics(r, [0.0, 0.0], [0.0, 0.0], [0.0, 0.0], method=method)
+
+
+# --------------------------------------------------------------------------- API inputs
+
+@pytest.mark.parametrize("call,arg", [
+    (lambda m, r, z: m.inverse_dynamics(r, ["a"] * 6, z, z), "q"),
+    (lambda m, r, z: m.inverse_dynamics(r, z, [None] * 6, z), "qd"),
+    (lambda m, r, z: m.inverse_dynamics(r, z, z, z + 1j), "qdd"),
+    (lambda m, r, z: m.forward_dynamics(r, z, z, ["x"] * 6), "tau"),
+    (lambda m, r, z: m.mass_matrix(r, [[0.0] * 6, [0.0] * 5]), "q"),
+    (lambda m, r, z: m.inverse_dynamics(r, z, z, z, gravity=["a", 0, 0]), "gravity"),
+    (lambda m, r, z: m.inverse_dynamics(r, z, z, z, f_ext="nope"), "f_ext"),
+], ids=["text_q", "none_qd", "complex_qdd", "text_tau", "ragged_q", "text_gravity",
+        "text_fext"])
+def test_api_inputs_name_the_argument(call, arg):
+    import manipcad
+
+    r = load_robot("puma560")
+    with pytest.raises(ManipcadError, match=f"^{arg} must be real numbers"):
+        call(manipcad, r, np.zeros(6))
+
+
+# --------------------------------------------------------------------------- the CLI's guard
+
+def _cli(*args, env=None):
+    from typer.testing import CliRunner
+
+    from manipcad.cli import app
+
+    res = CliRunner().invoke(app, [str(a) for a in args], env={"COLUMNS": "300", **(env or {})})
+    return res, res.output + (res.stderr or "")
+
+
+@pytest.mark.parametrize("exc,words", [
+    (OSError(30, "Read-only file system", "/ro/out"), ["/ro/out", "Read-only file system"]),
+    (OSError(28, "No space left on device", "/full/out/fig3.png"),
+     ["/full/out/fig3.png", "No space left"]),
+    (MemoryError("Unable to allocate 74.5 GiB for an array with shape (10000000001,)"),
+     ["out of memory", "74.5 GiB"]),
+    (ValueError("Maximum allowed size exceeded"), ["unexpected ValueError", "Maximum allowed"]),
+    (OverflowError("cannot convert float infinity to integer"), ["unexpected OverflowError"]),
+], ids=["read_only", "disk_full", "memory", "value", "overflow"])
+def test_cli_edge_catches_everything(monkeypatch, tmp_path, exc, words):
+    import manipcad.study
+
+    def boom(*a, **k):
+        raise exc
+
+    monkeypatch.setattr(manipcad.study, "run_fig3", boom)
+    res, out = _cli("study", "fig3", "--out", tmp_path / "o", "--t-end", "0.1", "--no-progress")
+    assert res.exit_code == 2, out
+    assert "Traceback" not in out and res.exception is None or isinstance(res.exception,
+                                                                          SystemExit)
+    for w in words:
+        assert w in out, out
+
+
+@pytest.mark.parametrize("args,words", [
+    (["--t-end", "1e6"], ["--t-end", "1e+10 steps", "more than the limit"]),
+    (["--dt", "1e-300"], ["--t-end", "steps", "limit"]),
+    (["--t-end", "1e12"], ["--t-end", "steps"]),
+    (["--t-end", "2000", "--dt", "1e-4"], ["2e+07 steps need about", "GB", "available"]),
+], ids=["t_end_1e6", "dt_1e-300", "t_end_1e12", "memory"])
+def test_study_refuses_before_allocating(monkeypatch, tmp_path, args, words):
+    import manipcad.budget
+    import manipcad.study
+
+    monkeypatch.setattr(manipcad.budget, "MEMORY_BUDGET", 2 * 10**9)
+    monkeypatch.setattr(manipcad.study, "run_fig3",
+                        lambda *a, **k: pytest.fail("ran instead of refusing"))
+    res, out = _cli("study", "fig3", "--out", tmp_path / "o", "--no-progress", *args)
+    assert res.exit_code == 2, out
+    for w in words:
+        assert w in out, out
+    assert not (tmp_path / "o").exists()
+
+
+def test_cli_no_traceback_in_a_real_process(tmp_path):
+    import subprocess
+    import sys
+
+    traj = write(tmp_path, "type: cosine\namplitude: [0.5, 0, 0.25]\nomega: [4, 0, 16]\n"
+                 "duration: 1.6\n", "t.yaml")
+    for args in (["simulate", "cylindrical", "--trajectory", str(traj), "--dt", "1e-300",
+                  "--out", str(tmp_path / "r")],
+                 ["size", "cylindrical", "--trajectory", str(tmp_path)],
+                 ["study", "fig3", "--out", str(tmp_path / "s"), "--t-end", "1e12"]):
+        p = subprocess.run([sys.executable, "-m", "manipcad", *args], capture_output=True,
+                           text=True, timeout=120, env={**os.environ, "COLUMNS": "300"})
+        assert p.returncode == 2, (args, p.stdout, p.stderr)
+        assert "Traceback" not in p.stderr and p.stderr.startswith("error:"), p.stderr
+
+
+# --------------------------------------------------------------------------- saves
+
+def test_write_folder_whole_or_not_at_all(tmp_path):
+    from manipcad.fileio import write_folder
+
+    out = tmp_path / "study"
+    with write_folder(out) as tmp:
+        (tmp / "fig3.json").write_text("old")
+        (tmp / "fig3.png").write_text("old")
+    with pytest.raises(RuntimeError), write_folder(out) as tmp:
+        (tmp / "fig3.json").write_text("new")
+        raise RuntimeError("plot failed")
+    assert {p.name: p.read_text() for p in out.iterdir()} == {"fig3.json": "old",
+                                                             "fig3.png": "old"}
+    with write_folder(out) as tmp:
+        (tmp / "fig3.json").write_text("new")
+    assert [p.name for p in out.iterdir()] == ["fig3.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study"]  # nothing left behind
+
+
+def test_write_folder_refusals(tmp_path):
+    from manipcad.fileio import write_folder
+
+    f = write(tmp_path, "x", "file")
+    with pytest.raises(InputError, match="not a folder"), write_folder(f):
+        pass
+    with pytest.raises(InputError, match="does not exist"), write_folder(tmp_path / "a" / "b"):
+        pass
+
+
+def test_write_folder_two_rename_fallback_and_restore(tmp_path, monkeypatch):
+    import manipcad.fileio as fio
+
+    out = tmp_path / "res"
+    with fio.write_folder(out) as tmp:
+        (tmp / "a").write_text("1")
+    monkeypatch.setattr(fio, "exchange_paths", lambda a, b: False)
+    with fio.write_folder(out) as tmp:
+        (tmp / "a").write_text("2")
+    assert (out / "a").read_text() == "2"
+    # a writer killed between the two renames: OUT missing, its old copy beside it
+    dead = 2**22 + 12345
+    while fio._alive(dead):
+        dead += 1
+    old = tmp_path / f".res.old-{dead}-abcd1234"
+    os.rename(out, old)
+    (tmp_path / f".res.partial-{dead}-zz").mkdir()
+    assert sorted(fio.clean_folder_leftovers(out)) == [
+        f"removed .res.partial-{dead}-zz", f"restored res from .res.old-{dead}-abcd1234"]
+    assert (out / "a").read_text() == "2"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
+
+
+def _writer(out: Path, ready, when: float) -> None:  # runs in a forked child
+    import time
+
+    from manipcad.fileio import write_folder
+
+    for k in range(100000):
+        with write_folder(out) as tmp:
+            for name in ("fig3.json", "fig3.png", "report.html"):
+                (tmp / name).write_text(str(k % 10) * 200000)
+            if k == 0:
+                ready.set()
+            time.sleep(when)
+
+
+@pytest.mark.parametrize("sig", ["SIGKILL", "SIGTERM", "SIGINT"])
+def test_kill_during_folder_write(tmp_path, sig):
+    """Writers replacing a 3-file folder in a loop, killed at random moments: the folder
+    is always whole (3 files of one writing), and the next run leaves nothing behind."""
+    import multiprocessing
+    import random
+    import signal
+
+    from manipcad.fileio import write_folder
+
+    def whole(tag: str) -> None:
+        with write_folder(out) as tmp:
+            for name in ("fig3.json", "fig3.png", "report.html"):
+                (tmp / name).write_text(tag * 200000)
+
+    out = tmp_path / "s"
+    whole("o")
+    ctx = multiprocessing.get_context("fork")
+    rng = random.Random(sig)
+    for _ in range(8):
+        ready = ctx.Event()
+        p = ctx.Process(target=_writer, args=(out, ready, 0.001))
+        p.start()
+        assert ready.wait(30)
+        ready.clear()
+        time.sleep(rng.uniform(0.0, 0.03))
+        os.kill(p.pid, getattr(signal, sig))
+        p.join(30)
+        assert p.exitcode is not None
+        files = sorted(out.iterdir())
+        assert [f.name for f in files] == ["fig3.json", "fig3.png", "report.html"]
+        texts = {f.read_text() for f in files}
+        assert len(texts) == 1 and len(texts.pop()) == 200000  # complete and never a mix
+        whole("o")  # the next run cleans what the dead writer left
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["s"]

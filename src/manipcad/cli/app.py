@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import functools
+import os
 import sys
 from collections.abc import Callable
 from typing import Any
 
+import click
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from manipcad.errors import ManipcadError
 
@@ -37,19 +40,62 @@ def _root(version: bool = typer.Option(False, "--version", callback=_version, is
     """Computer-aided design of high-accuracy control for robot manipulators."""
 
 
+def describe_exception(exc: BaseException) -> str:
+    """One line for an error that reached the command line's edge: its path and a reason.
+
+    - :class:`ManipcadError`: its own message (file, field, reason).
+    - OSError: the path(s) it names and the system's reason, e.g.
+      "/out/fig3: cannot write: Read-only file system" or "No space left on device".
+    - MemoryError: "out of memory" with numpy's words when it gives them
+      (the shape and bytes it could not allocate).
+    - anything else (a bug, or a numerical error the checks missed): its type and
+      message, marked as unexpected, with how to see the traceback.
+
+    Example:
+        >>> describe_exception(PermissionError(13, "Permission denied", "/out/x.png"))
+        '/out/x.png: cannot write or read: Permission denied'
+    """
+    if isinstance(exc, ManipcadError):
+        return str(exc)
+    if isinstance(exc, OSError):
+        where = " -> ".join(str(f) for f in (exc.filename, exc.filename2) if f is not None)
+        reason = exc.strerror or str(exc) or type(exc).__name__
+        return f"{where}: cannot write or read: {reason}" if where else f"system error: {reason}"
+    if isinstance(exc, MemoryError):
+        detail = str(exc)
+        return ("out of memory" + (f" ({detail})" if detail else "")
+                + "; use a larger step, a shorter run or keep fewer samples")
+    return (f"unexpected {type(exc).__name__}: {exc} (a manipcad bug or an unchecked input; "
+            "set MANIPCAD_DEBUG=1 to see the traceback)")
+
+
 def guarded(func: Callable[..., Any]) -> Callable[..., Any]:
-    """Run a command; bad input becomes one red line on stderr and exit status 2."""
+    """Run a command; any error becomes one red line on stderr and exit status 2.
+
+    Bad input (:class:`ManipcadError`), an unwritable or full output folder
+    (OSError), running out of memory (MemoryError) and any other exception are
+    caught at this edge and reported by :func:`describe_exception`, never as a
+    traceback (``MANIPCAD_DEBUG=1`` re-raises the unexpected ones). Ctrl-C
+    exits with status 130. Exits requested by the command (typer.Exit, click's
+    own usage errors) pass through.
+    """
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
             return func(*args, **kwargs)
-        except ManipcadError as exc:
-            err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        except (typer.Exit, typer.Abort, click.exceptions.ClickException):
+            raise
+        except Exception as exc:  # noqa: BLE001 - the edge: every error becomes one line
+            if (os.environ.get("MANIPCAD_DEBUG", "") not in ("", "0")
+                    and not isinstance(exc, ManipcadError)):
+                raise
+            err_console.print(f"[bold red]error:[/] {escape(describe_exception(exc))}",
+                              highlight=False, soft_wrap=True)
             raise typer.Exit(2) from None
         except KeyboardInterrupt as exc:
             # a save interrupted after its result was in place says so (store.SaveInterrupted)
-            err_console.print(f"[bold red]{str(exc) or 'interrupted'}[/]", highlight=False)
+            err_console.print(f"[bold red]{escape(str(exc) or 'interrupted')}[/]", highlight=False)
             raise typer.Exit(130) from None
 
     return wrapper

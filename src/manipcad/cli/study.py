@@ -52,8 +52,16 @@ def fig3(
 ) -> None:
     """Fig. 3 study: errors of the turning drive of the Fig. 2 arm under laws (2), every
     synthesis method; writes fig3.png, fig3.json and report.html into --out."""
+    from manipcad.budget import check_steps
     from manipcad.study import run_fig3
+    from manipcad.study.fig3 import LAWS, TRACKING
 
+    # refuse a run that cannot fit before allocating (per step: time, reference and
+    # disturbance of the 3 joints; per kept sample: t, q, qd, u, current, tau of every
+    # tracking run, all held until the figure is drawn)
+    check_steps(LAWS["duration"] if t_end is None else t_end, dt, floats_per_step=1 + 8 * 3,
+                floats_per_kept=(1 + 5 * 3) * len(TRACKING), t_end_name="--t-end",
+                dt_name="--dt")
     print_fig3(run_fig3(out, dt=dt, t_end=t_end, methods=methods, progress=progress))
 
 

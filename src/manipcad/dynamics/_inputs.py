@@ -22,7 +22,7 @@ def as_states(n: int, **arrays) -> tuple[list[np.ndarray], bool]:
     out = []
     shape = None
     for name, x in arrays.items():
-        a = x if type(x) is np.ndarray and x.dtype == np.float64 else np.asarray(x, np.float64)
+        a = x if type(x) is np.ndarray and x.dtype == np.float64 else as_floats(name, x)
         if a.ndim == 1:
             a = a.reshape(1, -1)
         elif a.ndim != 2:
@@ -40,11 +40,27 @@ def as_states(n: int, **arrays) -> tuple[list[np.ndarray], bool]:
     return out, single
 
 
+def as_floats(name: str, x) -> np.ndarray:
+    """``x`` as a float64 array; anything that is not real numbers (text, None, complex,
+    ragged lists) raises ManipcadError naming the argument ``name``."""
+    try:
+        a = np.asarray(x)
+        reason = "" if a.dtype.kind in "biuf" else f"values of type {a.dtype}"
+    except (ValueError, TypeError) as exc:  # ragged nesting
+        reason = str(exc)
+    if reason:
+        shown = repr(x)
+        shown = shown if len(shown) <= 60 else shown[:57] + "..."
+        raise ManipcadError(f"{name} must be real numbers (an array of floats), got "
+                            f"{shown}: {reason}")
+    return a.astype(np.float64, copy=False)
+
+
 def as_gravity(robot, gravity) -> np.ndarray:
     """The gravity vector (3,), m/s²: the robot's unless one is given."""
     if gravity is None:
         return robot.gravity
-    g = np.asarray(gravity, dtype=np.float64)
+    g = as_floats("gravity", gravity)
     if g.shape != (3,) or not np.isfinite(g).all():
         raise ManipcadError("gravity must be a finite vector of shape (3,), "
                             f"got {np.shape(gravity)}")
@@ -55,7 +71,7 @@ def as_fext(n: int, N: int, single: bool, f_ext) -> tuple[np.ndarray, bool]:
     """External wrenches as (N, n, 6) [force N, moment N·m] per link, or a dummy when None."""
     if f_ext is None:
         return NO_FEXT, False
-    f = np.asarray(f_ext, dtype=np.float64)
+    f = as_floats("f_ext", f_ext)
     if f.shape == (n, 6):
         f = np.broadcast_to(f, (N, n, 6))
     elif f.shape != (N, n, 6) or single:
@@ -125,7 +141,7 @@ def vector_kernel(store: dict, name: str):
     state = (table, vec, vec, vec, vec, nt.boolean, vec, nt.float64[:, :, ::1], nt.boolean)
     func, sig = {
         "rnea": (rnea_vector, nt.void(*state)),
-        "aba": (aba_vector, nt.void(*state)),
+        "aba": (aba_vector, nt.int64(*state)),
         "crba": (crba_fd_vector, nt.int64(*state)),
         "mass": (crba_vector, nt.void(table, vec, nt.boolean, nt.float64[:, ::1])),
     }[name]

@@ -47,6 +47,10 @@ def aba_one(table, g, q, qd, tau, fext, use_fext, drives, work, tmp, qdd):
     signature); fext (n, 6) as in :func:`manipcad.dynamics.rnea.rnea_one`.
     The articulated inertias are kept as their 21 distinct entries and each
     joint's work in pass 2 is done on local scalars.
+
+    Returns True; False, with qdd all nan, when a joint's articulated inertia
+    about its axis is not positive (the joint moves no mass and no rotor: H
+    is singular, the case the Cholesky of the CRBA method reports too).
     """
     n = table.shape[0]
     # pass 1: velocities, velocity-product accelerations, rigid inertias, bias forces
@@ -215,6 +219,11 @@ def aba_one(table, g, q, qd, tau, fext, use_fext, drives, work, tmp, qdd):
         work[i, A_U + 5] = u5
         work[i, A_D] = D
         work[i, A_UU] = u
+        if not D > 0.0:
+            # the joint moves no mass (nor rotor): H is singular, as crba's Cholesky finds
+            for k in range(n):
+                qdd[k] = np.nan
+            return False
         par = parent_of(table, i)
         if par < 0:
             continue
@@ -383,6 +392,7 @@ def aba_one(table, g, q, qd, tau, fext, use_fext, drives, work, tmp, qdd):
         work[i, A_A + 3] = a3
         work[i, A_A + 4] = a4
         work[i, A_A + 5] = a5
+    return True
 
 
 @jit
@@ -436,7 +446,8 @@ aba_state = nb.njit(nogil=True, inline="always")(aba_one.py_func)
 
 @jit
 def aba_batch(table, g, Q, QD, TAU, FEXT, use_fext, drives, QDD):
-    """Forward dynamics of N states: rows of Q, QD, TAU (N, n) -> QDD (N, n).
+    """Forward dynamics of N states: rows of Q, QD, TAU (N, n) -> QDD (N, n); returns
+    the index of the first state where H is singular (see :func:`aba_one`), or -1.
 
     The one loop over states (see :func:`manipcad.dynamics.rnea.rnea_batch`).
     """
@@ -444,19 +455,27 @@ def aba_batch(table, g, Q, QD, TAU, FEXT, use_fext, drives, QDD):
     work = np.empty((n, ABA_WORK))
     tmp = np.empty((23, 6))
     for k in range(Q.shape[0]):
-        aba_state(table, g, Q[k], QD[k], TAU[k], FEXT[k if use_fext else 0],
-                  use_fext, drives, work, tmp, QDD[k])
+        if not aba_state(table, g, Q[k], QD[k], TAU[k], FEXT[k if use_fext else 0],
+                         use_fext, drives, work, tmp, QDD[k]):
+            return k
+    return -1
 
 
 @nb.njit(cache=True, nogil=True, parallel=True)
 def aba_batch_parallel(table, g, Q, QD, TAU, FEXT, use_fext, drives, QDD, chunks):
     """:func:`aba_batch` on ``chunks`` chunks of rows, run on numba's threads."""
     N = Q.shape[0]
+    bad = np.empty(chunks, dtype=np.int64)
     for c in nb.prange(chunks):
         a = c * N // chunks
         b = (c + 1) * N // chunks
-        aba_batch(table, g, Q[a:b], QD[a:b], TAU[a:b], FEXT[a:b] if use_fext else FEXT,
-                  use_fext, drives, QDD[a:b])
+        k = aba_batch(table, g, Q[a:b], QD[a:b], TAU[a:b], FEXT[a:b] if use_fext else FEXT,
+                      use_fext, drives, QDD[a:b])
+        bad[c] = k + a if k >= 0 else -1
+    for c in range(chunks):
+        if bad[c] >= 0:
+            return bad[c]
+    return -1
 
 
 def aba_vector(table, g, q, qd, tau, drives, qdd, fext, use_fext):
@@ -464,5 +483,5 @@ def aba_vector(table, g, q, qd, tau, drives, qdd, fext, use_fext):
     n = table.shape[0]
     if q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or qdd.shape[0] != n:
         raise ValueError("a vector's length is not the number of joints")
-    aba_batch(table, g, q.reshape((1, n)), qd.reshape((1, n)), tau.reshape((1, n)),
-              fext, use_fext, drives, qdd.reshape((1, n)))
+    return aba_batch(table, g, q.reshape((1, n)), qd.reshape((1, n)), tau.reshape((1, n)),
+                     fext, use_fext, drives, qdd.reshape((1, n)))

@@ -167,12 +167,10 @@ def forward_dynamics(robot: Robot, q, qd, tau, *, method: str = "aba", gravity=N
     F, use_f = as_fext(robot.n, Q.shape[0], single, f_ext)
     g = as_gravity(robot, gravity)
     qdd = np.empty(Q.shape)
-    if method == "aba":
-        _run_aba(robot.table, g, Q, QD, T, F, use_f, drives, qdd)
-    elif method == "crba":
-        bad = _run_crba_fd(robot.table, g, Q, QD, T, F, use_f, drives, qdd)
-        if bad >= 0:
-            raise _not_pd(bad)
-    else:
+    if method not in ("aba", "crba"):
         raise ManipcadError(f"method must be 'aba' or 'crba', got {method!r}")
+    run = _run_aba if method == "aba" else _run_crba_fd
+    bad = run(robot.table, g, Q, QD, T, F, use_f, drives, qdd)
+    if bad >= 0:  # both methods find a joint that moves no mass the same way
+        raise _not_pd(bad)
     return qdd[0] if single else qdd

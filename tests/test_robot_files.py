@@ -271,3 +271,20 @@ def test_examples_load_and_size(which):
                if s == "unknown"}
     assert unknown == {("speed", j) for j, d in enumerate(robot.drives)
                        if d.name == "maxon_ec90flat_244879"}
+
+
+def test_payload_on_unknown_link_names_links_and_joints(urdf_dir):
+    ur5 = manipcad.load_robot(urdf_dir / "ur5_robot.urdf")
+    with pytest.raises(ModelError, match="no link or joint named 'tol0'.*links are .*tool0.*"
+                                         "joints are .*wrist_3_joint"):
+        ur5.with_payload(1.0, link="tol0")
+    # a link name puts the centre of mass in that link's URDF frame, a joint name in the
+    # body frame; the UR5's wrist_3 axis is URDF y, so the two frames differ
+    body, R, p = ur5.link_frame("wrist_3_link")
+    c = np.array([0.0, 0.0, 0.1])
+    assert body == 5 and not np.allclose(R @ c + p, c)
+    by_link = ur5.with_payload(1.0, c, link="wrist_3_link")
+    by_joint = ur5.with_payload(1.0, R @ c + p, link="wrist_3_joint")
+    np.testing.assert_allclose(by_link.com[5], by_joint.com[5], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(by_link.com[5] * by_link.mass[5] - ur5.com[5] * ur5.mass[5],
+                               R @ c + p, atol=1e-12)

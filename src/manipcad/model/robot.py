@@ -460,6 +460,10 @@ class Robot:
             i, R_l, p_l = self.link_frame(link)
             if i < 0:
                 raise ModelError(f"payload link {link!r} is fixed to the base")
+        elif isinstance(link, str) and link not in self.joint_names:
+            raise ModelError(f"no link or joint named {link!r} to carry the payload; links "
+                             f"are {', '.join(self.all_link_names)}; joints are "
+                             f"{', '.join(self.joint_names)}")
         else:
             i = self.joint_index(link)
         m_p = float(mass)

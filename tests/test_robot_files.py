@@ -288,3 +288,38 @@ def test_payload_on_unknown_link_names_links_and_joints(urdf_dir):
     np.testing.assert_allclose(by_link.com[5], by_joint.com[5], rtol=0, atol=1e-15)
     np.testing.assert_allclose(by_link.com[5] * by_link.mass[5] - ur5.com[5] * ur5.mass[5],
                                R @ c + p, atol=1e-12)
+
+
+def test_gear_chain_composition_closed_forms():
+    """compose_gears against hand sums for a TP004 (i = 10) into a CSF-20 (i = 100)."""
+    from manipcad.model.yaml_robot import compose_gears, load_gear
+
+    tp, csf = load_gear("wittenstein_tp004mf_10"), load_gear("harmonic_csf20_100")
+    f, k = compose_gears([tp, csf])
+    assert f["ratio"] == -1000.0
+    assert f["J"] == tp.J + csf.J / 10.0**2
+    assert f["efficiency"] == 0.97 * 0.75
+    # output limits referred to the joint: tp's 27 N·m through the CSF (x 100 x 0.75), CSF's 40
+    assert f["gear_rated_torque"] == min(27.0 * 100 * 0.75, 40.0)
+    assert f["gear_peak_torque"] == min(42.0 * 100 * 0.75, 82.0)
+    # input-speed limits referred to the motor: tp's own, the CSF's times 10
+    assert f["gear_max_input_speed"] == min(tp.max_input_speed, csf.max_input_speed * 10)
+    assert k is None                                   # the CSF file gives no stiffness
+    f2, k2 = compose_gears([tp, load_gear("wittenstein_tp050ma_110")])
+    k_tp, k_big = tp.stiffness, load_gear("wittenstein_tp050ma_110").stiffness
+    assert np.isclose(k2, 1.0 / (1.0 / (k_tp * 110.0**2) + 1.0 / k_big), rtol=1e-14)
+    assert np.isclose(k_tp, 8 * 60 * 180 / np.pi, rtol=1e-14)   # 8 N·m/arcmin
+
+
+def test_backlash_alone_takes_the_gear_stiffness(tmp_path):
+    text = """
+name: one
+joints:
+  - name: a
+    type: revolute
+    link: {mass: 1.0, com: [0.1, 0, 0], inertia: {ixx: 0.01, iyy: 0.01, izz: 0.01}}
+    drive: {motor: maxon_ec45flat_411812, gear: wittenstein_tp004mf_10, backlash: 5.0e-4}
+"""
+    d = manipcad.load_robot(write(tmp_path, "b.yaml", text)).drives[0]
+    assert d.backlash == 5.0e-4 and d.elastic
+    assert np.isclose(d.stiffness, 8 * 60 / (np.pi / 180), rtol=1e-14)

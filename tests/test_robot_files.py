@@ -169,14 +169,18 @@ def test_save_loads_back_identical(urdf_dir, tmp_path, which):
     assert back.save(tmp_path / "again.yaml").read_text() == path.read_text()
 
 
-def test_dh_file_backlash_and_elasticity(tmp_path):
-    text = """
+#: a one-joint DH robot file up to its first drive line
+ONE_JOINT = """
 name: one
 joints:
   - name: a
     type: revolute
     link: {mass: 1.0, com: [0.1, 0, 0], inertia: {ixx: 0.01, iyy: 0.01, izz: 0.01}}
-    drive: {motor: maxon_re40_148877, gear: harmonic_csf17_100, elasticity: [2.0e4, 3.0],
+"""
+
+
+def test_dh_file_backlash_and_elasticity(tmp_path):
+    text = ONE_JOINT + """    drive: {motor: maxon_re40_148877, gear: harmonic_csf17_100, elasticity: [2.0e4, 3.0],
             backlash: 1.0e-4}
   - name: b
     type: revolute
@@ -312,13 +316,7 @@ def test_gear_chain_composition_closed_forms():
 
 
 def test_backlash_alone_takes_the_gear_stiffness(tmp_path):
-    text = """
-name: one
-joints:
-  - name: a
-    type: revolute
-    link: {mass: 1.0, com: [0.1, 0, 0], inertia: {ixx: 0.01, iyy: 0.01, izz: 0.01}}
-    drive: {motor: maxon_ec45flat_411812, gear: wittenstein_tp004mf_10, backlash: 5.0e-4}
+    text = ONE_JOINT + """    drive: {motor: maxon_ec45flat_411812, gear: wittenstein_tp004mf_10, backlash: 5.0e-4}
 """
     d = manipcad.load_robot(write(tmp_path, "b.yaml", text)).drives[0]
     assert d.backlash == 5.0e-4 and d.elastic

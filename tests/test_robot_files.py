@@ -180,7 +180,8 @@ joints:
 
 
 def test_dh_file_backlash_and_elasticity(tmp_path):
-    text = ONE_JOINT + """    drive: {motor: maxon_re40_148877, gear: harmonic_csf17_100, elasticity: [2.0e4, 3.0],
+    text = ONE_JOINT + """\
+    drive: {motor: maxon_re40_148877, gear: harmonic_csf17_100, elasticity: [2.0e4, 3.0],
             backlash: 1.0e-4}
   - name: b
     type: revolute
@@ -316,7 +317,8 @@ def test_gear_chain_composition_closed_forms():
 
 
 def test_backlash_alone_takes_the_gear_stiffness(tmp_path):
-    text = ONE_JOINT + """    drive: {motor: maxon_ec45flat_411812, gear: wittenstein_tp004mf_10, backlash: 5.0e-4}
+    text = ONE_JOINT + """\
+    drive: {motor: maxon_ec45flat_411812, gear: wittenstein_tp004mf_10, backlash: 5.0e-4}
 """
     d = manipcad.load_robot(write(tmp_path, "b.yaml", text)).drives[0]
     assert d.backlash == 5.0e-4 and d.elastic

@@ -71,7 +71,7 @@ class Check:
 
 @dataclass
 class IfDrives:
-    """Statements run only with the drive terms (always in C, where drives are included)."""
+    """Statements run only with the drive terms (a ``drives`` flag of the function)."""
 
     body: list = field(default_factory=list)
 
@@ -203,7 +203,7 @@ def lines(stmts: list, lang: str, fmt: dict, indent: str, fail: str,
         fmt: array name -> function of the indices giving the element's text.
         indent: the indentation of the block.
         fail: the value a failed :class:`Check` returns (text).
-        drives_flag: Python: :class:`IfDrives` tests a ``drives`` argument; C: always run.
+        drives_flag: :class:`IfDrives` tests a ``drives`` argument; False: always run.
     """
     out = []
     end = ";" if lang == "c" else ""
@@ -241,9 +241,13 @@ def lines(stmts: list, lang: str, fmt: dict, indent: str, fail: str,
         elif isinstance(s, IfDrives):
             if not s.body:
                 continue
-            if lang == "python" and drives_flag:
+            if drives_flag and lang == "python":
                 out.append(f"{indent}if drives:")
                 out += lines(s.body, lang, fmt, indent + "    ", fail, drives_flag)
+            elif drives_flag:
+                out.append(f"{indent}if (drives) {{")
+                out += lines(s.body, lang, fmt, indent + "    ", fail, drives_flag)
+                out.append(f"{indent}}}")
             else:
                 out += lines(s.body, lang, fmt, indent, fail, drives_flag)
         else:  # pragma: no cover - a programming error

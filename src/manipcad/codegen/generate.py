@@ -17,6 +17,7 @@ import json
 import os
 import re
 import shutil
+import subprocess
 import sys
 import time
 import warnings
@@ -367,14 +368,178 @@ def c_sources(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> tuple[s
         fmt = {"tau": lambda i: f"tau[{i}]", "H": lambda i, j: f"H[{i * n + j}]",
                "H_ii": lambda i: f"H_ii[{i}]", "h": lambda i: f"h[{i}]",
                "Qg": lambda i: f"Qg[{i}]", "qdd": lambda i: f"qdd[{i}]"}
-        src += [proto, "{"]
+        flag = func != "moment_components"
+        # the body takes a drives flag (the Python module's drives=False); the public
+        # function includes the drive terms
+        src += [f"static {ret} {P}_{func}_body({args}{', int drives' if flag else ''})", "{"]
+        if flag:
+            src.append("    (void)drives;")
         src += _read_lines(func, d, st, "c", "    ", False)
-        src += emit.lines(st, "c", fmt, "    ", "{j}")
+        src += emit.lines(st, "c", fmt, "    ", "{j}", drives_flag=flag)
         if func == "forward_dynamics":
             src.append("    return -1;")
         src += ["}", ""]
+        names = ", ".join(a.split("*")[-1] for a in args.split(", "))
+        call = f"{P}_{func}_body({names}{', 1' if flag else ''})"
+        src += [proto, "{", f"    {'return ' if ret == 'int' else ''}{call};", "}", ""]
     hdr += [f"#endif /* {guard} */", ""]
     return "\n".join(hdr), "\n".join(src)
+
+
+# ------------------------------------------------------------------ CPython extension
+_EXT_TEMPLATE = r"""/* CPython wrappers of the generated C: one-state calls, no numba dispatch. */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
+
+@SOURCE@
+
+#define NJ @N@
+
+/* 1 when o is a C-contiguous float64 vector of NJ entries */
+static int vec(PyObject *o, const double **p)
+{
+    PyArrayObject *a;
+    if (!PyArray_Check(o)) return 0;
+    a = (PyArrayObject *)o;
+    if (PyArray_TYPE(a) != NPY_DOUBLE || PyArray_NDIM(a) != 1 || PyArray_DIM(a, 0) != NJ
+        || !PyArray_IS_C_CONTIGUOUS(a)) return 0;
+    *p = (const double *)PyArray_DATA(a);
+    return 1;
+}
+
+static PyObject *out(int nd, double **p)
+{
+    npy_intp dims[2] = {NJ, NJ};
+    PyObject *o = PyArray_SimpleNew(nd, dims, NPY_DOUBLE);
+    if (o) *p = (double *)PyArray_DATA((PyArrayObject *)o);
+    return o;
+}
+
+/* each returns None when an argument is not a float64 vector of NJ entries */
+static PyObject *w_id(PyObject *self, PyObject *const *a, Py_ssize_t n)
+{
+    const double *q, *qd, *qdd; double *t; PyObject *o; int dr;
+    (void)self;
+    if (n != 4 || !vec(a[0], &q) || !vec(a[1], &qd) || !vec(a[2], &qdd)) Py_RETURN_NONE;
+    dr = PyObject_IsTrue(a[3]);
+    if (dr < 0 || !(o = out(1, &t))) return NULL;
+    mcg_inverse_dynamics_body(q, qd, qdd, t, dr);
+    return o;
+}
+
+static PyObject *w_mass(PyObject *self, PyObject *const *a, Py_ssize_t n)
+{
+    const double *q; double *H; PyObject *o; int dr;
+    (void)self;
+    if (n != 2 || !vec(a[0], &q)) Py_RETURN_NONE;
+    dr = PyObject_IsTrue(a[1]);
+    if (dr < 0 || !(o = out(2, &H))) return NULL;
+    mcg_mass_matrix_body(q, H, dr);
+    return o;
+}
+
+static PyObject *w_fd(PyObject *self, PyObject *const *a, Py_ssize_t n)
+{
+    const double *q, *qd, *tau; double *x; PyObject *o; int dr, bad;
+    (void)self;
+    if (n != 4 || !vec(a[0], &q) || !vec(a[1], &qd) || !vec(a[2], &tau)) Py_RETURN_NONE;
+    dr = PyObject_IsTrue(a[3]);
+    if (dr < 0 || !(o = out(1, &x))) return NULL;
+    bad = mcg_forward_dynamics_body(q, qd, tau, x, dr);
+    if (bad >= 0) { Py_DECREF(o); return PyLong_FromLong(bad); }
+    return o;
+}
+
+static PyMethodDef methods[] = {
+    {"inverse_dynamics", (PyCFunction)(void (*)(void))w_id, METH_FASTCALL, "tau or None"},
+    {"mass_matrix", (PyCFunction)(void (*)(void))w_mass, METH_FASTCALL, "H or None"},
+    {"forward_dynamics", (PyCFunction)(void (*)(void))w_fd, METH_FASTCALL,
+     "qdd, the joint index where H is not positive definite, or None"},
+    {NULL, NULL, 0, NULL}
+};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "@NAME@", NULL, -1, methods,
+                                    NULL, NULL, NULL, NULL};
+
+PyMODINIT_FUNC PyInit_@NAME@(void)
+{
+    import_array();
+    return PyModule_Create(&module);
+}
+"""
+
+
+def _extension(path: Path, digest: str, n: int):
+    """The CPython extension of the generated C (built once into the cache folder), or None.
+
+    It serves the one-state calls from Python (numba's dispatch of four arrays
+    costs about a microsecond, more than the dynamics); None when no C compiler
+    or Python headers are available: the numba kernels then serve those calls.
+    """
+    import sysconfig
+
+    name = f"mcgen_{digest[:16]}"
+    so = path / f"{name}{sysconfig.get_config_var('EXT_SUFFIX') or '.so'}"
+    if not so.is_file():
+        cc = shutil.which("cc") or shutil.which("gcc")
+        inc = sysconfig.get_paths().get("include", "")
+        if cc is None or not (Path(inc) / "Python.h").is_file():
+            return None
+        src = (path / "kernels.c.in").read_text().replace(_PREFIX_TOKEN, "mcg")
+        src = src.replace('#include "mcg.h"', "")
+        text = (_EXT_TEMPLATE.replace("@SOURCE@", src).replace("@N@", str(n))
+                .replace("@NAME@", name))
+        c_file = path / f"{name}.c"
+        c_file.write_text(text)
+        tmp = so.with_suffix(f".{os.getpid()}.tmp")
+        cmd = [cc, "-O2", "-ffp-contract=off", "-shared", "-fPIC", f"-I{inc}",
+               f"-I{np.get_include()}", "-o", str(tmp), str(c_file), "-lm"]
+        res = subprocess.run(cmd, capture_output=True, text=True)
+        if res.returncode != 0:
+            warnings.warn(f"compiling {c_file} failed ({res.stderr.strip()[:300]}); one-state "
+                          "calls use the numba kernels", ManipcadWarning, stacklevel=3)
+            return None
+        os.replace(tmp, so)
+    spec = importlib.util.spec_from_file_location(name, so)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+class _NoExtension:
+    """Stands for the extension when there is none: every call declines (None)."""
+
+    def inverse_dynamics(self, *args):
+        return None
+
+    mass_matrix = forward_dynamics = inverse_dynamics
+
+
+_NO_EXTENSION = _NoExtension()
+
+
+class _LazyExtension:
+    """Builds (or loads) the extension on the first one-state call, then steps aside."""
+
+    def __init__(self, gen) -> None:
+        self.gen = gen
+
+    def _get(self):
+        g = self.gen
+        ext = _extension(g.path, g.hash, g.n) if g.path is not None else None
+        g._x = ext if ext is not None else _NO_EXTENSION
+        return g._x
+
+    def inverse_dynamics(self, *args):
+        return self._get().inverse_dynamics(*args)
+
+    def mass_matrix(self, *args):
+        return self._get().mass_matrix(*args)
+
+    def forward_dynamics(self, *args):
+        return self._get().forward_dynamics(*args)
 
 
 # ------------------------------------------------------------------ the object
@@ -409,6 +574,8 @@ class GeneratedDynamics:
         self.ops, self.path, self.seconds = ops, path, seconds
         self._m = module
         self._c: dict = {}  # name -> compiled kernel
+        # one-state calls: the CPython extension of the C code, built on first use
+        self._x = _LazyExtension(self) if module is not None else _NO_EXTENSION
 
     def kernel(self, name: str):
         """The compiled kernel ``name`` of the generated module (compiled on first use).
@@ -453,6 +620,9 @@ class GeneratedDynamics:
             >>> gen.inverse_dynamics(np.zeros(3), np.zeros(3), np.zeros(3)).shape
             (3,)
         """
+        tau = self._x.inverse_dynamics(q, qd, qdd, drives)
+        if tau is not None:
+            return tau
         m = self._m
         if m is None:
             from manipcad.dynamics.api import inverse_dynamics
@@ -487,6 +657,9 @@ class GeneratedDynamics:
             >>> gen.mass_matrix(np.zeros(3)).shape
             (3, 3)
         """
+        H = self._x.mass_matrix(q, drives)
+        if H is not None:
+            return H
         m = self._m
         if m is None:
             from manipcad.dynamics.api import mass_matrix
@@ -557,6 +730,12 @@ class GeneratedDynamics:
             >>> gen.forward_dynamics(np.zeros(3), np.zeros(3), np.zeros(3)).shape
             (3,)
         """
+        qdd = self._x.forward_dynamics(q, qd, tau, drives)
+        if qdd is not None:
+            if type(qdd) is int:
+                raise ManipcadError("the mass matrix is not positive definite at "
+                                    f"joint {qdd}: a joint moves no mass")
+            return qdd
         m = self._m
         if m is None:
             from manipcad.dynamics.api import forward_dynamics

@@ -1,0 +1,235 @@
+"""Benchmark: customized generated dynamics against Pinocchio and the general kernels, one run.
+
+Usage::
+
+    python benchmarks/bench_codegen.py [--rounds R] [--json out.json]
+
+Robots: the UR5 (6 joints) and the Panda (7 arm joints + 2 finger joints, a
+tree) URDFs of ``example-robot-data``, loaded by :func:`manipcad.load_robot`
+(rigid bodies, as Pinocchio sees them), and the catalog PUMA 560 with its
+drives for the right-hand side of the closed loop.
+
+What is timed (``time.perf_counter``, wall clock, per state):
+
+* ``pin.rnea`` single: a Python loop of calls over prebuilt per-state arrays;
+* generated single: ``gen.inverse_dynamics(q, qd, qdd, False)`` in the same kind of loop;
+* general single: ``manipcad.inverse_dynamics(..., drives=False, use_generated=False)``;
+* generated batch / general batch: one call on N = 10,000 states divided by N
+  (the general batch on one thread, as the generated batch runs);
+* right-hand side (forward dynamics with the drive terms, PUMA 560): the
+  generated kernel and the general ABA kernel in a batch of N states, per
+  state, i.e. what one evaluation costs inside a compiled loop such as the
+  simulator's;
+* generation: ``generate`` of a 7-joint arm (the xArm7 URDF) into an empty
+  cache (symbolic work, cse and printing), then the first numba compile of
+  its inverse dynamics kernel, then a second ``generate`` (cache hit).
+
+Cases are interleaved: every round times each case once, in a new random
+order; the table shows the minimum over rounds and (in brackets) the median.
+
+Targets (issue 14, "Speed"): generated single call <= 0.5x Pinocchio's, batch
+<= 0.1x per state, generation of a 7-joint arm < 5 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numba
+import numpy as np
+import pinocchio as pin
+
+import manipcad
+from manipcad.codegen import generate
+from manipcad.errors import ManipcadWarning
+
+sys.path.insert(0, str(Path(__file__).parent))
+from bench_dynamics import ur5_urdf  # noqa: E402  (the one locator of the data set)
+
+N_BATCH = 10_000
+
+
+def erd(rel: str) -> Path:
+    """A URDF of example-robot-data by its path under robots/."""
+    ur5 = ur5_urdf()
+    if ur5 is None:
+        sys.exit("example-robot-data is not installed (pip install example-robot-data)")
+    return ur5.parents[2] / rel
+
+
+def load(path) -> manipcad.Robot:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        return manipcad.load_robot(path)
+
+
+def loop(fn, args) -> float:
+    t = time.perf_counter()
+    for a in args:
+        fn(*a)
+    return (time.perf_counter() - t) / len(args)
+
+
+def bench_id(label: str, path: Path, rounds: int, rng) -> dict:
+    robot = load(path)
+    model = pin.buildModelFromUrdf(str(path))
+    data = model.createData()
+    names = [model.names[j] for j in range(1, model.njoints)]
+    order = np.array([robot.joint_names.index(nm) for nm in names])
+    n = robot.n
+    gen = generate(robot, attach=False)
+    Q, QD, QDD = rng.uniform(-1.5, 1.5, (3, N_BATCH, n))
+    k1 = 1000
+    ours = [(Q[k].copy(), QD[k].copy(), QDD[k].copy(), False) for k in range(k1)]
+    general = [(robot, *a[:3]) for a in ours]
+    qp = (Q + robot.offset)[:, order]
+    pins = [(model, data, qp[k].copy(), QD[k, order].copy(), QDD[k, order].copy())
+            for k in range(k1)]
+    # agreement with Pinocchio (rigid body)
+    tau = gen.inverse_dynamics(Q[:50], QD[:50], QDD[:50], False)
+    err = max(np.abs(tau[k, order] - pin.rnea(*pins[k])).max()
+              / np.abs(pin.rnea(*pins[k])).max() for k in range(50))
+    TAU = np.empty_like(Q)
+    kb = gen.kernel("inverse_dynamics_batch")
+
+    def general_single(r, q, qd, qdd):
+        manipcad.inverse_dynamics(r, q, qd, qdd, drives=False, use_generated=False)
+
+    def gen_batch():
+        t = time.perf_counter()
+        kb(Q, QD, QDD, False, TAU)
+        return (time.perf_counter() - t) / N_BATCH
+
+    def general_batch():
+        t = time.perf_counter()
+        manipcad.inverse_dynamics(robot, Q, QD, QDD, drives=False, use_generated=False)
+        return (time.perf_counter() - t) / N_BATCH
+
+    cases = {
+        "pinocchio single": lambda: loop(pin.rnea, pins),
+        "generated single": lambda: loop(gen.inverse_dynamics, ours),
+        "general single": lambda: loop(general_single, general),
+        "generated batch": gen_batch,
+        "general batch": general_batch,
+    }
+    for f in cases.values():  # warm-up: compile or load
+        f()
+    return {"robot": label, "n": n, "agreement": float(err), "ops": gen.ops,
+            "times": interleave(cases, rounds, rng)}
+
+
+def bench_rhs(rounds: int, rng) -> dict:
+    robot = load("puma560")
+    gen = generate(robot, attach=False)
+    n = robot.n
+    Q, QD, T = rng.uniform(-1.5, 1.5, (3, N_BATCH, n))
+    out = np.empty_like(Q)
+    kf = gen.kernel("forward_dynamics_batch")
+
+    def gen_fd():
+        t = time.perf_counter()
+        kf(Q, QD, T, True, out)
+        return (time.perf_counter() - t) / N_BATCH
+
+    def general_fd():
+        t = time.perf_counter()
+        manipcad.forward_dynamics(robot, Q, QD, T, use_generated=False)
+        return (time.perf_counter() - t) / N_BATCH
+
+    cases = {"generated forward (chol)": gen_fd, "general forward (aba)": general_fd}
+    for f in cases.values():
+        f()
+    return {"robot": "puma560 with drives", "n": n, "times": interleave(cases, rounds, rng)}
+
+
+def bench_generation() -> dict:
+    path = erd("xarm_description/urdf/xarm7.urdf")
+    robot = load(path)
+    with tempfile.TemporaryDirectory() as tmp:
+        t = time.perf_counter()
+        gen = generate(robot, cache_dir=tmp, attach=False)
+        t_gen = time.perf_counter() - t
+        t = time.perf_counter()
+        gen.kernel("inverse_dynamics")
+        t_compile = time.perf_counter() - t
+        t = time.perf_counter()
+        generate(robot, cache_dir=tmp, attach=False)
+        t_hit = time.perf_counter() - t
+    return {"robot": f"xarm7 ({robot.n} joints)", "generate_s": t_gen,
+            "symbolic_s": gen.seconds, "first_compile_id_s": t_compile, "cache_hit_s": t_hit,
+            "ops": gen.ops}
+
+
+def interleave(cases: dict, rounds: int, rng) -> dict:
+    samples: dict = {k: [] for k in cases}
+    keys = list(cases)
+    for _ in range(rounds):
+        rng.shuffle(keys)
+        for k in keys:
+            samples[k].append(cases[k]())
+    return {k: {"min": min(v), "median": statistics.median(v)} for k, v in samples.items()}
+
+
+def us(x: float) -> str:
+    return f"{x * 1e6:.3f}"
+
+
+def report(res: dict) -> str:
+    out = ["| robot | case | µs per state, min (median) | ratio to Pinocchio single |",
+           "|---|---|---|---|"]
+    for r in res["id"]:
+        ref = r["times"]["pinocchio single"]
+        for k, v in r["times"].items():
+            out.append(f"| {r['robot']} | {k} | {us(v['min'])} ({us(v['median'])}) | "
+                       f"{v['min'] / ref['min']:.2f} ({v['median'] / ref['median']:.2f}) |")
+    out.append("")
+    rhs = res["rhs"]
+    out += ["| right-hand side, " + rhs["robot"] + " | µs per state, min (median) |", "|---|---|"]
+    for k, v in rhs["times"].items():
+        out.append(f"| {k} | {us(v['min'])} ({us(v['median'])}) |")
+    g = res["generation"]
+    out += ["", f"generation, {g['robot']}: generate {g['generate_s']:.2f} s "
+            f"(symbolic + printing {g['symbolic_s']:.2f} s), first numba compile of the "
+            f"inverse dynamics {g['first_compile_id_s']:.2f} s, cached generate "
+            f"{g['cache_hit_s'] * 1e3:.1f} ms"]
+    out.append("")
+    for r in res["id"]:
+        t = r["times"]
+        s = t["generated single"]["min"] / t["pinocchio single"]["min"]
+        b = t["generated batch"]["min"] / t["pinocchio single"]["min"]
+        out.append(f"- {r['robot']}: single {s:.2f}x Pinocchio (target <= 0.5: "
+                   f"{'met' if s <= 0.5 else 'NOT met'}), batch {b:.3f}x (target <= 0.1: "
+                   f"{'met' if b <= 0.1 else 'NOT met'}); agreement with pin.rnea "
+                   f"{r['agreement']:.1e}")
+    out.append(f"- generation < 5 s: {'met' if g['generate_s'] < 5 else 'NOT met'}")
+    return "\n".join(out)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--rounds", type=int, default=7)
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args()
+    numba.set_num_threads(1)
+    rng = np.random.default_rng(0)
+    res = {
+        "id": [bench_id("ur5", erd("ur_description/urdf/ur5_robot.urdf"), args.rounds, rng),
+               bench_id("panda", erd("panda_description/urdf/panda.urdf"), args.rounds, rng)],
+        "rhs": bench_rhs(args.rounds, rng),
+        "generation": bench_generation(),
+        "pinocchio": pin.__version__, "numba": numba.__version__,
+    }
+    print(report(res))
+    if args.json:
+        args.json.write_text(json.dumps(res, indent=1))
+
+
+if __name__ == "__main__":
+    main()

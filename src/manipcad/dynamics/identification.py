@@ -1,4 +1,4 @@
-"""Identification of an unknown payload mass m_r from drive torques (paper 4.1).
+"""Identification of an unknown payload mass m_r from drive torques or currents (paper 4.1).
 
 The paper separates the terms that hold the unknown mass in the inverse
 dynamics and computes m_r from the measured drive torques and the torques the
@@ -19,20 +19,33 @@ the body origin):
   carries only that 1 kg. It equals ``ID(robot.with_payload(1, com)) - tau_0``
   exactly, without the cancellation of that difference.
 
-Each drive j and sample t gives one equation y_tj = tau_tj - tau_0,tj =
-m_r·g_tj + e_tj; m_r is their least-squares solution. With several drives the
-torque noise differs per drive (and N·m and N do not mix), so the equations are
-weighted by each drive's noise variance, estimated from its own residuals of a
-first unweighted fit (feasible weighted least squares; with fewer than
-``MIN_SAMPLES_FOR_WEIGHTS`` samples, or one drive, the plain fit is kept). The
-standard deviation follows from the residual variance and the regressor:
-var(m_r) = 1 / Σ_j Σ_t g_tj² / σ_j² (weighted) or s² / Σ g² (plain).
+Methods (``method=``; docs/identification.md has the derivations):
 
-Static method (short stops, q̇ = q̈ = 0): the same fit with only the gravity
-regressor g(q) = -J_c(q)ᵀ·(1 kg)·g_vec; the drive terms vanish at rest in the
-model (measured torques at rest include the stiction of the gears, which the
-model does not know: stop long enough for the torque to settle and approach
-each stop from both sides, or use the motion data).
+- ``"motion"``: every sample and drive gives y = tau - tau_0 = m_r·g + e.
+  Samples where a drive with dry friction moves slower than
+  ``MOTION_SPEED`` are left out for that drive (the sign of its friction is
+  not known there). Without q̈ (and q̇) the samples must be time-ordered and
+  ``t`` given: they are differentiated (central differences).
+- ``"stops"``: with ``t``, the stops of a time-ordered motion are found
+  (:func:`find_stops`: every joint slower than ``STOP_SPEED`` for at least
+  ``MIN_STOP``), each averaged into one equation, and the direction each joint
+  last moved in before it stuck is recorded. At rest the drive holds with its
+  dry friction anywhere inside the band [-F⁻, +F⁺]; after a motion in
+  direction d the held friction sits at the edge of that direction. So
+  ``friction="estimate"`` (default) fits, per drive, one unknown held-friction
+  level per approach direction jointly with m_r (the within-direction
+  variation of g identifies m_r); ``"model"`` subtracts the model's band edge
+  d·F^d; ``"none"`` ignores friction. Without ``t`` (and q̇ = q̈ = 0 or None)
+  each sample is one stop of unknown approach.
+- ``"auto"``: motion when there are enough moving samples, else stops.
+
+Each drive's noise variance is estimated from its own residuals (feasible
+weighted least squares), var(m_r) = 1 / Σ_j Σ g²/σ_j². Each drive alone gives
+m_j ± s_j; a drive whose m_j differs from m_r by more than the flag threshold
+standard deviations of that difference (s_j² - s², the variance of the
+difference for the weighted mean of independent drives) is *flagged*: the
+data, the com, the friction or the model disagree there. The threshold is
+:func:`flag_threshold` (family-wise false-alarm probability ``FLAG_ALPHA``).
 """
 
 from __future__ import annotations
@@ -40,6 +53,7 @@ from __future__ import annotations
 import csv
 import math
 import warnings
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -48,7 +62,7 @@ import numpy as np
 from manipcad.dynamics.api import inverse_dynamics
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.fileio import read_text
-from manipcad.model.robot import REVOLUTE, Robot
+from manipcad.model.robot import COL_FCN, COL_FCP, PRISMATIC, REVOLUTE, Robot
 
 SOURCE = "identify_payload"
 #: a drive whose regressor RMS is below this (N·m/kg or N/kg) gives no excitation
@@ -57,6 +71,59 @@ EXCITATION_ABS = 1e-9
 EXCITATION_REL = 1e-6
 #: samples needed before the drives are weighted by their estimated noise
 MIN_SAMPLES_FOR_WEIGHTS = 10
+METHODS = ("stops", "motion", "auto")
+FRICTION = ("estimate", "symmetric", "model", "none")
+#: a stop: every joint slower than this, rad/s (revolute) and m/s (prismatic)
+STOP_SPEED = {REVOLUTE: 1e-2, PRISMATIC: 1e-3}
+#: a joint's approach direction: its last velocity above this fraction of the stop speed
+DIRECTION_FRACTION = 0.1
+#: a stop lasts at least this long, s
+MIN_STOP = 0.15
+#: the first fraction of each stop is left out (current and torque settling)
+STOP_SETTLE = 0.25
+#: motion: a drive with dry friction slower than this is left out at that sample, rad/s, m/s
+MOTION_SPEED = {REVOLUTE: 2e-2, PRISMATIC: 2e-3}
+#: motion without q̈: q̇ and the torques are smoothed over this time before q̇ is
+#: differentiated, s
+SMOOTH_TIME = 0.02
+#: moving samples "auto" needs to choose the motion method
+AUTO_MIN_MOTION = 50
+#: family-wise false-alarm probability of the disagreement flags (over the k drives)
+FLAG_ALPHA = 1e-3
+
+
+def flag_threshold(k: int) -> float:
+    """|z| beyond which one of k drives is flagged: the two-sided normal quantile at
+    ``FLAG_ALPHA / k`` (Bonferroni), so that consistent data raise a flag in about
+    one fit in 1000 whatever the number of drives.
+
+    Example:
+        >>> round(flag_threshold(1), 2), round(flag_threshold(6), 2)
+        (3.29, 3.76)
+    """
+    from scipy.stats import norm
+
+    return float(norm.isf(FLAG_ALPHA / (2 * max(int(k), 1))))
+
+
+@dataclass(frozen=True)
+class Stop:
+    """One stop found in time-ordered samples.
+
+    Attributes:
+        start, end: first and last sample time of the stop, s.
+        first, last: their sample indices (inclusive).
+        used: (first_used, last) the samples averaged (after ``STOP_SETTLE``).
+        direction: (n,) per joint, the sign of its last motion before the stop
+            (+1, -1; 0 if it had not moved since the samples began).
+    """
+
+    start: float
+    end: float
+    first: int
+    last: int
+    used: tuple[int, int]
+    direction: np.ndarray = field(repr=False)
 
 
 @dataclass(frozen=True)
@@ -67,23 +134,38 @@ class PayloadEstimate:
         mass: m_r, kg (returned as found, negative values included: see the warning).
         std: standard deviation of ``mass`` from the residual variance and the
             regressor, kg (nan with a single equation).
-        residual: RMS of the fit residuals over the drives and samples used, N·m
+        residual: RMS of the fit residuals over the drives and equations used, N·m
             (N for prismatic joints).
         joints: indices of the drives used (0-based, the robot's joint order).
         joint_names: their names.
-        method: "dynamic" (motion: inertial, velocity and gravity terms) or
-            "static" (short stops, q̇ = q̈ = 0: gravity only).
-        samples: number of samples (states) N.
-        com: the payload's assumed centre of mass in the carrying link's body frame, m.
-        link: index of the carrying link (joint).
+        method: "stops" (q̇ = q̈ = 0: gravity only) or "motion" (inertial,
+            velocity and gravity terms).
+        samples: number of samples (states) N given.
+        com: the payload's centre of mass in the frame of ``link_name``, m (the
+            estimate when ``com_estimated``).
+        link: index of the carrying body (joint).
+        link_name: the link the com is given in (a URDF link name or the
+            body's link name).
         weighting: "noise" (drives weighted by their estimated noise variance)
             or "equal" (plain least squares).
         per_joint_mass: m_r from each drive used alone, kg, shape (k,).
         per_joint_std: its standard deviation, kg, shape (k,).
         per_joint_residual: RMS residual of each drive in the joint fit, N·m or N, (k,).
-        excitation: RMS of each drive's regressor g along the samples, N·m/kg
-            (N/kg for prismatic joints), shape (k,): how strongly the payload
-            shows in that drive.
+        excitation: RMS of each drive's regressor g over its equations, N·m/kg
+            (N/kg for prismatic joints), shape (k,).
+        flagged: names of the drives whose own estimate disagrees with ``mass``
+            beyond their uncertainty (|z| > :func:`flag_threshold`).
+        z: (k,) (m_j - m_r) / std of that difference per drive (nan if undefined).
+        equations: (k,) equations (samples or stops) used per drive.
+        stops: the stops used (method "stops" with time-ordered samples).
+        friction: how the held friction at stops was handled ("estimate",
+            "model", "none"; "model" for motion: the drive model's friction).
+        held_friction: per drive used, {direction: level}, N·m or N: the held
+            friction levels fitted at stops with ``friction="estimate"``.
+        com_estimated: True when the com was estimated with the mass.
+        com_std: (3,) standard deviation of the estimated com, m (nan otherwise).
+        signal: "torque" or "current" (what was measured).
+        notes: what was chosen and why (e.g. "auto" picking a method).
     """
 
     mass: float
@@ -95,35 +177,55 @@ class PayloadEstimate:
     samples: int
     com: np.ndarray = field(repr=False)
     link: int = -1
+    link_name: str = ""
     weighting: str = "equal"
     per_joint_mass: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     per_joint_std: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     per_joint_residual: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     excitation: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    flagged: tuple[str, ...] = ()
+    z: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    equations: np.ndarray = field(default_factory=lambda: np.zeros(0, int), repr=False)
+    stops: tuple[Stop, ...] = field(default=(), repr=False)
+    friction: str = "model"
+    held_friction: tuple[dict, ...] = field(default=(), repr=False)
+    com_estimated: bool = False
+    com_std: np.ndarray = field(default_factory=lambda: np.full(3, np.nan), repr=False)
+    signal: str = "torque"
+    notes: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
-        """A JSON-ready mapping (SI units: kg, N·m or N, m)."""
+        """A JSON-ready mapping (SI units: kg, N·m or N, m, s)."""
         def num(x: float):
             return None if not math.isfinite(x) else float(x)
 
         return {
             "mass_kg": num(self.mass), "std_kg": num(self.std),
             "residual_rms": num(self.residual), "method": self.method,
-            "samples": self.samples, "weighting": self.weighting,
-            "link": self.link, "com_m": [float(c) for c in self.com],
+            "samples": self.samples, "stops": len(self.stops), "weighting": self.weighting,
+            "signal": self.signal, "friction": self.friction,
+            "link": self.link_name, "link_index": self.link,
+            "com_m": [float(c) for c in self.com], "com_estimated": self.com_estimated,
+            "com_std_m": [num(c) for c in self.com_std],
+            "flagged": list(self.flagged), "notes": list(self.notes),
             "joints": [
                 {"index": j, "name": nm, "mass_kg": num(m), "std_kg": num(s),
-                 "residual_rms": num(r), "excitation_per_kg": num(e)}
-                for j, nm, m, s, r, e in zip(
+                 "residual_rms": num(r), "excitation_per_kg": num(e), "z": num(zz),
+                 "equations": int(ne), "flagged": nm in self.flagged,
+                 "held_friction": ({str(k): float(v) for k, v in self.held_friction[i].items()}
+                                   if i < len(self.held_friction) else {})}
+                for i, (j, nm, m, s, r, e, zz, ne) in enumerate(zip(
                     self.joints, self.joint_names, self.per_joint_mass, self.per_joint_std,
-                    self.per_joint_residual, self.excitation, strict=True)
+                    self.per_joint_residual, self.excitation, self.z, self.equations,
+                    strict=True))
             ],
         }
 
     def __str__(self) -> str:
+        flag = f"; drives disagreeing: {', '.join(self.flagged)}" if self.flagged else ""
         return (f"payload mass {self.mass:.4g} ± {self.std:.2g} kg ({self.method}, "
                 f"{self.samples} samples, drives {', '.join(self.joint_names)}; "
-                f"residual RMS {self.residual:.3g})")
+                f"residual RMS {self.residual:.3g}{flag})")
 
 
 def payload_regressor(robot: Robot, q, qd, qdd, *, com=None, link: int | str = -1) -> np.ndarray:
@@ -133,8 +235,9 @@ def payload_regressor(robot: Robot, q, qd, qdd, *, com=None, link: int | str = -
         robot: the manipulator (its links' own masses do not matter here).
         q, qd, qdd: joint positions, velocities, accelerations (rad, rad/s, rad/s²
             or m, m/s, m/s²), shape (n,) or (N, n).
-        com: the point mass's position in the link's body frame, m; default the origin.
-        link: the carrying link (joint index or name), default the last.
+        com: the point mass's position in the link's frame, m; default the origin.
+        link: the carrying link: a joint index or name (its body frame), or a
+            link name (that link's own frame, e.g. a URDF link); default the last.
 
     Returns:
         g, N·m/kg (N/kg for prismatic joints), shaped like q: the inverse dynamics
@@ -148,47 +251,246 @@ def payload_regressor(robot: Robot, q, qd, qdd, *, com=None, link: int | str = -
         >>> payload_regressor(puma, np.zeros(6), np.zeros(6), np.zeros(6)).shape
         (6,)
     """
-    unit = _unit_payload_robot(robot, _com(com), robot.joint_index(link))
+    body, R, p, _ = link_frame(robot, link)
+    unit = _unit_payload_robot(robot, R @ _com(com) + p, body)
     return inverse_dynamics(unit, q, qd, qdd, drives=False)
 
 
-def identify_payload(robot: Robot, q, qd, qdd, tau, *, com=None, joints=None,
-                     drives: bool = True, link: int | str = -1) -> PayloadEstimate:
-    """Identify an unknown payload mass m_r on the last link from drive torques.
+# ------------------------------------------------------------------ link frames
 
-    Least squares over the chosen drives and all samples of
-    tau - tau_0 = m_r · g (see the module docstring): tau_0 is what the unloaded
-    robot needs, g what 1 kg at ``com`` needs. With ``qd`` and ``qdd`` None or
-    all zero (short stops) the static method (gravity only) is used.
+
+def link_frame(robot: Robot, link: int | str) -> tuple[int, np.ndarray, np.ndarray, str]:
+    """The body carrying a link and the link's frame in that body.
+
+    A joint index or name means the body frame of that joint (the link it
+    moves, in the internal frame with the joint axis along z). A link name
+    means that link's own frame: from ``Robot.link_frame`` when the model
+    provides it; otherwise, for a robot loaded from a URDF file, read from that
+    file (a moving link's frame is its body frame rotated back by
+    the joint-axis alignment, links merged through fixed joints add their fixed
+    transforms; see :mod:`manipcad.model.urdf`).
+
+    Args:
+        robot: the manipulator.
+        link: joint index (0-based, negative from the end) or joint name, a link
+            name, or a URDF link name.
+
+    Returns:
+        ``(body, R, p, name)``: body index 0..n-1, the link frame's rotation
+        (3, 3) and origin (3,) m in the body frame (a point c in the link frame
+        is ``R @ c + p`` in the body frame), and the link's name.
+
+    Raises:
+        InputError: no such link or joint, or a link fixed to the base.
+
+    Example:
+        >>> import manipcad
+        >>> body, R, p, name = link_frame(manipcad.load_robot("puma560"), -1)
+        >>> body, R.tolist() == [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+        (5, True)
+    """
+    if isinstance(link, str) and callable(getattr(robot, "link_frame", None)) \
+            and link not in robot.joint_names:
+        try:
+            body, R, p = robot.link_frame(link)
+        except ManipcadError as exc:
+            raise InputError(SOURCE, "link", str(exc)) from None
+        if body < 0:
+            raise InputError(SOURCE, "link", f"link {link!r} is fixed to the base")
+        return int(body), np.asarray(R, float), np.asarray(p, float), link
+    if isinstance(link, str) and link not in robot.joint_names:
+        frames = _urdf_link_frames(robot)
+        if link in frames:
+            return frames[link] + (link,)
+        if link in robot.link_names:
+            body = robot.link_names.index(link)
+            return body, np.eye(3), np.zeros(3), link
+        names = list(frames) or list(robot.link_names)
+        raise InputError(SOURCE, "link", f"no link or joint named {link!r}; links are "
+                         f"{', '.join(names)}; joints {', '.join(robot.joint_names)}")
+    try:
+        body = robot.joint_index(link)
+    except (ManipcadError, TypeError, ValueError) as exc:
+        raise InputError(SOURCE, "link", str(exc)) from None
+    return body, np.eye(3), np.zeros(3), robot.joint_names[body]
+
+
+def _urdf_link_frames(robot: Robot) -> dict[str, tuple[int, np.ndarray, np.ndarray]]:
+    """Link name -> (body, R, p) read from the robot's URDF source file ({} if none)."""
+    src = Path(robot.source) if robot.source else None
+    if src is None or src.suffix.lower() != ".urdf" or not src.is_file():
+        return {}
+    from manipcad.model.urdf import align_z, rpy_matrix
+
+    try:
+        root = ET.parse(src).getroot()
+    except ET.ParseError:
+        return {}
+    children: dict[str, list[ET.Element]] = {}
+    has_parent = set()
+    for j in root.findall("joint"):
+        parent, child = j.find("parent"), j.find("child")
+        if parent is None or child is None:
+            return {}
+        children.setdefault(parent.get("link"), []).append(j)
+        has_parent.add(child.get("link"))
+    roots = [el.get("name") for el in root.findall("link") if el.get("name") not in has_parent]
+    if len(roots) != 1:
+        return {}
+    out: dict[str, tuple[int, np.ndarray, np.ndarray]] = {}
+    stack = [(roots[0], -1, np.eye(3), np.zeros(3))]
+    while stack:
+        link, body, Rl, pl = stack.pop()
+        if body >= 0:
+            out[link] = (body, Rl, pl)
+        for j in children.get(link, []):
+            child = j.find("child").get("link")
+            org = j.find("origin")
+            xyz = np.fromstring(org.get("xyz", "0 0 0"), sep=" ") if org is not None else None
+            rpy = np.fromstring(org.get("rpy", "0 0 0"), sep=" ") if org is not None else None
+            Ro = rpy_matrix(rpy) if rpy is not None and rpy.size == 3 else np.eye(3)
+            po = xyz if xyz is not None and xyz.size == 3 else np.zeros(3)
+            if j.get("type") in ("revolute", "continuous", "prismatic"):
+                ax = j.find("axis")
+                a = np.fromstring(ax.get("xyz", "1 0 0"), sep=" ") if ax is not None \
+                    else np.array([1.0, 0.0, 0.0])
+                name = j.get("name")
+                if name not in robot.joint_names:
+                    return {}
+                stack.append((child, robot.joint_names.index(name),
+                              align_z(a / np.linalg.norm(a)).T, np.zeros(3)))
+            else:
+                stack.append((child, body, Rl @ Ro, Rl @ po + pl))
+    return out
+
+
+# ------------------------------------------------------------------ stops
+
+
+def find_stops(t, q, qd=None, *, joint_types=None, stop_speed=None,
+               min_duration: float = MIN_STOP, settle: float = STOP_SETTLE) -> list[Stop]:
+    """Find the stops in time-ordered samples and the direction each joint came from.
+
+    A sample is at rest when every joint is slower than ``stop_speed`` (from
+    ``qd``, or from central differences of ``q`` over ``t``); a stop is a run of
+    such samples lasting at least ``min_duration``. A joint's approach
+    direction is the sign of its velocity at the last sample up to the stop's
+    end where it moved faster than ``DIRECTION_FRACTION`` of its
+    ``stop_speed`` (0 if none): a joint that creeps into its rest inside the
+    stop (a regulator's integral action pulling it back after an overshoot)
+    holds with the friction of that creep's direction.
+
+    Args:
+        t: (N,) sample times, s, strictly increasing.
+        q: (N, n) joint positions, rad or m.
+        qd: (N, n) joint velocities, rad/s or m/s; None: differentiated from q.
+        joint_types: n of "revolute"/"prismatic" (for the default speeds);
+            default all revolute.
+        stop_speed: one speed for all joints or one per joint (rad/s, m/s);
+            default ``STOP_SPEED`` by joint type.
+        min_duration: the shortest stop, s.
+        settle: the first fraction of each stop to leave out of ``Stop.used``.
+
+    Returns:
+        The :class:`Stop` list in time order.
+
+    Example:
+        >>> import numpy as np
+        >>> from manipcad.trajectories import waypoints
+        >>> traj = waypoints([[0.0], [1.0], [0.2]], move_time=0.5, dwell=0.3)
+        >>> t = np.arange(0.0, traj.duration, 1e-3)
+        >>> q, qd, _ = traj.sample(t)
+        >>> [(round(s.start, 2), round(s.end, 2), int(s.direction[0]))
+        ...  for s in find_stops(t, q, qd)]
+        [(0.0, 0.3, 0), (0.8, 1.1, 1), (1.6, 1.9, -1)]
+    """
+    T = np.asarray(t, dtype=float).reshape(-1)
+    Q = np.asarray(q, dtype=float)
+    if Q.ndim != 2 or Q.shape[0] != T.size:
+        raise InputError(SOURCE, "t", f"{T.size} times for {Q.shape[0]} samples of q")
+    if T.size < 3 or not np.all(np.diff(T) > 0):
+        raise InputError(SOURCE, "t", "needs at least 3 strictly increasing sample times (s)")
+    n = Q.shape[1]
+    V = np.gradient(Q, T, axis=0) if qd is None else np.asarray(qd, dtype=float)
+    types = joint_types or (REVOLUTE,) * n
+    if stop_speed is None:
+        vmax = np.array([STOP_SPEED[jt] for jt in types])
+    else:
+        vmax = np.broadcast_to(np.asarray(stop_speed, dtype=float), (n,)).copy()
+    rest = np.all(np.abs(V) <= vmax, axis=1)
+    creeping = np.abs(V) > DIRECTION_FRACTION * vmax
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], rest.astype(int), [0]])))
+    out = []
+    for a, b in zip(edges[::2], edges[1::2] - 1, strict=True):
+        if T[b] - T[a] < min_duration:
+            continue
+        first_used = min(b, a + int(math.floor(settle * (b - a + 1))))
+        # each joint's direction: its last motion up to the stop's end (a slow creep
+        # inside the stop counts: the friction then sits at that direction's edge)
+        direction = np.zeros(n, dtype=int)
+        for j in range(n):
+            idx = np.flatnonzero(creeping[:b + 1, j])
+            if idx.size:
+                direction[j] = int(np.sign(V[idx[-1], j]))
+        out.append(Stop(float(T[a]), float(T[b]), int(a), int(b), (int(first_used), int(b)),
+                        direction))
+    return out
+
+
+# ------------------------------------------------------------------ identification
+
+
+def identify_payload(robot: Robot, q, qd=None, qdd=None, tau=None, *, t=None, current=None,
+                     method: str = "auto", com=None, link: int | str = -1, joints=None,
+                     drives: bool = True, friction: str = "estimate",
+                     estimate_com: bool = False, stop_speed=None,
+                     min_stop: float = MIN_STOP) -> PayloadEstimate:
+    """Identify an unknown payload mass m_r from drive torques or armature currents.
+
+    Least squares over the chosen drives of tau - tau_0 = m_r · g (see the
+    module docstring and docs/identification.md): tau_0 is what the unloaded
+    robot needs, g what 1 kg at ``com`` needs.
 
     Args:
         robot: the unloaded manipulator (its known links and drives).
         q: joint positions, rad or m, shape (n,) or (N, n).
-        qd: joint velocities, rad/s or m/s, same shape; None at stops.
-        qdd: joint accelerations, rad/s² or m/s², same shape; None at stops.
-        tau: measured drive torques, N·m (N for prismatic joints), same shape.
-        com: the payload's centre of mass in the carrying link's body frame, m,
-            shape (3,); default the frame's origin.
-        joints: the drives to use: indices (0-based) or names, one or a list;
-            default every drive the payload acts on along these samples (a
-            drive it does not act on, such as a vertical first axis at rest,
-            is left out). Naming a drive that sees no payload is an error.
+        qd: joint velocities, rad/s or m/s, same shape; None: from ``t`` and q
+            (motion) or at rest (stops without ``t``).
+        qdd: joint accelerations, rad/s² or m/s²; None: from ``t`` and qd.
+        tau: measured drive torques at the joints, N·m (N for prismatic joints).
+        t: (N,) sample times, s, strictly increasing: the samples are
+            time-ordered (needed to find stops and to differentiate).
+        current: measured armature currents, A, instead of ``tau``: the joint
+            torque of the drive is i_r·k_m·i (the drive terms rotor inertia
+            and friction are then in tau_0 with ``drives=True``).
+        method: "stops", "motion" or "auto" (motion when the samples have at
+            least ``AUTO_MIN_MOTION`` moving samples, else stops).
+        com: the payload's centre of mass in the frame of ``link``, m, (3,);
+            default that frame's origin. With ``estimate_com`` the starting guess.
+        link: joint index or name (its body frame), or a link name (that link's
+            own frame, e.g. a URDF link: see :func:`link_frame`); default the last.
+        joints: the drives to use: indices (0-based) or names; default every
+            drive the payload acts on along these samples.
         drives: ``tau`` includes the drive terms (rotor inertia, friction) of
             the robot's drive models; False: ``tau`` is the rigid-body torque.
-        link: the carrying link (joint index or name), default the last.
+        friction: at stops, "estimate" (held friction per drive and approach
+            direction fitted jointly), "model" (the model's band edge), "none".
+        estimate_com: estimate the com (in ``link``'s frame) with the mass.
+        stop_speed: joints slower than this are at rest (rad/s, m/s; one value
+            or one per joint); default ``STOP_SPEED``.
+        min_stop: the shortest stop, s.
 
     Returns:
-        :class:`PayloadEstimate` (``.mass`` kg, ``.std`` kg, ``.residual`` N·m
-        RMS, ``.joints``, ``.method``, and the per-drive estimates).
+        :class:`PayloadEstimate` (``.mass`` kg, ``.std`` kg, ``.flagged``, the
+        per-drive estimates, the stops...).
 
     Raises:
         InputError: wrong shapes, NaN or infinite values, unknown or repeated
-            joints, no excitation (the payload exerts no torque on the chosen
-            drives along these samples).
+            joints, no excitation, no stops found, no torque or current given.
 
     Warns:
-        ManipcadWarning: the identified mass is negative (returned as found, not
-            clipped: the data, the assumed ``com`` or the model disagree).
+        ManipcadWarning: the identified mass is negative, or drives disagree
+            beyond their uncertainty (the flagged drives).
 
     Example:
         >>> import numpy as np, manipcad
@@ -196,76 +498,359 @@ def identify_payload(robot: Robot, q, qd, qdd, tau, *, com=None, joints=None,
         >>> q = np.random.default_rng(0).uniform(-1, 1, (20, 6))
         >>> z = np.zeros_like(q)
         >>> tau = manipcad.inverse_dynamics(puma.with_payload(2.0), q, z, z)
-        >>> est = identify_payload(puma, q, None, None, tau)
+        >>> est = identify_payload(puma, q, None, None, tau, method="stops")
         >>> round(est.mass, 6), est.method
-        (2.0, 'static')
+        (2.0, 'stops')
     """
     if not isinstance(robot, Robot):
         raise InputError(SOURCE, "robot", f"expected a manipcad Robot, got {type(robot).__name__}")
+    if method not in METHODS:
+        raise InputError(SOURCE, "method", f"unknown method {method!r}; expected one of "
+                         f"{', '.join(METHODS)}")
+    if friction not in FRICTION:
+        raise InputError(SOURCE, "friction", f"unknown friction handling {friction!r}; "
+                         f"expected one of {', '.join(FRICTION)}")
     n = robot.n
     Q = _states("q", q, n)
     N = Q.shape[0]
-    QD = np.zeros_like(Q) if qd is None else _states("qd", qd, n, N)
-    QDD = np.zeros_like(Q) if qdd is None else _states("qdd", qdd, n, N)
-    T = _states("tau", tau, n, N)
-    c = _com(com)
-    try:
-        i_link = robot.joint_index(link)
-    except ManipcadError as exc:
-        raise InputError(SOURCE, "link", str(exc)) from None
-    static = not QD.any() and not QDD.any()
+    QD = None if qd is None else _states("qd", qd, n, N)
+    QDD = None if qdd is None else _states("qdd", qdd, n, N)
+    T = None
+    if t is not None:
+        T = _states("t", np.reshape(np.asarray(t, dtype=float), (-1, 1)), 1, N)[:, 0]
+        if N >= 2 and not np.all(np.diff(T) > 0):
+            raise InputError(SOURCE, "t", "sample times must be strictly increasing (s)")
+    TAU, signal = _torques(robot, tau, current, N)
+    body, R_l, p_l, link_name = link_frame(robot, link)
+    c_link = _com(com)
+    notes: list[str] = []
 
-    tau0 = inverse_dynamics(robot, Q, QD, QDD, drives=drives)
-    G = inverse_dynamics(_unit_payload_robot(robot, c, i_link), Q, QD, QDD, drives=False)
-    Y = T - tau0
-    excitation = np.sqrt(np.mean(G**2, axis=0))
+    at_rest = (QD is None or not QD.any()) and (QDD is None or not QDD.any())
+    if method == "auto":
+        if T is None and at_rest:
+            method = "stops"
+            notes.append("auto: samples at rest without times: each sample is a stop")
+        elif not at_rest and QDD is not None:
+            method = "motion"
+            notes.append("auto: velocities and accelerations given -> motion")
+        else:
+            V = QD if QD is not None else np.gradient(Q, T, axis=0)
+            moving = int(np.sum(np.any(np.abs(V) > _speeds(robot, MOTION_SPEED), axis=1)))
+            method = "motion" if moving >= AUTO_MIN_MOTION else "stops"
+            notes.append(f"auto: {moving} moving samples -> {method}")
+
+    if method == "stops":
+        eq = _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes,
+                             R_l @ c_link + p_l, body)
+    else:
+        if QD is None or QDD is None:
+            if T is None:
+                raise InputError(SOURCE, "t", "the motion method needs qd and qdd, or the "
+                                 "sample times t to differentiate q (and qd)")
+            if QD is None:
+                QD = np.gradient(Q, T, axis=0)
+            if QDD is None:
+                QD, QDD, TAU, w = _smoothed(T, QD, TAU)
+                notes.append(f"qdd from the derivative of qd smoothed over {w} samples; "
+                             "torques smoothed alike")
+        edge = 0 if qdd is not None else _window(T)
+        eq = _motion_equations(robot, Q, QD, QDD, TAU, drives, edge, T is not None)
+        friction = "model" if drives else "none"
+
+    c_body = R_l @ c_link + p_l
+    G = eq.regressor(robot, c_body, body)
+    W = eq.mask
+    excitation = np.sqrt(np.sum((G * W) ** 2, axis=0) / np.maximum(W.sum(axis=0), 1))
     strongest = float(excitation.max())
     weak = (excitation <= EXCITATION_ABS) | (excitation <= EXCITATION_REL * strongest)
-    sel = _select(robot, joints, weak, excitation, static, c, i_link)
+    sel = _select(robot, joints, weak, excitation, method, c_link, link_name)
 
-    Gs, Ys = G[:, sel], Y[:, sel]
-    k = len(sel)
-    M = Gs.size
-    gg = np.sum(Gs**2, axis=0)  # per drive, (N·m/kg)²
-    gy = np.sum(Gs * Ys, axis=0)
-    # unweighted fit over all equations
-    m = float(gy.sum() / gg.sum())
-    R = Ys - m * Gs
-    weighting = "equal"
-    if k > 1 and N >= MIN_SAMPLES_FOR_WEIGHTS:
-        weighting = "noise"
-        for _ in range(2):  # estimate each drive's noise variance, refit
-            var = _drive_variance(R, Ys, M)
-            w = 1.0 / var
-            m = float((w * gy).sum() / (w * gg).sum())
-            R = Ys - m * Gs
-        var = _drive_variance(R, Ys, M)
-        std = math.sqrt(1.0 / float((gg / var).sum()))
-    else:
-        s2 = float(np.sum(R**2)) / (M - 1) if M > 1 else math.nan
-        std = math.sqrt(s2 / float(gg.sum())) if M > 1 else math.nan
-
-    # each drive alone: the paper's "from one drive only"
-    m_j = gy / gg
-    R_j = Ys - m_j * Gs
-    if N > 1:
-        std_j = np.sqrt(np.sum(R_j**2, axis=0) / (N - 1) / gg)
-    else:
-        std_j = np.full(k, math.nan)
-
+    com_std = np.full(3, np.nan)
+    if estimate_com:
+        c_body, cov_c = _estimate_com(robot, eq, sel, c_body, body)
+        G = eq.regressor(robot, c_body, body)
+        c_link = R_l.T @ (c_body - p_l)
+        com_std = np.sqrt(np.maximum(np.diag(R_l.T @ cov_c @ R_l), 0.0))
+    fit = _fit(G[:, sel], eq.Y[:, sel], W[:, sel], eq.lost[sel], ordered=eq.ordered)
+    m, std = fit["mass"], fit["std"]
+    names = tuple(robot.joint_names[j] for j in sel)
+    z_crit = flag_threshold(len(sel))
+    flagged = tuple(nm for nm, zz in zip(names, fit["z"], strict=True)
+                    if math.isfinite(zz) and abs(zz) > z_crit)
+    held = tuple(eq.held(j, m) for j in sel)
     est = PayloadEstimate(
-        mass=m, std=std, residual=float(np.sqrt(np.mean(R**2))),
-        joints=tuple(int(j) for j in sel), joint_names=tuple(robot.joint_names[j] for j in sel),
-        method="static" if static else "dynamic", samples=N, com=c, link=i_link,
-        weighting=weighting, per_joint_mass=m_j, per_joint_std=std_j,
-        per_joint_residual=np.sqrt(np.mean(R**2, axis=0)), excitation=excitation[sel])
+        mass=m, std=std, residual=fit["residual"], joints=tuple(int(j) for j in sel),
+        joint_names=names, method=method, samples=N, com=c_link, link=body,
+        link_name=link_name, weighting=fit["weighting"], per_joint_mass=fit["m_j"],
+        per_joint_std=fit["std_j"], per_joint_residual=fit["res_j"],
+        excitation=excitation[sel], flagged=flagged, z=fit["z"],
+        equations=W[:, sel].sum(axis=0) - eq.lost[sel], stops=tuple(eq.stops),
+        friction=friction, held_friction=held, com_estimated=bool(estimate_com),
+        com_std=com_std, signal=signal, notes=tuple(notes))
     if m < 0:
         warnings.warn(ManipcadWarning(
             f"the identified payload mass is negative: {m:.4g} ± {std:.2g} kg (returned as "
             "found, not clipped); the measured torques are below what the unloaded robot "
             "needs: check the torque sign and units, the assumed com, the drive friction "
             "model and the robot's own link masses"), stacklevel=2)
+    if flagged:
+        detail = ", ".join(f"{nm} {mj:.4g} ± {sj:.2g} kg ({zz:+.1f} σ)" for nm, mj, sj, zz in zip(
+            names, fit["m_j"], fit["std_j"], fit["z"], strict=True) if nm in flagged)
+        warnings.warn(ManipcadWarning(
+            f"drives disagree beyond their uncertainty (|z| > {z_crit:.2f}) with the joint "
+            f"estimate {m:.4g} ± {std:.2g} kg: {detail}; the assumed com (frame of link "
+            f"{link_name!r}), the friction or the robot model do not fit these data"),
+            stacklevel=2)
     return est
+
+
+class _Equations:
+    """Measured y = tau - tau_0 per equation (row) and drive, and how to build g.
+
+    ``nuisance[j]``: a matrix A_j (rows × p_j) of the held-friction unknowns of
+    drive j at stops (or None): y_j = m·g_j + A_j·θ_j + e_j. They are eliminated by
+    projecting y_j and g_j on the orthogonal complement of A_j's columns, which
+    costs ``lost[j]`` = rank(A_j) equations.
+    """
+
+    def __init__(self, Q, QD, QDD, Y, mask, lost, nuisance=None, stops=(), ordered=False,
+                 directions=None):
+        self.Q, self.QD, self.QDD, self.Y0 = Q, QD, QDD, Y
+        self.ordered = ordered  # rows are consecutive samples in time
+        self.mask = mask
+        self.lost = lost
+        self.nuisance = nuisance
+        self.directions = directions  # (E, n) approach direction per stop, or None
+        self.stops = stops
+        self.Y = self._project(Y)
+
+    def _project(self, X: np.ndarray) -> np.ndarray:
+        if self.nuisance is None:
+            return X
+        out = X.copy()
+        for j, A in enumerate(self.nuisance):
+            if A is not None:
+                out[:, j] -= A @ (np.linalg.pinv(A) @ X[:, j])
+        return out
+
+    def regressor(self, robot: Robot, c_body: np.ndarray, body: int) -> np.ndarray:
+        """g of a 1 kg point mass at c_body (m, body frame) on ``body``, projected like Y."""
+        unit = _unit_payload_robot(robot, c_body, body)
+        self.G_raw = inverse_dynamics(unit, self.Q, self.QD, self.QDD, drives=False)
+        return self._project(self.G_raw)
+
+    def held(self, j: int, m: float) -> dict:
+        """The fitted held friction of drive j per approach direction, N·m or N (from the
+        nuisance fit of y - m·g with the last :meth:`regressor`)."""
+        if self.nuisance is None or self.nuisance[j] is None:
+            return {}
+        A = self.nuisance[j]
+        fitted = A @ (np.linalg.pinv(A) @ (self.Y0[:, j] - m * self.G_raw[:, j]))
+        return {int(d): float(np.mean(fitted[self.directions[:, j] == d]))
+                for d in np.unique(self.directions[:, j])}
+
+
+def _friction_unknowns(d: np.ndarray, g: np.ndarray, friction: str) -> np.ndarray | None:
+    """A_j for one drive at stops: one held-friction level per approach direction
+    ("estimate"; if that leaves g no excitation — a regressor constant within each
+    direction, such as a vertical axis's weight — one level ±f for both), or one
+    symmetric level ±f ("symmetric"); plus a level of its own for the stops of
+    direction 0 (a joint that had not moved)."""
+    if friction == "estimate":
+        A = np.stack([(d == c).astype(float) for c in np.unique(d)], axis=1)
+        left = g - A @ (np.linalg.pinv(A) @ g)
+        if np.linalg.norm(left) > 1e-3 * np.linalg.norm(g):
+            return A
+    cols = [d.astype(float)] if np.any(d != 0) else []
+    if np.any(d == 0):
+        cols.append((d == 0).astype(float))
+    return np.stack(cols, axis=1) if cols else None
+
+
+def _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes, c_body, body):
+    n = robot.n
+    if T is None:  # each sample is one stop of unknown approach
+        if QD is not None and QD.any():
+            raise InputError(SOURCE, "qd", "the stops method without sample times takes "
+                             "samples at rest (qd zero or None); give t to find the stops")
+        Qs, Ts, dirs, stops = Q, TAU, np.zeros(Q.shape, dtype=int), []
+        if friction in ("estimate", "symmetric"):
+            notes.append("no sample times: approach directions unknown, held friction not "
+                         "estimated")
+            friction = "none"
+    else:
+        stops = find_stops(T, Q, QD, joint_types=robot.joint_types, stop_speed=stop_speed,
+                           min_duration=min_stop)
+        if not stops:
+            raise InputError(SOURCE, "q, t", f"no stops found: no run of at least {min_stop:g} s "
+                             "in which every joint is at rest (see stop_speed)")
+        Qs = np.array([Q[s.used[0]:s.used[1] + 1].mean(axis=0) for s in stops])
+        Ts = np.array([TAU[s.used[0]:s.used[1] + 1].mean(axis=0) for s in stops])
+        dirs = np.array([s.direction for s in stops])
+        notes.append(f"{len(stops)} stops found")
+    Z = np.zeros_like(Qs)
+    Y = Ts - inverse_dynamics(robot, Qs, Z, Z, drives=False)
+    lost = np.zeros(n, dtype=int)
+    nuisance = None
+    if friction == "model":
+        tab = np.asarray(robot.table)
+        Y = Y - np.where(dirs > 0, tab[:, COL_FCP], np.where(dirs < 0, -tab[:, COL_FCN], 0.0))
+    elif friction in ("estimate", "symmetric"):
+        G = inverse_dynamics(_unit_payload_robot(robot, c_body, body), Qs, Z, Z, drives=False)
+        nuisance = [_friction_unknowns(dirs[:, j], G[:, j], friction) for j in range(n)]
+        lost = np.array([np.linalg.matrix_rank(A) if A is not None else 0 for A in nuisance])
+    return _Equations(Qs, Z, Z, Y, np.ones(Qs.shape, dtype=bool), lost, nuisance, stops,
+                      directions=dirs)
+
+
+def _motion_equations(robot, Q, QD, QDD, TAU, drives, edge, ordered):
+    Y = TAU - inverse_dynamics(robot, Q, QD, QDD, drives=drives)
+    mask = np.ones(Q.shape, dtype=bool)
+    if drives:
+        tab = np.asarray(robot.table)
+        dry = (tab[:, COL_FCP] > 0) | (tab[:, COL_FCN] > 0)
+        slow = (np.abs(QD) < _speeds(robot, MOTION_SPEED)) & dry
+        for _ in range(edge):  # a smoothing window spanning a friction reversal
+            slow = slow | np.roll(slow, 1, axis=0) | np.roll(slow, -1, axis=0)
+        mask &= ~slow
+    if edge:
+        mask[:edge, :] = False  # the smoothing windows are cut at the ends
+        mask[-edge:, :] = False
+    return _Equations(Q, QD, QDD, Y, mask, np.zeros(robot.n, dtype=int), ordered=ordered)
+
+
+def _window(T: np.ndarray) -> int:
+    """Half-width in samples of the smoothing window (``SMOOTH_TIME`` s, at least 1)."""
+    dt = float(np.median(np.diff(T))) if T.size > 1 else 1.0
+    return max(1, int(round(0.5 * SMOOTH_TIME / dt)))
+
+
+def _smoothed(T, QD, TAU):
+    """q̇ and the torques smoothed by the same centred moving average (twice: a
+    triangular window of ``SMOOTH_TIME``), q̈ the derivative of the smoothed q̇.
+
+    The dynamics are linear in q̈, so the smoothed torque equals H·(smoothed q̈) plus
+    the smoothed other terms; those vary slowly and are evaluated at the smoothed q̇.
+    Differentiating the raw q̇ instead amplifies the ripple of sampled regulators
+    (their voltage steps each period)."""
+    h = _window(T)
+    k = np.ones(h + 1) / (h + 1)
+
+    def smooth(X):
+        out = np.empty_like(X)
+        for j in range(X.shape[1]):
+            out[:, j] = np.convolve(np.convolve(X[:, j], k, mode="same"), k, mode="same")
+        return out
+
+    QDs = smooth(QD)
+    return QDs, np.gradient(QDs, T, axis=0), smooth(TAU), h
+
+
+def _speeds(robot: Robot, table: dict) -> np.ndarray:
+    return np.array([table[jt] for jt in robot.joint_types])
+
+
+def _torques(robot: Robot, tau, current, N: int) -> tuple[np.ndarray, str]:
+    if (tau is None) == (current is None):
+        raise InputError(SOURCE, "tau, current", "give the measured torques (tau) or the "
+                         "armature currents (current), one of them")
+    if tau is not None:
+        return _states("tau", tau, robot.n, N), "torque"
+    I = _states("current", current, robot.n, N)
+    gain = np.empty(robot.n)
+    for j, d in enumerate(robot.drives):
+        if d is None or not math.isfinite(d.k_m) or d.k_m <= 0:
+            raise InputError(SOURCE, "current", f"joint {robot.joint_names[j]!r} has no drive "
+                             "with a torque constant k_m: its current gives no torque")
+        # the drive's joint torque i_r·k_m·i (drives.dc.rigid_joint_torque, which this
+        # layer below drives/ cannot import)
+        gain[j] = d.ratio * d.k_m
+    return I * gain, "current"
+
+
+def _ar1_inflation(R: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """Per drive, the variance factor (1 + ρ)/(1 - ρ) of residuals correlated in time
+    (ρ their lag-1 autocorrelation over consecutive used samples; ≥ 1, ≤ their count)."""
+    f = np.ones(R.shape[1])
+    for j in range(R.shape[1]):
+        both = W[1:, j] & W[:-1, j]
+        r0, r1 = R[:-1, j][both], R[1:, j][both]
+        den = float(np.sum(r0 * r0))
+        if r0.size < 3 or den <= 0:
+            continue
+        rho = min(max(float(np.sum(r0 * r1)) / den, 0.0), 0.999999)
+        f[j] = min((1.0 + rho) / (1.0 - rho), max(float(W[:, j].sum()), 1.0))
+    return f
+
+
+def _fit(G: np.ndarray, Y: np.ndarray, W: np.ndarray, lost: np.ndarray,
+         ordered: bool = False) -> dict:
+    """Weighted least squares of Y = m·G over the equations W (per drive ``lost`` dof);
+    ``ordered``: the rows are consecutive samples in time, whose correlated residuals
+    count as fewer independent equations (AR(1) variance factor per drive)."""
+    Gm, Ym = G * W, Y * W
+    k = G.shape[1]
+    n_j = W.sum(axis=0) - lost  # effective equations per drive
+    gg = np.sum(Gm**2, axis=0)
+    gy = np.sum(Gm * Ym, axis=0)
+    m = float(gy.sum() / gg.sum())
+    R = Ym - m * Gm
+    M = int(n_j.sum())
+    weighting = "equal"
+    m_j = gy / gg
+    R_j = Ym - m_j * Gm
+    infl = _ar1_inflation(R_j, W) if ordered else np.ones(k)
+    if k > 1 and n_j.min() >= MIN_SAMPLES_FOR_WEIGHTS:
+        weighting = "noise"
+        for _ in range(2):
+            var = _drive_variance(R, Ym, n_j, M) * infl
+            m = float((gy / var).sum() / (gg / var).sum())
+            R = Ym - m * Gm
+        var = _drive_variance(R, Ym, n_j, M) * infl
+        std = math.sqrt(1.0 / float((gg / var).sum()))
+    else:
+        s2 = float(np.sum(R**2)) / (M - 1) if M > 1 else math.nan
+        std = math.sqrt(s2 * float(infl.max()) / float(gg.sum())) if M > 1 else math.nan
+    with np.errstate(invalid="ignore", divide="ignore"):
+        std_j = np.where(n_j > 1, np.sqrt(np.sum(R_j**2, axis=0) / np.maximum(n_j - 1, 1) / gg
+                                          * infl), np.nan)
+        dvar = std_j**2 - std**2
+        z = np.where((k > 1) & (dvar > 0), (m_j - m) / np.sqrt(np.abs(dvar)), np.nan)
+    res_j = np.sqrt(np.sum(R**2, axis=0) / np.maximum(W.sum(axis=0), 1))
+    return {"mass": m, "std": std, "weighting": weighting, "m_j": m_j, "std_j": std_j,
+            "z": z, "res_j": res_j, "residual": float(np.sqrt(np.sum(R**2) / max(W.sum(), 1)))}
+
+
+def _estimate_com(robot, eq, sel, c0, body):
+    """(com in the body frame, its 3×3 covariance) fitted with the mass."""
+    from scipy.optimize import least_squares
+
+    W = eq.mask[:, sel]
+
+    def g_of(c):
+        return eq.regressor(robot, c, body)[:, sel]
+
+    G0 = g_of(c0)
+    fit0 = _fit(G0, eq.Y[:, sel], W, eq.lost[sel])
+    var = np.maximum((fit0["res_j"] ** 2), 1e-300)
+    w = W / np.sqrt(var)
+
+    def resid(x):
+        return ((eq.Y[:, sel] - x[0] * g_of(x[1:])) * w).ravel()
+
+    x0 = np.concatenate([[fit0["mass"]], c0])
+    sol = least_squares(resid, x0, x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    J = sol.jac
+    dof = max(int(W.sum() - eq.lost[sel].sum()) - 4, 1)
+    s2 = float(np.sum(sol.fun**2)) / dof
+    try:
+        cov = np.linalg.inv(J.T @ J) * s2
+    except np.linalg.LinAlgError:
+        cov = np.full((4, 4), np.nan)
+    if abs(sol.x[0]) < 1e-12:
+        raise InputError(SOURCE, "estimate_com", "the mass comes out zero: the com is "
+                         "undetermined")
+    return sol.x[1:], cov[1:, 1:]
 
 
 # ------------------------------------------------------------------ CSV data files
@@ -277,35 +862,45 @@ class TorqueData:
 
     Attributes:
         q: joint positions, rad or m.
-        qd: joint velocities, rad/s or m/s; None when the file has no qd columns (stops).
+        qd: joint velocities, rad/s or m/s; None when the file has no qd columns.
         qdd: joint accelerations, rad/s² or m/s²; None when the file has no qdd columns.
-        tau: measured drive torques, N·m or N.
+        tau: measured drive torques, N·m or N; None when the file has none.
         source: the file.
+        t: (N,) sample times, s; None when the file has no time column.
+        current: armature currents, A; None when the file has none.
     """
 
     q: np.ndarray
     qd: np.ndarray | None
     qdd: np.ndarray | None
-    tau: np.ndarray
+    tau: np.ndarray | None
     source: str = ""
+    t: np.ndarray | None = None
+    current: np.ndarray | None = None
 
 
-KINDS = ("q", "qd", "qdd", "tau")
-UNITS = {"q": "rad or m", "qd": "rad/s or m/s", "qdd": "rad/s² or m/s²", "tau": "N·m or N"}
+KINDS = ("q", "qd", "qdd", "tau", "current")
+UNITS = {"q": "rad or m", "qd": "rad/s or m/s", "qdd": "rad/s² or m/s²", "tau": "N·m or N",
+         "current": "A"}
 TIME_COLUMNS = ("t", "time")
+#: columns of a stored simulation result (timeseries.csv) that identification does not read
+RESULT_IGNORED = ("q_ref", "qd_ref", "error", "u")
 
 
 def column_names(robot: Robot) -> dict[str, tuple[str, int]]:
     """Accepted CSV header names -> (kind, joint index).
 
     Per joint i (1-based number k = i + 1, name NAME): ``q{k}``, ``qd{k}``,
-    ``qdd{k}``, ``tau{k}`` and ``q_NAME``, ``qd_NAME``, ``qdd_NAME``, ``tau_NAME``.
+    ``qdd{k}``, ``tau{k}``, ``current{k}`` and ``q_NAME``, ... ``current_NAME``,
+    and the columns of a stored result's timeseries.csv, ``NAME.q``,
+    ``NAME.qd``, ``NAME.tau``, ``NAME.current`` (a unit in brackets after the
+    name, as in ``shoulder.q [rad]``, is allowed on every column).
 
     Example:
         >>> import manipcad
         >>> names = column_names(manipcad.load_robot("cylindrical"))
-        >>> names["qd2"], names["tau_reach"]
-        (('qd', 1), ('tau', 2))
+        >>> names["qd2"], names["tau_reach"], names["turn.current"]
+        (('qd', 1), ('tau', 2), ('current', 0))
     """
     out: dict[str, tuple[str, int]] = {}
     for i in range(robot.n):
@@ -314,6 +909,7 @@ def column_names(robot: Robot) -> dict[str, tuple[str, int]]:
     for i, name in enumerate(robot.joint_names):
         for kind in KINDS:
             out.setdefault(f"{kind}_{name}", (kind, i))  # a number form wins a clash
+            out.setdefault(f"{name}.{kind}", (kind, i))
     return out
 
 
@@ -328,10 +924,15 @@ def load_torque_data(path: str | Path, robot: Robot) -> TorqueData:
     - ``qd1..qdn`` or ``qd_NAME``: velocities, rad/s or m/s;
     - ``qdd1..qddn`` or ``qdd_NAME``: accelerations, rad/s² or m/s²;
     - ``tau1..taun`` or ``tau_NAME``: measured drive torques, N·m or N;
-    - optionally ``t`` or ``time`` (s), read and ignored.
+    - ``current1..currentn`` or ``current_NAME``: armature currents, A;
+    - a stored simulation result's ``timeseries.csv`` as it is: ``t [s]``,
+      ``NAME.q [rad]``, ``NAME.qd``, ``NAME.tau``, ``NAME.current`` (its
+      ``q_ref``, ``qd_ref``, ``error`` and ``u`` columns are skipped);
+    - optionally ``t`` or ``time`` (s): the sample times (the samples are
+      then time-ordered: stops can be found, q and qd differentiated).
 
-    q and tau are required for every joint; qd and qdd for every joint or for
-    none (samples at stops: the static method).
+    q is required for every joint, and tau or current for every joint; qd
+    and qdd each for every joint or for none.
 
     Args:
         path: the CSV file.
@@ -383,7 +984,16 @@ def load_torque_data(path: str | Path, robot: Robot) -> TorqueData:
                for i in range(robot.n)]
         if all(c >= 0 for c in idx):
             arrays[kind] = data[:, idx]
-    return TorqueData(arrays["q"], arrays["qd"], arrays["qdd"], arrays["tau"], src)
+    times = None
+    tcol = [c for c, col in enumerate(cols) if col == ("t", -1)]
+    if tcol:
+        times = data[:, tcol[0]]
+        bad = np.flatnonzero(np.diff(times) <= 0)
+        if bad.size:
+            raise InputError(src, f"line of sample {bad[0] + 2}, column {header[tcol[0]]}",
+                             "sample times must be strictly increasing (s)")
+    return TorqueData(arrays["q"], arrays["qd"], arrays["qdd"], arrays["tau"], src, times,
+                      arrays["current"])
 
 
 def _csv_lines(src: str, text: str):
@@ -402,16 +1012,26 @@ def _csv_lines(src: str, text: str):
 def _header(src: str, lineno: int, header: list[str], accepted: dict, robot: Robot):
     cols: list[tuple[str, int] | None] = []
     seen: dict[tuple[str, int], str] = {}
-    for k, name in enumerate(header, start=1):
+    times = 0
+    for k, full in enumerate(header, start=1):
+        name = full.split("[", 1)[0].strip() if full.endswith("]") else full
         if name.lower() in TIME_COLUMNS:
+            times += 1
+            if times > 1:
+                raise InputError(src, f"line {lineno}, column {k}", "a second time column")
+            cols.append(("t", -1))
+            continue
+        if "." in name and name.rsplit(".", 1)[1] in RESULT_IGNORED \
+                and name.rsplit(".", 1)[0] in robot.joint_names:
             cols.append(None)
             continue
         if name not in accepted:
             n = robot.n
             raise InputError(src, f"line {lineno}, column {k}",
-                             f"unknown column {name!r}; expected q1..q{n}, qd1..qd{n}, "
-                             f"qdd1..qdd{n}, tau1..tau{n} (or q_NAME, ... with the joint "
-                             f"names {', '.join(robot.joint_names)}) and optionally t")
+                             f"unknown column {full!r}; expected q1..q{n}, qd1..qd{n}, "
+                             f"qdd1..qdd{n}, tau1..tau{n} or current1..current{n} (or q_NAME, "
+                             f"NAME.q, ... with the joint names "
+                             f"{', '.join(robot.joint_names)}) and optionally t")
         key = accepted[name]
         if key in seen:
             raise InputError(src, f"line {lineno}, column {k}",
@@ -422,15 +1042,14 @@ def _header(src: str, lineno: int, header: list[str], accepted: dict, robot: Rob
         missing = [f"{kind}{i + 1}" for i in range(robot.n) if (kind, i) not in seen]
         if not missing:
             continue
-        if kind in ("q", "tau") or len(missing) < robot.n:
-            need = "required" if kind in ("q", "tau") else "needed when any qd/qdd column is given"
+        if kind == "q" or len(missing) < robot.n:
+            need = "required" if kind == "q" else "needed when any such column is given"
             raise InputError(src, f"line {lineno}",
                              f"missing column(s) {', '.join(missing)} ({UNITS[kind]}; {need})")
-    qd_given = any(k[0] == "qd" for k in seen)
-    qdd_given = any(k[0] == "qdd" for k in seen)
-    if qd_given != qdd_given:
-        raise InputError(src, f"line {lineno}", "give both the qd and the qdd columns, or "
-                         "neither (samples at stops)")
+    if not any(k[0] in ("tau", "current") for k in seen):
+        raise InputError(src, f"line {lineno}", f"missing column(s) tau1..tau{robot.n} "
+                         f"(N·m or N) or current1..current{robot.n} (A): the measured torques "
+                         "or currents")
     return cols
 
 
@@ -477,11 +1096,11 @@ def _unit_payload_robot(robot: Robot, com: np.ndarray, link: int) -> Robot:
     return bare.with_payload(1.0, com, link=link)
 
 
-def _select(robot: Robot, joints, weak: np.ndarray, excitation: np.ndarray, static: bool,
-            com: np.ndarray, link: int) -> np.ndarray:
+def _select(robot: Robot, joints, weak: np.ndarray, excitation: np.ndarray, method: str,
+            com: np.ndarray, link_name: str) -> np.ndarray:
     """The drives to use, as indices; raises InputError on bad names or no excitation."""
-    where = (f"a point mass at com = {com.tolist()} m on link {robot.joint_names[link]!r}"
-             f" ({'static: gravity only' if static else 'along this motion'})")
+    where = (f"a point mass at com = {com.tolist()} m in the frame of link {link_name!r}"
+             f" ({'at stops: gravity only' if method == 'stops' else 'along this motion'})")
     if joints is None:
         sel = np.flatnonzero(~weak)
         if sel.size == 0:
@@ -512,10 +1131,10 @@ def _select(robot: Robot, joints, weak: np.ndarray, excitation: np.ndarray, stat
     return np.asarray(sel, dtype=np.int64)
 
 
-def _drive_variance(R: np.ndarray, Y: np.ndarray, M: int) -> np.ndarray:
+def _drive_variance(R: np.ndarray, Y: np.ndarray, n_j: np.ndarray, M: int) -> np.ndarray:
     """Each drive's noise variance from its residuals (one parameter fitted over M
-    equations), floored so that noise-free data keep finite weights."""
-    N = R.shape[0]
-    var = np.sum(R**2, axis=0) / (N * (M - 1) / M)
+    equations, n_j of them this drive's), floored so that noise-free data keep
+    finite weights."""
+    var = np.sum(R**2, axis=0) / np.maximum(n_j * (M - 1) / M, 1e-300)
     scale = np.sqrt(np.mean(Y**2, axis=0)) + np.sqrt(np.mean(R**2))
     return np.maximum(var, (1e-12 * scale) ** 2 + 1e-300)

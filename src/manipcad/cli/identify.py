@@ -1,18 +1,25 @@
-"""``manipcad identify``: the unknown payload mass from measured drive torques (paper 4.1).
+"""``manipcad identify``: the unknown payload mass from measured drive torques or currents.
 
 ::
 
-    manipcad identify ROBOT --data FILE.csv [--com X,Y,Z] [--joints J,J,...]
-                      [--link L] [--no-drives] [--json]
+    manipcad identify ROBOT --data FILE.csv [--method stops|motion|auto]
+                      [--signal auto|torque|current] [--com X,Y,Z] [--link LINK]
+                      [--estimate-com] [--friction estimate|symmetric|model|none]
+                      [--joints J,J,...] [--no-drives] [--json]
 
-ROBOT is a catalog name or a robot file (YAML or URDF). The CSV file holds one
-sample per line with the columns q1..qn (rad or m), qd1..qdn (rad/s or m/s),
-qdd1..qddn (rad/s² or m/s²) and tau1..taun (N·m or N), in any order; joint
-names may replace the numbers (q_NAME, qd_NAME, qdd_NAME, tau_NAME); a column
-t or time is ignored; lines starting with # are comments. Without the qd and
-qdd columns the samples are stops and the static method is used. See
-docs/identification.md. Bad input exits with status 2 and one line naming the
-file, the line and column, and the reason.
+ROBOT is a catalog name or a robot file (YAML, URDF, URDF + drives). The CSV
+file holds one sample per line: q1..qn (rad or m), and tau1..taun (N·m or N)
+or current1..currentn (A), optionally qd, qdd and a time column t (s); joint
+names may replace the numbers (q_NAME, ...), and a stored simulation result's
+timeseries.csv is read as it is (NAME.q [rad], NAME.qd, NAME.tau,
+NAME.current), and so is a stored result folder (its timeseries.npz, any
+size). With times, stops are found in the samples by themselves
+(--method stops) and velocities and accelerations differentiated (--method
+motion). --com is the payload's centre of mass in the frame of --link: a link
+name (a URDF link's own frame) or a joint name or number 1..n (that joint's
+body frame). Drives whose own estimates disagree beyond their uncertainty are
+flagged. See docs/identification.md. Bad input exits with status 2 and one
+line naming the file, the line and column, and the reason.
 """
 
 from __future__ import annotations
@@ -22,6 +29,7 @@ import math
 import warnings
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich import box
 from rich.table import Table
@@ -66,40 +74,70 @@ def parse_joints(text: str | None, robot, option: str = "--joints") -> list[int]
 @guarded
 def identify(
     robot: Annotated[str, typer.Argument(help="Catalog robot name or robot file (YAML, URDF).")],
-    data: Annotated[str, typer.Option("--data", help="CSV file of q, qd, qdd, tau samples "
-                                      "(SI units; see docs/identification.md).")],
+    data: Annotated[str, typer.Option("--data", help="CSV file of samples: q and tau or "
+                                      "current, optionally qd, qdd and t (SI units), or a "
+                                      "stored result's timeseries.csv, or a stored result "
+                                      "folder; see docs/identification.md.")],
+    method: Annotated[str, typer.Option(
+        "--method", help="stops (gravity at the stops found in the samples), motion "
+        "(inertial, velocity and gravity terms) or auto.")] = "auto",
+    signal: Annotated[str, typer.Option(
+        "--signal", help="What was measured: torque (tau columns), current (current "
+        "columns, A) or auto (torque when the file has it).")] = "auto",
     com: Annotated[str | None, typer.Option(
-        "--com", help="Payload centre of mass x,y,z in the carrying link's frame, m "
-        "(default 0,0,0).")] = None,
+        "--com", help="Payload centre of mass x,y,z in the frame of --link, m "
+        "(default 0,0,0; with --estimate-com the first guess).")] = None,
+    link: Annotated[str | None, typer.Option(
+        "--link", help="Link the payload is on: a link name (its own URDF frame), or a "
+        "joint name or number 1..n (that joint's body frame); default the last.")] = None,
+    estimate_com: Annotated[bool, typer.Option(
+        "--estimate-com", help="Estimate the centre of mass with the mass.")] = False,
+    friction: Annotated[str, typer.Option(
+        "--friction", help="At stops: estimate (held friction per drive and approach "
+        "direction, fitted with the mass), symmetric, model (the drive model's band) or "
+        "none.")] = "estimate",
     joints: Annotated[str | None, typer.Option(
         "--joints", help="Drives to use: names or numbers 1..n, comma-separated "
         "(default every drive the payload acts on).")] = None,
-    link: Annotated[str | None, typer.Option(
-        "--link", help="Carrying link: joint name or number 1..n (default the last).")] = None,
     drives: Annotated[bool, typer.Option(
         "--drives/--no-drives", help="The torques include the drive terms (rotor inertia, "
         "friction) of the robot's drives.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
 ) -> None:
-    """Identify an unknown payload mass from measured drive torques (least squares)."""
-    from manipcad.dynamics.identification import identify_payload, load_torque_data
+    """Identify an unknown payload mass from measured drive torques or currents."""
+    from manipcad.dynamics.identification import (
+        FRICTION,
+        METHODS,
+        identify_payload,
+    )
     from manipcad.model.load import load_robot
 
+    if method not in METHODS:
+        raise InputError("--method", "", f"{method!r}: expected one of {', '.join(METHODS)}")
+    if signal not in ("auto", "torque", "current"):
+        raise InputError("--signal", "", f"{signal!r}: expected auto, torque or current")
+    if friction not in FRICTION:
+        raise InputError("--friction", "", f"{friction!r}: expected one of "
+                         f"{', '.join(FRICTION)}")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)  # data-set quirks, see robots show
         model = load_robot(robot)
     c = parse_com(com)
     sel = parse_joints(joints, model)
-    i_link = model.n - 1 if link is None else parse_joints(link, model, "--link")
-    if isinstance(i_link, list):
-        if len(i_link) != 1:
-            raise InputError("--link", "", f"name one link, got {link!r}")
-        i_link = i_link[0]
-    d = load_torque_data(data, model)
+    where = _parse_link(link, model)
+    d = _load_data(data, model)
+    if signal == "auto":
+        signal = "torque" if d.tau is not None else "current"
+    measured = d.tau if signal == "torque" else d.current
+    if measured is None:
+        col = "tau1.." if signal == "torque" else "current1.."
+        raise InputError(data, "", f"--signal {signal}: the file has no {col} columns")
+    kw = {"tau": measured} if signal == "torque" else {"current": measured}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ManipcadWarning)
-        est = identify_payload(model, d.q, d.qd, d.qdd, d.tau, com=c, joints=sel,
-                               drives=drives, link=i_link)
+        est = identify_payload(model, d.q, d.qd, d.qdd, t=d.t, method=method, com=c,
+                               joints=sel, drives=drives, link=where, friction=friction,
+                               estimate_com=estimate_com, **kw)
     notes = [str(w.message) for w in caught if issubclass(w.category, ManipcadWarning)]
     if as_json:
         doc = {"robot": model.name, "data": str(data), **est.to_dict(), "warnings": notes}
@@ -107,26 +145,73 @@ def identify(
         return
     for note in notes:
         err_console.print(f"[bold yellow]warning:[/] {note}", highlight=False, soft_wrap=True)
-    method = ("static: short stops, gravity only" if est.method == "static"
-              else "dynamic: inertial, velocity and gravity terms")
-    console.print(f"[bold]{model.name}[/]: payload on link {model.joint_names[est.link]!r} at "
-                  f"com = ({', '.join(f'{x:g}' for x in est.com)}) m; {est.samples} samples "
-                  f"from {data}; {method}", highlight=False)
+    what = ("stops: gravity at rest" if est.method == "stops"
+            else "motion: inertial, velocity and gravity terms")
+    if est.method == "stops" and est.stops:
+        what += f"; {len(est.stops)} stops, held friction: {est.friction}"
+    com_txt = ", ".join(f"{x:.4g}" for x in est.com)
+    if est.com_estimated:
+        com_txt += " (estimated ± " + ", ".join(f"{x:.2g}" for x in est.com_std) + ")"
+    console.print(f"[bold]{model.name}[/]: payload on link {est.link_name!r} at com = "
+                  f"({com_txt}) m in its frame; {est.samples} samples of {est.signal} from "
+                  f"{data}; {what}", highlight=False)
+    for note in est.notes:
+        console.print(f"  {note}", highlight=False)
     table = Table(box=box.SIMPLE_HEAD,
                   title="each drive alone (paper: 'from one drive only')")
-    for col in ("joint", "excitation", "m_r kg", "std kg", "residual RMS"):
-        table.add_column(col, justify="left" if col == "joint" else "right")
-    for j, name, e, m, s, r in zip(est.joints, est.joint_names, est.excitation,
-                                   est.per_joint_mass, est.per_joint_std,
-                                   est.per_joint_residual, strict=True):
+    for col in ("joint", "excitation", "m_r kg", "std kg", "z", "residual RMS", ""):
+        table.add_column(col, justify="left" if col in ("joint", "") else "right")
+    for j, name, e, m, sd, zz, r in zip(est.joints, est.joint_names, est.excitation,
+                                        est.per_joint_mass, est.per_joint_std, est.z,
+                                        est.per_joint_residual, strict=True):
         unit = "N·m" if model.joint_types[j] == "revolute" else "N"
-        table.add_row(name, f"{e:.4g} {unit}/kg", f"{m:.5g}", _num(s), f"{r:.3g} {unit}")
+        table.add_row(name, f"{e:.4g} {unit}/kg", f"{m:.5g}", _num(sd), _num(zz, "+.1f"),
+                      f"{r:.3g} {unit}", "[bold red]disagrees[/]" if name in est.flagged else "")
     console.print(table)
     weights = ("drives weighted by their estimated noise" if est.weighting == "noise"
                else "plain least squares")
     console.print(f"[bold]payload mass m_r = {est.mass:.5g} ± {_num(est.std)} kg[/] "
                   f"(least squares over {len(est.joints)} drive(s), {weights}; residual RMS "
                   f"{est.residual:.3g} N·m|N)", highlight=False)
+
+
+def _load_data(data: str, model):
+    """A CSV file (load_torque_data), or a stored result folder (its full-precision arrays)."""
+    from pathlib import Path
+
+    from manipcad.dynamics.identification import TorqueData, load_torque_data
+
+    if not Path(data).is_dir():
+        return load_torque_data(data, model)
+    from manipcad.store.results import load_result
+
+    res, _ = load_result(data)
+    if tuple(res.joint_names) != tuple(model.joint_names):
+        raise InputError(data, "joint_names", f"the result's joints {', '.join(res.joint_names)}"
+                         f" are not the robot's ({', '.join(model.joint_names)})")
+    current = res.current if np.all(np.isfinite(res.current)) else None
+    return TorqueData(res.q, res.qd, None, res.tau, data, res.t, current)
+
+
+def _parse_link(text: str | None, robot):
+    """--link: None (the last joint's body), a joint number 1..n, or a joint or link name."""
+    if text is None:
+        return robot.n - 1
+    item = text.strip()
+    if "," in item:
+        raise InputError("--link", "", f"name one link, got {text!r}")
+    if item.isdigit():
+        k = int(item)
+        if not 1 <= k <= robot.n:
+            raise InputError("--link", "", f"{item!r}: link numbers are 1..{robot.n}")
+        return k - 1
+    from manipcad.dynamics.identification import link_frame
+
+    try:
+        link_frame(robot, item)
+    except InputError as exc:
+        raise InputError("--link", "", exc.reason) from None
+    return item
 
 
 def _num(x: float, fmt: str = ".2g") -> str:

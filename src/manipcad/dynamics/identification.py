@@ -53,7 +53,6 @@ from __future__ import annotations
 import csv
 import math
 import warnings
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -76,34 +75,50 @@ FRICTION = ("estimate", "symmetric", "model", "none")
 #: a stop: every joint slower than this, rad/s (revolute) and m/s (prismatic)
 STOP_SPEED = {REVOLUTE: 1e-2, PRISMATIC: 1e-3}
 #: a joint's approach direction: its last velocity above this fraction of the stop speed
-DIRECTION_FRACTION = 0.1
+DIRECTION_FRACTION = 0.02
+#: rounds of reassigning stops to the nearer held-friction level (friction="estimate")
+REASSIGN_ROUNDS = 20
 #: a stop lasts at least this long, s
 MIN_STOP = 0.15
 #: the first fraction of each stop is left out (current and torque settling)
 STOP_SETTLE = 0.25
+#: ... and the last fraction (the next move may be starting)
+STOP_END_TRIM = 0.1
 #: motion: a drive with dry friction slower than this is left out at that sample, rad/s, m/s
 MOTION_SPEED = {REVOLUTE: 2e-2, PRISMATIC: 2e-3}
 #: motion without q̈: q̇ and the torques are smoothed over this time before q̇ is
 #: differentiated, s
 SMOOTH_TIME = 0.02
+#: time-ordered motion samples: contiguous batches for the standard deviations
+BATCHES = 20
 #: moving samples "auto" needs to choose the motion method
 AUTO_MIN_MOTION = 50
 #: family-wise false-alarm probability of the disagreement flags (over the k drives)
 FLAG_ALPHA = 1e-3
+#: ... and a flagged drive's estimate differs from the joint one by more than this
+#: fraction of it (model errors of a fraction of a percent are not worth a flag)
+FLAG_RELATIVE = 0.01
 
 
-def flag_threshold(k: int) -> float:
-    """|z| beyond which one of k drives is flagged: the two-sided normal quantile at
-    ``FLAG_ALPHA / k`` (Bonferroni), so that consistent data raise a flag in about
-    one fit in 1000 whatever the number of drives.
+def flag_threshold(k: int, dof: float = math.inf) -> float:
+    """|z| beyond which one of k drives is flagged: the two-sided quantile at
+    ``FLAG_ALPHA / k`` (Bonferroni) of Student's t with the drive's ``dof``
+    degrees of freedom (its standard deviation is estimated from that many
+    residuals; normal for many), so that consistent data raise a flag in about
+    one fit in 1000 whatever the number of drives and equations.
 
     Example:
         >>> round(flag_threshold(1), 2), round(flag_threshold(6), 2)
         (3.29, 3.76)
+        >>> round(flag_threshold(5, dof=10), 2)
+        5.69
     """
-    from scipy.stats import norm
+    from scipy.stats import norm, t
 
-    return float(norm.isf(FLAG_ALPHA / (2 * max(int(k), 1))))
+    p = FLAG_ALPHA / (2 * max(int(k), 1))
+    if not math.isfinite(dof) or dof > 1e4:
+        return float(norm.isf(p))
+    return float(t.isf(p, max(dof, 1.0)))
 
 
 @dataclass(frozen=True)
@@ -113,7 +128,8 @@ class Stop:
     Attributes:
         start, end: first and last sample time of the stop, s.
         first, last: their sample indices (inclusive).
-        used: (first_used, last) the samples averaged (after ``STOP_SETTLE``).
+        used: (first_used, last_used) the samples averaged (without the first
+            ``STOP_SETTLE`` and the last ``STOP_END_TRIM`` of the stop).
         direction: (n,) per joint, the sign of its last motion before the stop
             (+1, -1; 0 if it had not moved since the samples began).
     """
@@ -262,23 +278,20 @@ def payload_regressor(robot: Robot, q, qd, qdd, *, com=None, link: int | str = -
 def link_frame(robot: Robot, link: int | str) -> tuple[int, np.ndarray, np.ndarray, str]:
     """The body carrying a link and the link's frame in that body.
 
-    A joint index or name means the body frame of that joint (the link it
-    moves, in the internal frame with the joint axis along z). A link name
-    means that link's own frame: from ``Robot.link_frame`` when the model
-    provides it; otherwise, for a robot loaded from a URDF file, read from that
-    file (a moving link's frame is its body frame rotated back by
-    the joint-axis alignment, links merged through fixed joints add their fixed
-    transforms; see :mod:`manipcad.model.urdf`).
+    A joint index (0-based, negative from the end) or joint name means the body
+    frame of that joint (the link it moves, in the internal frame with the joint
+    axis along z). Any other name is a link name, and means that link's own
+    frame (:meth:`manipcad.model.robot.Robot.link_frame`: for a URDF robot, the
+    URDF link frame, links merged through fixed joints included).
 
     Args:
         robot: the manipulator.
-        link: joint index (0-based, negative from the end) or joint name, a link
-            name, or a URDF link name.
+        link: joint index or name, or link name.
 
     Returns:
-        ``(body, R, p, name)``: body index 0..n-1, the link frame's rotation
-        (3, 3) and origin (3,) m in the body frame (a point c in the link frame
-        is ``R @ c + p`` in the body frame), and the link's name.
+        ``(body, R, p, name)``: body index 0..n-1, the frame's rotation (3, 3)
+        and origin (3,) m in the body frame (a point c in the link frame is
+        ``R @ c + p`` in the body frame), and the name.
 
     Raises:
         InputError: no such link or joint, or a link fixed to the base.
@@ -289,79 +302,21 @@ def link_frame(robot: Robot, link: int | str) -> tuple[int, np.ndarray, np.ndarr
         >>> body, R.tolist() == [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
         (5, True)
     """
-    if isinstance(link, str) and callable(getattr(robot, "link_frame", None)) \
-            and link not in robot.joint_names:
+    if isinstance(link, str) and link not in robot.joint_names:
         try:
             body, R, p = robot.link_frame(link)
         except ManipcadError as exc:
-            raise InputError(SOURCE, "link", str(exc)) from None
+            raise InputError(SOURCE, "link", f"{exc}; or a joint name "
+                             f"({', '.join(robot.joint_names)})") from None
         if body < 0:
-            raise InputError(SOURCE, "link", f"link {link!r} is fixed to the base")
+            raise InputError(SOURCE, "link", f"link {link!r} is fixed to the base: a payload "
+                             "there loads no drive")
         return int(body), np.asarray(R, float), np.asarray(p, float), link
-    if isinstance(link, str) and link not in robot.joint_names:
-        frames = _urdf_link_frames(robot)
-        if link in frames:
-            return frames[link] + (link,)
-        if link in robot.link_names:
-            body = robot.link_names.index(link)
-            return body, np.eye(3), np.zeros(3), link
-        names = list(frames) or list(robot.link_names)
-        raise InputError(SOURCE, "link", f"no link or joint named {link!r}; links are "
-                         f"{', '.join(names)}; joints {', '.join(robot.joint_names)}")
     try:
         body = robot.joint_index(link)
     except (ManipcadError, TypeError, ValueError) as exc:
         raise InputError(SOURCE, "link", str(exc)) from None
     return body, np.eye(3), np.zeros(3), robot.joint_names[body]
-
-
-def _urdf_link_frames(robot: Robot) -> dict[str, tuple[int, np.ndarray, np.ndarray]]:
-    """Link name -> (body, R, p) read from the robot's URDF source file ({} if none)."""
-    src = Path(robot.source) if robot.source else None
-    if src is None or src.suffix.lower() != ".urdf" or not src.is_file():
-        return {}
-    from manipcad.model.urdf import align_z, rpy_matrix
-
-    try:
-        root = ET.parse(src).getroot()
-    except ET.ParseError:
-        return {}
-    children: dict[str, list[ET.Element]] = {}
-    has_parent = set()
-    for j in root.findall("joint"):
-        parent, child = j.find("parent"), j.find("child")
-        if parent is None or child is None:
-            return {}
-        children.setdefault(parent.get("link"), []).append(j)
-        has_parent.add(child.get("link"))
-    roots = [el.get("name") for el in root.findall("link") if el.get("name") not in has_parent]
-    if len(roots) != 1:
-        return {}
-    out: dict[str, tuple[int, np.ndarray, np.ndarray]] = {}
-    stack = [(roots[0], -1, np.eye(3), np.zeros(3))]
-    while stack:
-        link, body, Rl, pl = stack.pop()
-        if body >= 0:
-            out[link] = (body, Rl, pl)
-        for j in children.get(link, []):
-            child = j.find("child").get("link")
-            org = j.find("origin")
-            xyz = np.fromstring(org.get("xyz", "0 0 0"), sep=" ") if org is not None else None
-            rpy = np.fromstring(org.get("rpy", "0 0 0"), sep=" ") if org is not None else None
-            Ro = rpy_matrix(rpy) if rpy is not None and rpy.size == 3 else np.eye(3)
-            po = xyz if xyz is not None and xyz.size == 3 else np.zeros(3)
-            if j.get("type") in ("revolute", "continuous", "prismatic"):
-                ax = j.find("axis")
-                a = np.fromstring(ax.get("xyz", "1 0 0"), sep=" ") if ax is not None \
-                    else np.array([1.0, 0.0, 0.0])
-                name = j.get("name")
-                if name not in robot.joint_names:
-                    return {}
-                stack.append((child, robot.joint_names.index(name),
-                              align_z(a / np.linalg.norm(a)).T, np.zeros(3)))
-            else:
-                stack.append((child, body, Rl @ Ro, Rl @ po + pl))
-    return out
 
 
 # ------------------------------------------------------------------ stops
@@ -376,9 +331,11 @@ def find_stops(t, q, qd=None, *, joint_types=None, stop_speed=None,
     such samples lasting at least ``min_duration``. A joint's approach
     direction is the sign of its velocity at the last sample up to the stop's
     end where it moved faster than ``DIRECTION_FRACTION`` of its
-    ``stop_speed`` (0 if none): a joint that creeps into its rest inside the
-    stop (a regulator's integral action pulling it back after an overshoot)
-    holds with the friction of that creep's direction.
+    ``stop_speed`` (0 if none) — or, when the joint creeps through the averaged
+    part of the stop (net displacement above half that speed times its
+    length), the direction of that creep: a joint that creeps into its rest
+    inside the stop (a regulator's integral action pulling it back after an
+    overshoot) holds with the friction of that creep's direction.
 
     Args:
         t: (N,) sample times, s, strictly increasing.
@@ -400,7 +357,7 @@ def find_stops(t, q, qd=None, *, joint_types=None, stop_speed=None,
         >>> traj = waypoints([[0.0], [1.0], [0.2]], move_time=0.5, dwell=0.3)
         >>> t = np.arange(0.0, traj.duration, 1e-3)
         >>> q, qd, _ = traj.sample(t)
-        >>> [(round(s.start, 2), round(s.end, 2), int(s.direction[0]))
+        >>> [(round(s.start, 1), round(s.end, 1), int(s.direction[0]))
         ...  for s in find_stops(t, q, qd)]
         [(0.0, 0.3, 0), (0.8, 1.1, 1), (1.6, 1.9, -1)]
     """
@@ -425,15 +382,22 @@ def find_stops(t, q, qd=None, *, joint_types=None, stop_speed=None,
         if T[b] - T[a] < min_duration:
             continue
         first_used = min(b, a + int(math.floor(settle * (b - a + 1))))
-        # each joint's direction: its last motion up to the stop's end (a slow creep
-        # inside the stop counts: the friction then sits at that direction's edge)
+        # the last samples may already be the next move starting: left out too
+        last_used = max(first_used, b - int(math.floor(STOP_END_TRIM * (b - a + 1))))
+        # each joint's direction: its last motion up to the averaged window's end (a slow
+        # creep inside the stop counts: the friction then sits at that direction's edge)
         direction = np.zeros(n, dtype=int)
+        span = T[last_used] - T[first_used]
         for j in range(n):
-            idx = np.flatnonzero(creeping[:b + 1, j])
+            moved = Q[last_used, j] - Q[first_used, j]
+            if span > 0 and abs(moved) > 0.5 * DIRECTION_FRACTION * vmax[j] * span:
+                direction[j] = int(np.sign(moved))  # a creep through the averaged window
+                continue
+            idx = np.flatnonzero(creeping[:last_used + 1, j])
             if idx.size:
                 direction[j] = int(np.sign(V[idx[-1], j]))
-        out.append(Stop(float(T[a]), float(T[b]), int(a), int(b), (int(first_used), int(b)),
-                        direction))
+        out.append(Stop(float(T[a]), float(T[b]), int(a), int(b),
+                        (int(first_used), int(last_used)), direction))
     return out
 
 
@@ -561,9 +525,23 @@ def identify_payload(robot: Robot, q, qd=None, qdd=None, tau=None, *, t=None, cu
     G = eq.regressor(robot, c_body, body)
     W = eq.mask
     excitation = np.sqrt(np.sum((G * W) ** 2, axis=0) / np.maximum(W.sum(axis=0), 1))
+    if estimate_com:  # a drive the payload loads from some com nearby counts too
+        for axis in np.eye(3) * 0.1:
+            Ga = eq.regressor(robot, c_body + axis, body)
+            excitation = np.maximum(excitation, np.sqrt(
+                np.sum((Ga * W) ** 2, axis=0) / np.maximum(W.sum(axis=0), 1)))
+        G = eq.regressor(robot, c_body, body)
     strongest = float(excitation.max())
     weak = (excitation <= EXCITATION_ABS) | (excitation <= EXCITATION_REL * strongest)
     sel = _select(robot, joints, weak, excitation, method, c_link, link_name)
+    if eq.nuisance is not None and friction == "estimate":
+        if estimate_com:  # the levels depend on the com: a first com before reassigning
+            c_body, _ = _estimate_com(robot, eq, sel, c_body, body)
+        moved = _reassign_directions(eq, robot, c_body, body, sel)
+        if moved:
+            notes.append(f"{moved} (stop, drive) approach directions corrected to the nearer "
+                         "held-friction level")
+        G = eq.regressor(robot, c_body, body)
 
     com_std = np.full(3, np.nan)
     if estimate_com:
@@ -574,9 +552,11 @@ def identify_payload(robot: Robot, q, qd=None, qdd=None, tau=None, *, t=None, cu
     fit = _fit(G[:, sel], eq.Y[:, sel], W[:, sel], eq.lost[sel], ordered=eq.ordered)
     m, std = fit["mass"], fit["std"]
     names = tuple(robot.joint_names[j] for j in sel)
-    z_crit = flag_threshold(len(sel))
-    flagged = tuple(nm for nm, zz in zip(names, fit["z"], strict=True)
-                    if math.isfinite(zz) and abs(zz) > z_crit)
+    z_crit = np.array([flag_threshold(len(sel), dof) for dof in fit["dof"]])
+    floor = FLAG_RELATIVE * max(abs(m), 3.0 * std if math.isfinite(std) else 0.0)
+    flagged = tuple(nm for nm, zz, zc, mj in zip(names, fit["z"], z_crit, fit["m_j"],
+                                                 strict=True)
+                    if math.isfinite(zz) and abs(zz) > zc and abs(mj - m) > floor)
     held = tuple(eq.held(j, m) for j in sel)
     est = PayloadEstimate(
         mass=m, std=std, residual=fit["residual"], joints=tuple(int(j) for j in sel),
@@ -597,7 +577,7 @@ def identify_payload(robot: Robot, q, qd=None, qdd=None, tau=None, *, t=None, cu
         detail = ", ".join(f"{nm} {mj:.4g} ± {sj:.2g} kg ({zz:+.1f} σ)" for nm, mj, sj, zz in zip(
             names, fit["m_j"], fit["std_j"], fit["z"], strict=True) if nm in flagged)
         warnings.warn(ManipcadWarning(
-            f"drives disagree beyond their uncertainty (|z| > {z_crit:.2f}) with the joint "
+            f"drives disagree beyond their uncertainty (|z| > {z_crit.min():.2f}) with the joint "
             f"estimate {m:.4g} ± {std:.2g} kg: {detail}; the assumed com (frame of link "
             f"{link_name!r}), the friction or the robot model do not fit these data"),
             stacklevel=2)
@@ -667,6 +647,38 @@ def _friction_unknowns(d: np.ndarray, g: np.ndarray, friction: str) -> np.ndarra
     return np.stack(cols, axis=1) if cols else None
 
 
+def _reassign_directions(eq: _Equations, robot: Robot, c_body, body: int, sel) -> int:
+    """Held friction at stops, estimated jointly: each (stop, drive) holds at one of the
+    drive's two levels, the edges of its friction band. Starting from the approach
+    directions found in the motion, alternately fit m_r and the levels, and give each
+    stop the level nearer to its y - m_r·g, until no assignment changes (at most
+    ``REASSIGN_ROUNDS``). Changes ``eq`` in place; returns the number of changes."""
+    start = eq.directions.copy()
+    for _ in range(REASSIGN_ROUNDS):
+        G = eq.regressor(robot, c_body, body)
+        m = _fit(G[:, sel], eq.Y[:, sel], eq.mask[:, sel], eq.lost[sel])["mass"]
+        dirs = eq.directions.copy()
+        for j in sel:
+            d = dirs[:, j]
+            if not (np.any(d > 0) and np.any(d < 0)) or eq.nuisance[j].shape[1] != \
+                    np.unique(d).size:
+                continue  # one direction only, or a symmetric level: nothing to choose
+            r = eq.Y0[:, j] - m * eq.G_raw[:, j]
+            hi, lo = float(np.mean(r[d > 0])), float(np.mean(r[d < 0]))
+            if hi <= lo:
+                continue  # levels not ordered like a friction band: keep the motion's
+            nz = d != 0
+            d[nz] = np.where(np.abs(r[nz] - hi) < np.abs(r[nz] - lo), 1, -1)
+        if np.array_equal(dirs, eq.directions):
+            break
+        nuisance = [_friction_unknowns(dirs[:, j], eq.G_raw[:, j], "estimate")
+                    if eq.nuisance[j] is not None else None for j in range(dirs.shape[1])]
+        lost = np.array([np.linalg.matrix_rank(A) if A is not None else 0 for A in nuisance])
+        eq.__init__(eq.Q, eq.QD, eq.QDD, eq.Y0, eq.mask, lost, nuisance, eq.stops,
+                    directions=dirs)
+    return int(np.sum(eq.directions != start))
+
+
 def _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes, c_body, body):
     n = robot.n
     if T is None:  # each sample is one stop of unknown approach
@@ -681,6 +693,11 @@ def _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes,
     else:
         stops = find_stops(T, Q, QD, joint_types=robot.joint_types, stop_speed=stop_speed,
                            min_duration=min_stop)
+        if stops and stops[0].start - T[0] < min_stop and friction != "none" \
+                and len(stops) > 1:
+            # at rest from the first sample: no approach, the friction held is unknown
+            stops = stops[1:]
+            notes.append("the rest at the start (no approach seen) left out")
         if not stops:
             raise InputError(SOURCE, "q, t", f"no stops found: no run of at least {min_stop:g} s "
                              "in which every joint is at rest (see stop_speed)")
@@ -786,8 +803,10 @@ def _ar1_inflation(R: np.ndarray, W: np.ndarray) -> np.ndarray:
 def _fit(G: np.ndarray, Y: np.ndarray, W: np.ndarray, lost: np.ndarray,
          ordered: bool = False) -> dict:
     """Weighted least squares of Y = m·G over the equations W (per drive ``lost`` dof);
-    ``ordered``: the rows are consecutive samples in time, whose correlated residuals
-    count as fewer independent equations (AR(1) variance factor per drive)."""
+    ``ordered``: the rows are consecutive samples in time, whose residuals may be
+    correlated: the drives are weighted with an AR(1) variance factor, and the
+    standard deviations come from ``BATCHES`` batch means (t with B - 1 degrees of
+    freedom for the flags)."""
     Gm, Ym = G * W, Y * W
     k = G.shape[1]
     n_j = W.sum(axis=0) - lost  # effective equations per drive
@@ -797,7 +816,8 @@ def _fit(G: np.ndarray, Y: np.ndarray, W: np.ndarray, lost: np.ndarray,
     R = Ym - m * Gm
     M = int(n_j.sum())
     weighting = "equal"
-    m_j = gy / gg
+    with np.errstate(invalid="ignore", divide="ignore"):
+        m_j = gy / gg
     R_j = Ym - m_j * Gm
     infl = _ar1_inflation(R_j, W) if ordered else np.ones(k)
     if k > 1 and n_j.min() >= MIN_SAMPLES_FOR_WEIGHTS:
@@ -816,8 +836,28 @@ def _fit(G: np.ndarray, Y: np.ndarray, W: np.ndarray, lost: np.ndarray,
                                           * infl), np.nan)
         dvar = std_j**2 - std**2
         z = np.where((k > 1) & (dvar > 0), (m_j - m) / np.sqrt(np.abs(dvar)), np.nan)
+    dof = np.maximum(n_j - 1, 1).astype(float)
+    N = G.shape[0]
+    if ordered and N >= BATCHES * 10:
+        # batch means: the influence of each of B contiguous blocks of samples on the
+        # estimates; their spread is the variance, whatever the residuals' correlation
+        w = 1.0 / var if weighting == "noise" else np.ones(k)
+        edges = np.linspace(0, N, BATCHES + 1).astype(int)
+        gg_b = np.add.reduceat(Gm**2, edges[:-1], axis=0)  # (B, k)
+        gy_b = np.add.reduceat(Gm * Ym, edges[:-1], axis=0)
+        info = float((w * gg).sum())
+        infl_m = ((gy_b - m * gg_b) * w).sum(axis=1) / info  # (B,)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            infl_j = (gy_b - m_j * gg_b) / gg  # (B, k)
+        c = BATCHES / (BATCHES - 1.0)
+        std = math.sqrt(c * float(np.sum(infl_m**2)))
+        std_j = np.sqrt(c * np.sum(infl_j**2, axis=0))
+        dvar = c * np.sum((infl_j - infl_m[:, None]) ** 2, axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            z = np.where((k > 1) & (dvar > 0), (m_j - m) / np.sqrt(dvar), np.nan)
+        dof = np.full(k, BATCHES - 1.0)
     res_j = np.sqrt(np.sum(R**2, axis=0) / np.maximum(W.sum(axis=0), 1))
-    return {"mass": m, "std": std, "weighting": weighting, "m_j": m_j, "std_j": std_j,
+    return {"mass": m, "std": std, "weighting": weighting, "m_j": m_j, "std_j": std_j, "dof": dof,
             "z": z, "res_j": res_j, "residual": float(np.sqrt(np.sum(R**2) / max(W.sum(), 1)))}
 
 
@@ -833,6 +873,9 @@ def _estimate_com(robot, eq, sel, c0, body):
     G0 = g_of(c0)
     fit0 = _fit(G0, eq.Y[:, sel], W, eq.lost[sel])
     var = np.maximum((fit0["res_j"] ** 2), 1e-300)
+    # residuals correlated in time count as fewer equations (the largest drive factor)
+    infl = float(_ar1_inflation(eq.Y[:, sel] - fit0["mass"] * G0, W).max()) if eq.ordered \
+        else 1.0
     w = W / np.sqrt(var)
 
     def resid(x):
@@ -844,7 +887,7 @@ def _estimate_com(robot, eq, sel, c0, body):
     dof = max(int(W.sum() - eq.lost[sel].sum()) - 4, 1)
     s2 = float(np.sum(sol.fun**2)) / dof
     try:
-        cov = np.linalg.inv(J.T @ J) * s2
+        cov = np.linalg.inv(J.T @ J) * s2 * infl
     except np.linalg.LinAlgError:
         cov = np.full((4, 4), np.nan)
     if abs(sol.x[0]) < 1e-12:

@@ -70,6 +70,17 @@ def load(path) -> manipcad.Robot:
         return manipcad.load_robot(path)
 
 
+def per_state(fn, *args, **kwargs):
+    """A case timing one call on a batch of N_BATCH states, per state."""
+
+    def case() -> float:
+        t = time.perf_counter()
+        fn(*args, **kwargs)
+        return (time.perf_counter() - t) / N_BATCH
+
+    return case
+
+
 def loop(fn, args) -> float:
     t = time.perf_counter()
     for a in args:
@@ -102,22 +113,13 @@ def bench_id(label: str, path: Path, rounds: int, rng) -> dict:
     def general_single(r, q, qd, qdd):
         manipcad.inverse_dynamics(r, q, qd, qdd, drives=False, use_generated=False)
 
-    def gen_batch():
-        t = time.perf_counter()
-        kb(Q, QD, QDD, False, TAU)
-        return (time.perf_counter() - t) / N_BATCH
-
-    def general_batch():
-        t = time.perf_counter()
-        manipcad.inverse_dynamics(robot, Q, QD, QDD, drives=False, use_generated=False)
-        return (time.perf_counter() - t) / N_BATCH
-
     cases = {
         "pinocchio single": lambda: loop(pin.rnea, pins),
         "generated single": lambda: loop(gen.inverse_dynamics, ours),
         "general single": lambda: loop(general_single, general),
-        "generated batch": gen_batch,
-        "general batch": general_batch,
+        "generated batch": per_state(kb, Q, QD, QDD, False, TAU),
+        "general batch": per_state(manipcad.inverse_dynamics, robot, Q, QD, QDD, drives=False,
+                                   use_generated=False),
     }
     for f in cases.values():  # warm-up: compile or load
         f()
@@ -132,18 +134,9 @@ def bench_rhs(rounds: int, rng) -> dict:
     Q, QD, T = rng.uniform(-1.5, 1.5, (3, N_BATCH, n))
     out = np.empty_like(Q)
     kf = gen.kernel("forward_dynamics_batch")
-
-    def gen_fd():
-        t = time.perf_counter()
-        kf(Q, QD, T, True, out)
-        return (time.perf_counter() - t) / N_BATCH
-
-    def general_fd():
-        t = time.perf_counter()
-        manipcad.forward_dynamics(robot, Q, QD, T, use_generated=False)
-        return (time.perf_counter() - t) / N_BATCH
-
-    cases = {"generated forward (chol)": gen_fd, "general forward (aba)": general_fd}
+    cases = {"generated forward (chol)": per_state(kf, Q, QD, T, True, out),
+             "general forward (aba)": per_state(manipcad.forward_dynamics, robot, Q, QD, T,
+                                                use_generated=False)}
     for f in cases.values():
         f()
     return {"robot": "puma560 with drives", "n": n, "times": interleave(cases, rounds, rng)}
@@ -212,11 +205,59 @@ def report(res: dict) -> str:
     return "\n".join(out)
 
 
+PAPER = {  # the paper's general formulas (section 4), mul and add
+    "inverse_dynamics": (lambda n: 95 * n - 101, lambda n: 84 * n - 97),
+    "forward_dynamics": (lambda n: 249 * n - 272, lambda n: 231 * n - 294),
+    "forward_crba": (lambda n: n**3 / 6 + 9 / 2 * n**2 + 544 / 3 * n - 155,
+                     lambda n: n**3 / 6 + 7 / 2 * n**2 + 499 / 3 * n - 159),
+}
+
+
+def counts_table() -> str:
+    """Markdown: generated counts per robot beside the paper's formulas and our general kernels."""
+    robots = [("PUMA 560 (catalog, drives)", "puma560"), ("Stanford arm (catalog, drives)",
+                                                         "stanford"),
+              ("Fig. 2 arm (catalog 'cylindrical', drives)", "cylindrical"),
+              ("SCARA (catalog, drives)", "scara"),
+              ("UR5 (example-robot-data, rigid)", erd("ur_description/urdf/ur5_robot.urdf")),
+              ("Panda (example-robot-data, rigid, 7 + 2 fingers)",
+               erd("panda_description/urdf/panda.urdf"))]
+    out = ["| robot | n | function | generated mul / add / sin-cos (sqrt) | general kernel "
+           "mul / add | paper mul / add |", "|---|---|---|---|---|---|"]
+    for label, src in robots:
+        robot = load(src)
+        gen = generate(robot, attach=False)
+        n = robot.n
+        for func, c in gen.ops.items():
+            general = {"inverse_dynamics": "rnea", "mass_matrix": "crba",
+                       "forward_dynamics": "aba"}.get(func)
+            g = manipcad.operation_counts(general, n) if general else None
+            paper = {"inverse_dynamics": "inverse_dynamics",
+                     "forward_dynamics": "forward_dynamics"}.get(func)
+            pm = (f"{PAPER[paper][0](n):.0f} / {PAPER[paper][1](n):.0f}" if paper else "")
+            if func == "forward_dynamics":
+                pm += (f" (O(n)); {PAPER['forward_crba'][0](n):.0f} / "
+                       f"{PAPER['forward_crba'][1](n):.0f} (H + Cholesky)")
+            sq = f" ({c['sqrt']})" if c["sqrt"] else ""
+            out.append(f"| {label} | {n} | {func} | {c['mul']} / {c['add']} / {c['trig']}{sq} "
+                       f"| {g['mul']} / {g['add'] if g else ''} |" if g else
+                       f"| {label} | {n} | {func} | {c['mul']} / {c['add']} / {c['trig']}{sq} "
+                       f"| | {pm} |")
+            if g:
+                out[-1] += f" {pm} |"
+    return "\n".join(out)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--counts", action="store_true",
+                    help="print only the operation-count table (Markdown) and exit")
     args = ap.parse_args()
+    if args.counts:
+        print(counts_table())
+        return
     numba.set_num_threads(1)
     rng = np.random.default_rng(0)
     res = {

@@ -27,7 +27,10 @@ def load_robot(source: str | Path | Robot) -> Robot:
             .urdf, or a .yaml/.yml robot file of any of the three forms of
             docs/robot-files.md: a DH table (``joints:`` with ``dh:``), a URDF
             with drives (``urdf:``), or the tree form :meth:`Robot.save` writes
-            (``convention: tree``); or a :class:`Robot` (returned as it is).
+            (``convention: tree``); an MJCF file (.xml/.mjcf, MuJoCo's parser);
+            URDF or MJCF text; a Robotics Toolbox ``DHRobot``/``ERobot``, a
+            Pinocchio ``Model`` or a ``mujoco.MjModel`` (:mod:`manipcad.model.foreign`);
+            or a :class:`Robot` (returned as it is).
 
     Returns:
         The validated :class:`Robot`.
@@ -42,11 +45,19 @@ def load_robot(source: str | Path | Robot) -> Robot:
     """
     if isinstance(source, Robot):
         return source
+    if not isinstance(source, str | Path | bytes):
+        from manipcad.model.foreign import robot_from_object
+
+        return robot_from_object(source)
+    if isinstance(source, bytes) or isinstance(source, str) and source.lstrip().startswith("<"):
+        from manipcad.model.foreign import robot_from_xml_text
+
+        return robot_from_xml_text(source)
     text = str(source)
     if not text.strip():
         check_readable(text)  # "empty file name"
     path = Path(text)
-    if path.suffix.lower() in (".yaml", ".yml", ".urdf") or path.exists():
+    if path.suffix.lower() in (".yaml", ".yml", ".urdf", ".xml", ".mjcf") or path.exists():
         check_readable(text)
         return _load_path(path)
     for ext in (".yaml", ".urdf"):
@@ -63,6 +74,10 @@ def _load_path(path: Path) -> Robot:
         from manipcad.model.urdf import load_urdf
 
         return load_urdf(path)
+    if path.suffix.lower() in (".xml", ".mjcf"):
+        from manipcad.model.foreign import load_xml_robot
+
+        return load_xml_robot(path)
     from manipcad.model.tree_file import is_tree_file, load_tree_robot
     from manipcad.model.urdf_drives import is_urdf_robot_file, load_urdf_robot
     from manipcad.model.yaml_robot import load_yaml_robot, read_yaml

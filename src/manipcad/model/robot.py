@@ -507,6 +507,19 @@ class Robot:
 
         return save_robot(self, path)
 
+    def to_urdf(self, path=None) -> str:
+        """The rigid-body model as URDF text (:mod:`manipcad.model.to_urdf`: no gravity,
+        no drives); also written to ``path`` (str or Path) if given.
+
+        Example:
+            >>> import manipcad
+            >>> manipcad.load_robot(manipcad.load_robot("scara").to_urdf()).n
+            4
+        """
+        from manipcad.model.to_urdf import robot_to_urdf
+
+        return robot_to_urdf(self, path)
+
     def without_drives(self) -> Robot:
         """The same robot with no drives (pure rigid body)."""
         return self.replace(drives=(None,) * self.n)

@@ -171,8 +171,7 @@ def test_cli_reads_a_stored_result(tmp_path):
     assert csv.is_file()
     runner = CliRunner()
     com = ",".join(str(c) for c in SETUPS["puma560"]["com"])
-    for data, method, signal in ((csv, "stops", "torque"), (csv, "motion", "current"),
-                                 (folder, "auto", "torque"), (folder, "stops", "current")):
+    for data, method, signal in ((csv, "stops", "torque"), (folder, "auto", "current")):
         r = runner.invoke(app, ["identify", "puma560", "--data", str(data), "--method",
                                 method, "--signal", signal, "--com", com, "--json"])
         assert r.exit_code == 0, r.output

@@ -45,13 +45,10 @@ refused unless ``force=True``.
 from __future__ import annotations
 
 import contextlib
-import ctypes
-import errno
 import json
 import os
 import re
 import shutil
-import sys
 import tempfile
 import zipfile
 import zlib
@@ -476,14 +473,13 @@ def _fsync_tree(root: Path) -> None:
 
 # --------------------------------------------------------------------------- swapping
 
-#: renameat2 flag: swap the two names atomically (Linux >= 3.15)
-RENAME_EXCHANGE = 2
-_AT_FDCWD = -100
 _EXCHANGE_OFF = os.environ.get("MANIPCAD_NO_RENAME_EXCHANGE", "") not in ("", "0")
 
 
 def exchange(a: str | Path, b: str | Path) -> bool:
-    """Swap two existing paths in one atomic step (``renameat2(RENAME_EXCHANGE)``).
+    """Swap two existing paths in one atomic step (``renameat2(RENAME_EXCHANGE)``,
+    :func:`manipcad.fileio.exchange_paths`); off when ``MANIPCAD_NO_RENAME_EXCHANGE``
+    is set (to exercise the versioned-link fallback).
 
     Returns:
         True when swapped; False when the platform or file system has no such
@@ -491,35 +487,9 @@ def exchange(a: str | Path, b: str | Path) -> bool:
     """
     if _EXCHANGE_OFF:
         return False
-    fn = _renameat2()
-    if fn is None:
-        return False
-    rc = fn(_AT_FDCWD, os.fsencode(str(a)), _AT_FDCWD, os.fsencode(str(b)), RENAME_EXCHANGE)
-    if rc == 0:
-        return True
-    err = ctypes.get_errno()
-    if err in (errno.ENOSYS, errno.EINVAL, errno.EOPNOTSUPP, errno.ENOTSUP):
-        return False
-    raise OSError(err, os.strerror(err), str(b))
+    from manipcad.fileio import exchange_paths
 
-
-_RENAMEAT2: list[Any] = []
-
-
-def _renameat2():
-    if not _RENAMEAT2:
-        fn = None
-        if sys.platform.startswith("linux"):
-            try:
-                fn = getattr(ctypes.CDLL(None, use_errno=True), "renameat2", None)
-            except OSError:
-                fn = None
-            if fn is not None:
-                fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p,
-                               ctypes.c_uint]
-                fn.restype = ctypes.c_int
-        _RENAMEAT2.append(fn)
-    return _RENAMEAT2[0]
+    return exchange_paths(a, b)
 
 
 def _install(tmp: Path, out: Path, force: bool) -> Path | None:
@@ -602,17 +572,9 @@ _LEGACY = re.compile(r"^\.(?P<name>.+)\.(?P<tag>partial|old)-[^-/]+$")
 
 
 def _alive(pid: int) -> bool:
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    except OSError:
-        return False
-    return True
+    from manipcad.fileio import _alive as alive  # one liveness test for every writer
+
+    return alive(pid)
 
 
 def leftovers(folder: str | Path, name: str | None = None) -> list[tuple[Path, str, bool]]:

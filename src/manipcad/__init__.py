@@ -8,6 +8,7 @@ from manipcad._numba_cache import configure as _configure_numba_cache
 _configure_numba_cache()
 
 from manipcad.analysis import coupling_analysis, moment_components
+from manipcad.control import Regulator, load_regulators, save_regulators, synthesize
 from manipcad.dynamics import (
     forward_dynamics,
     inverse_dynamics,
@@ -19,8 +20,8 @@ from manipcad.dynamics.identification import PayloadEstimate, identify_payload
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning, ModelError
 from manipcad.expert import Requirements, recommend
 from manipcad.model import Drive, Robot, catalog_names, load_robot
+from manipcad.sim import SimulationResult, simulate
 from manipcad.sizing import DriveRequirements, ratio_sweep, required_drive, torque_speed_plot
-from manipcad.synthesis import synthesize
 from manipcad.trajectories import load_trajectory, save_trajectory
 
 __version__ = "0.1.0"
@@ -30,7 +31,8 @@ __all__ = [
     "inverse_dynamics", "mass_matrix", "forward_dynamics", "torque_components",
     "operation_counts", "load_trajectory", "save_trajectory",
     "identify_payload", "PayloadEstimate", "coupling_analysis", "moment_components",
-    "synthesize", "Requirements", "recommend",
+    "synthesize", "Regulator", "load_regulators", "save_regulators", "simulate",
+    "SimulationResult", "Requirements", "recommend",
     "required_drive", "DriveRequirements", "ratio_sweep", "torque_speed_plot",
     "ManipcadError", "ModelError", "InputError", "ManipcadWarning",
 ]

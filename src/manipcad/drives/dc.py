@@ -162,6 +162,32 @@ def static_current(U: float, omega_m: float, p: np.ndarray) -> float:
 
 
 @numba.njit(cache=True)
+def static_input(i: float, omega_m: float, p: np.ndarray) -> float:
+    """Amplifier input that drives the current i at motor speed ω_m, L neglected, V.
+
+    The inverse of :func:`static_current` inside the amplifier's linear zone:
+    ``U = (R·i + k_w·ω_m)/k_u``.
+
+    Args:
+        i: armature current wanted, A.
+        omega_m: motor speed, rad/s.
+        p: packed drive parameters.
+
+    Returns:
+        U, V.
+
+    Example:
+        >>> from manipcad.drives.dc import static_input
+        >>> from manipcad.drives.params import pack_drive
+        >>> from manipcad.model.robot import Drive
+        >>> p = pack_drive(Drive(R=2.0, L=0.0, k_m=.1, k_w=.1, k_u=1.0))
+        >>> static_input(0.5, 0.0, p)
+        1.0
+    """
+    return (p[P_R] * i + p[P_KW] * omega_m) / p[P_KU]
+
+
+@numba.njit(cache=True)
 def rigid_joint_torque(i: float, p: np.ndarray) -> float:
     """Joint-side torque delivered by a rigid-gear drive: i_r·k_m·i.
 

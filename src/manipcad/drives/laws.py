@@ -255,6 +255,15 @@ def ace1_filter_rate(x: float, U: float, T_1: float) -> float:
 
 
 @numba.njit(cache=True)
+def ace1_filter_step(x: float, U: float, T_1: float, Ts: float) -> float:
+    """The filter state of :func:`ace1_filter_rate` one period Ts later, U held (exact), V.
+
+    x(t+Ts) = U + (x − U)·exp(−Ts/T_1).
+    """
+    return U + (x - U) * math.exp(-Ts / T_1)
+
+
+@numba.njit(cache=True)
 def ace1_output(U: float, x: float, T_m: float, k_p: float, T_1: float,
                 p: np.ndarray) -> float:
     """Output of the ACE (1): U_k = (T_m·ẋ + x) / (k_p·k_w), ẋ = (U - x)/T_1.
@@ -306,6 +315,16 @@ def ace1_obs_rate(v: float, U: float, T_m: float, T_1: float) -> float:
         dv/dt, V/s.
     """
     return (-v + (1.0 - T_m / T_1) * U) / T_1
+
+
+@numba.njit(cache=True)
+def ace1_obs_step(v: float, U: float, T_m: float, T_1: float, Ts: float) -> float:
+    """The state of :func:`ace1_obs_rate` one period Ts later, U and T_m held (exact), V.
+
+    v(t+Ts) = v·a + (1 − a)·(1 − T_m/T_1)·U with a = exp(−Ts/T_1).
+    """
+    a = math.exp(-Ts / T_1)
+    return v * a + (1.0 - a) * (1.0 - T_m / T_1) * U
 
 
 @numba.njit(cache=True)

@@ -23,6 +23,7 @@ from manipcad.errors import ManipcadError
 class _Tally:
     mul = 0
     add = 0
+    func = 0  # square roots and exponentials (sine and cosine of joint angles are not counted)
 
 
 class Counted:
@@ -69,6 +70,9 @@ class Counted:
     def __neg__(self):
         return Counted(-self.v)
 
+    def __abs__(self):
+        return Counted(abs(self.v))
+
     def __float__(self):
         return self.v
 
@@ -96,10 +100,21 @@ class Counted:
     __hash__ = None  # type: ignore[assignment]
 
 
+def _func(f):
+    def counted(x):
+        Counted.tally.func += 1
+        return Counted(f(float(x)))
+    return counted
+
+
 _counting_math = types.SimpleNamespace(
     cos=lambda x: Counted(math.cos(float(x))),
     sin=lambda x: Counted(math.sin(float(x))),
-    sqrt=lambda x: Counted(math.sqrt(float(x))),
+    sqrt=_func(math.sqrt),
+    exp=_func(math.exp),
+    isfinite=lambda x: math.isfinite(float(x)),
+    inf=math.inf,
+    nan=math.nan,
 )
 
 

@@ -1,43 +1,36 @@
 """The compiled closed-loop integration: multibody + drives + sampled regulators.
 
 State x = [q (n), q̇ (n), drive states (see :mod:`manipcad.drives.coupling`)].
-Each fixed step of RK4 holds the regulators' outputs U (zero-order hold);
-a regulator is updated when the step index is a multiple of its period in
-steps. Joint torques: from the drives (``drive_rates``) where a joint has a
-drive model, otherwise the regulator output itself; plus the disturbance. The
-multibody part is the articulated-body algorithm with the joint-referred
-rotor inertia and friction of rigid gears in its table.
+Each fixed step of RK4 holds the regulators' outputs U (zero-order hold); a
+regulator is updated when its period in steps has elapsed, through the regulator
+registry's compiled dispatch (:func:`manipcad.control.registry.dispatch`): the
+loop knows no method by name. Joint torques come from the drives where a joint has
+a drive model, otherwise the regulator output itself; plus the disturbance. The
+multibody part is the articulated-body algorithm with the joint-referred rotor
+inertia and friction of rigid gears in its table.
+
+The compiled core takes four named structures (numba-typed namedtuples):
+
+- :class:`Plant`: the robot's tables, gravity and the packed drives (packed once);
+- :class:`Control`: the regulators' kind codes, parameters, states, joints, periods;
+- :class:`Reference`: the reference and disturbance rows of the steps being run;
+- :class:`Record`: the kept samples; and :class:`Work`, the state carried from one
+  chunk of steps to the next (so memory follows the kept samples, not the steps).
 """
 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numba as nb
 import numpy as np
 
-from manipcad.drives.coupling import drive_rates
-from manipcad.drives.dc import static_current
-from manipcad.drives.params import (
-    KIND_ELASTIC,
-    KIND_ELASTIC_STATIC,
-    KIND_RIGID,
-    KIND_RIGID_STATIC,
-    P_KIND,
-    P_KM,
-    P_KU,
-    P_KW,
-    P_L,
-    P_R,
-    P_RATIO,
-    P_UMAX,
-)
-from manipcad.dynamics.aba import ABA_WORK, aba_state
-from manipcad.dynamics.crba import CRBA_WORK, crba_one
-from manipcad.dynamics.rnea import RNEA_WORK, rnea_one
-from manipcad.sim.regulators import (
+from manipcad.analysis.realtime import components_one
+from manipcad.control.registry import dispatch
+from manipcad.control.signals import (
     NSIG,
-    S_HI,
+    S_CI,
     S_HII,
     S_I,
     S_Q,
@@ -49,73 +42,77 @@ from manipcad.sim.regulators import (
     S_T,
     S_THM,
     S_WM,
-    regulator_update,
 )
+from manipcad.drives.coupling import drive_rates
+from manipcad.drives.dc import rigid_drive_rate, static_current
+from manipcad.drives.params import (
+    KIND_ELASTIC,
+    KIND_ELASTIC_STATIC,
+    KIND_RIGID,
+    KIND_RIGID_STATIC,
+    P_KIND,
+    P_RATIO,
+)
+from manipcad.dynamics.aba import ABA_WORK, aba_state
+from manipcad.dynamics.crba import CRBA_WORK
+from manipcad.dynamics.rnea import RNEA_WORK
 
 #: divergence: joint speeds beyond this (rad/s or m/s) count as a runaway
 MAX_SPEED = 1.0e4
 
+regulator_update = dispatch()
+
+#: the robot: body tables (with and without the joint-referred drive terms), gravity (3,)
+#: m/s², packed drives (n, NPAR), drive-state offsets (n+1,), drives on, any elastic drive
+Plant = namedtuple("Plant", "rtable ctable g dtable off use_drives generic_drives")
+#: the regulators (R of them): kind code (R,), parameters (R, NPARAM), states (R, NSTATE),
+#: joints (R, n) and their count (R,), period in steps (R,), moment constituents needed
+Control = namedtuple("Control", "kind params state joints nj steps need_comp")
+#: rows of the steps being run: q*, q̇*, q̈* (m, n) and disturbance torques (m, n)
+Reference = namedtuple("Reference", "q qd qdd dist")
+#: kept samples: t (M,) s; q, q̇, U, i, τ (M, n)
+Record = namedtuple("Record", "t q qd u i tau")
+#: carried between chunks: state x, held outputs U (n,), steps to each regulator's next
+#: sample (R,), [next record row, steps to the next record] (2,)
+Work = namedtuple("Work", "x U wait rec")
+
 
 @nb.njit(cache=True, inline="always")
-def _amplifier(dtable, j, U):
-    """Amplifier output clip(k_u·U, -u_max, u_max), V (as ``drives.dc.amplifier_voltage``)."""
-    u = dtable[j, P_KU] * U
-    u_max = dtable[j, P_UMAX]
-    if u > u_max:
-        return u_max
-    if u < -u_max:
-        return -u_max
-    return u
-
-
-@nb.njit(cache=True, inline="always")
-def _rates(xs, U, DIST, k, n, rtable, g, dtable, off, use_drives, generic_drives,
-           q, qd, xd, dxd, tau, qdd, K4, st, fext, work, tmp):
-    """Right-hand side at state xs into row ``st`` of K4; joint torques into tau.
-
-    Inlined into :func:`run` and free of array views (numba counts references
-    to every view and every array argument of a compiled call with atomics).
-    Rigid drives (the common case) are written out; elastic ones go through
-    :func:`manipcad.drives.coupling.drive_rates` on copies of their states.
-    """
+def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work, tmp):
+    """Right-hand side at state xs into row ``st`` of K4; joint torques into tau."""
     m = 2 * n
+    dtable = plant.dtable
+    off = plant.off
     for j in range(n):
         q[j] = xs[j]
         qd[j] = xs[n + j]
         tau[j] = U[j]
-    if use_drives:
-        if generic_drives:
+    if plant.use_drives:
+        if plant.generic_drives:
             for j in range(xd.shape[0]):
                 xd[j] = xs[m + j]
             drive_rates(dtable, off, xd, U, q, qd, tau, dxd)
             for j in range(xd.shape[0]):
                 K4[st, m + j] = dxd[j]
         else:
-            # rigid gears only: drives.dc.rigid_drive_rate written out
             for j in range(n):
                 kind = int(dtable[j, P_KIND])
-                if kind == KIND_RIGID:
+                if kind == KIND_RIGID or kind == KIND_RIGID_STATIC:
                     o = m + off[j]
-                    i = xs[o]
-                    omega = dtable[j, P_RATIO] * qd[j]
-                    u_a = _amplifier(dtable, j, U[j])
-                    K4[st, o] = ((u_a - dtable[j, P_R] * i - dtable[j, P_KW] * omega)
-                                 / dtable[j, P_L])
-                    tau[j] = dtable[j, P_RATIO] * dtable[j, P_KM] * i
-                elif kind == KIND_RIGID_STATIC:
-                    omega = dtable[j, P_RATIO] * qd[j]
-                    u_a = _amplifier(dtable, j, U[j])
-                    i = (u_a - dtable[j, P_KW] * omega) / dtable[j, P_R]
-                    tau[j] = dtable[j, P_RATIO] * dtable[j, P_KM] * i
+                    i = xs[o] if kind == KIND_RIGID else 0.0
+                    di, tj = rigid_drive_rate(i, U[j], qd[j], dtable[j])
+                    if kind == KIND_RIGID:
+                        K4[st, o] = di
+                    tau[j] = tj
     for j in range(n):
-        tau[j] = tau[j] + DIST[k, j]
+        tau[j] = tau[j] + dist[j]
         K4[st, j] = qd[j]
-    aba_state(rtable, g, q, qd, tau, fext, False, True, work, tmp, qdd)
+    aba_state(plant.rtable, plant.g, q, qd, tau, fext, False, True, work, tmp, qdd)
     for j in range(n):
         K4[st, n + j] = qdd[j]
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _current(dtable, off, x, m, U, qd, j):
     """Armature current of joint j's drive from the state x (drive states from index m)."""
     kind = int(dtable[j, P_KIND])
@@ -131,17 +128,58 @@ def _current(dtable, off, x, m, U, qd, j):
 
 
 @nb.njit(cache=True)
-def run(rtable, ctable, g, dtable, off, use_drives, rkind, rparam, rstate, rsteps, need_comp,
-        QR, QDR, QDDR, DIST, x0, dt, K, every, T, Q, QD, U_out, I_out, TAU_out):
-    """Integrate K RK4 steps of dt seconds from x0; record every ``every`` steps.
-
-    Returns (status, step, joint): status 0 done, 1 NaN, 2 runaway speed.
-    ``ctable`` is the rigid-body table used for the regulators' constituents.
-    """
-    n = rtable.shape[0]
-    nx = x0.shape[0]
+def _signals(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp):
+    """Fill the signal matrix (one row per joint) at step k (reference row kr)."""
+    n = plant.rtable.shape[0]
     m = 2 * n
-    x = x0.copy()
+    dtable = plant.dtable
+    off = plant.off
+    q, qd, zero, rwork, cwork, tmp, Hii, hv, qg = comp
+    if ctrl.need_comp:
+        for j in range(n):
+            q[j] = x[j]
+            qd[j] = x[n + j]
+        components_one(plant.ctable, plant.g, q, qd, zero, rwork, cwork, tmp, H, Hii, hv, qg)
+    for j in range(n):
+        sig[j, S_T] = k * dt
+        sig[j, S_QREF] = ref.q[kr, j]
+        sig[j, S_QDREF] = ref.qd[kr, j]
+        sig[j, S_QDDREF] = ref.qdd[kr, j]
+        sig[j, S_Q] = x[j]
+        sig[j, S_QD] = x[n + j]
+        if plant.use_drives:
+            sig[j, S_I] = _current(dtable, off, x, m, U[j], x[n + j], j)
+            kind = int(dtable[j, P_KIND])
+        else:
+            sig[j, S_I] = 0.0
+            kind = 0
+        if kind == KIND_ELASTIC or kind == KIND_ELASTIC_STATIC:
+            sig[j, S_THM] = x[m + off[j]]
+            sig[j, S_WM] = x[m + off[j] + 1]
+        else:
+            sig[j, S_THM] = dtable[j, P_RATIO] * x[j]
+            sig[j, S_WM] = dtable[j, P_RATIO] * x[n + j]
+        if ctrl.need_comp:
+            sig[j, S_HII] = Hii[j]
+            sig[j, S_CI] = hv[j]
+            sig[j, S_QI] = qg[j]
+
+
+@nb.njit(cache=True)
+def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last):
+    """Integrate the steps k0 .. k0+K−1 (RK4, dt s) from ``work.x``; record every ``every``.
+
+    ``ref`` holds the rows of steps k0 .. k0+K (K+1 rows). With ``last`` the state at
+    step k0+K is sampled and recorded too and the run ends there. Returns
+    (status, step, joint): status 0 done, 1 NaN, 2 runaway speed.
+    """
+    n = plant.rtable.shape[0]
+    x = work.x
+    nx = x.shape[0]
+    m = 2 * n
+    U = work.U
+    wait = work.wait
+    R = ctrl.kind.shape[0]
     xs = np.empty(nx)
     K4 = np.empty((4, nx))
     q = np.empty(n)
@@ -150,69 +188,33 @@ def run(rtable, ctable, g, dtable, off, use_drives, rkind, rparam, rstate, rstep
     xd = np.empty(nx - m)
     dxd = np.empty(nx - m)
     tau = np.empty(n)
-    U = np.zeros(n)
-    sig = np.zeros(NSIG)
+    sig = np.zeros((n, NSIG))
+    H = np.zeros((n, n))
     fext = np.zeros((n, 6))
-    work = np.empty((n, ABA_WORK))
+    awork = np.empty((n, ABA_WORK))
     tmp = np.empty((23, 6))
-    rwork = np.empty((n, RNEA_WORK))
-    cwork = np.empty((n, CRBA_WORK))
-    H = np.empty((n, n))
-    zero = np.zeros(n)
-    nog = np.zeros(3)
-    hv = np.empty(n)
-    qg = np.empty(n)
-    generic_drives = False
-    for j in range(n):
-        kind = int(dtable[j, P_KIND])
-        if kind != 0 and kind != KIND_RIGID and kind != KIND_RIGID_STATIC:
-            generic_drives = True
+    comp = (np.empty(n), np.empty(n), np.zeros(n), np.empty((n, RNEA_WORK)),
+            np.empty((n, CRBA_WORK)), np.zeros((8, 3)), np.empty(n), np.empty(n), np.empty(n))
     h2 = 0.5 * dt
     h6 = dt / 6.0
-    rec = 0
-    # steps until each regulator's next sample, and until the next recorded step
-    # (counters instead of k % period: an integer division each is slow)
-    wait = np.zeros(n, dtype=np.int64)
-    wait_rec = 0
-    for k in range(K + 1):
-        # sample the regulators due at this step
+    kend = K + 1 if last else K
+    for kr in range(kend):
+        k = k0 + kr
+        # sample the regulators due at this step (all rows of sig at once)
         due = False
-        for j in range(n):
-            if wait[j] == 0:
+        for r in range(R):
+            if wait[r] == 0:
                 due = True
-        if due and need_comp:
-            for j in range(n):
-                q[j] = x[j]
-                qd[j] = x[n + j]
-            crba_one(ctable, q, False, cwork, tmp, H)
-            rnea_one(ctable, nog, q, qd, zero, fext, False, False, rwork, tmp, hv)
-            rnea_one(ctable, g, q, zero, zero, fext, False, False, rwork, tmp, qg)
-        for j in range(n):
-            if wait[j] != 0:
-                wait[j] -= 1
+        if due:
+            _signals(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp)
+        for r in range(R):
+            if wait[r] != 0:
+                wait[r] -= 1
                 continue
-            wait[j] = rsteps[j] - 1
-            sig[S_T] = k * dt
-            sig[S_QREF] = QR[k, j]
-            sig[S_QDREF] = QDR[k, j]
-            sig[S_QDDREF] = QDDR[k, j]
-            sig[S_Q] = x[j]
-            sig[S_QD] = x[n + j]
-            sig[S_I] = _current(dtable, off, x, m, U[j], x[n + j], j) if use_drives else 0.0
-            kind = int(dtable[j, P_KIND]) if use_drives else 0
-            if kind == KIND_ELASTIC or kind == KIND_ELASTIC_STATIC:
-                sig[S_THM] = x[m + off[j]]
-                sig[S_WM] = x[m + off[j] + 1]
-            else:
-                sig[S_THM] = dtable[j, P_RATIO] * x[j]
-                sig[S_WM] = dtable[j, P_RATIO] * x[n + j]
-            if need_comp:
-                sig[S_HII] = H[j, j]
-                sig[S_HI] = hv[j]
-                sig[S_QI] = qg[j]
-            U[j] = regulator_update(rkind[j], rparam[j], rstate[j], sig, rsteps[j] * dt)
-        # the four RK4 stages with U held and the disturbance at the step's start;
-        # one call site of the inlined right-hand side
+            wait[r] = ctrl.steps[r] - 1
+            regulator_update(ctrl.kind[r], ctrl.params[r], ctrl.state[r], sig, H,
+                             ctrl.joints[r], ctrl.nj[r], ctrl.steps[r] * dt, U)
+        # the four RK4 stages with U held and the disturbance at the step's start
         for st in range(4):
             if st == 0:
                 for j in range(nx):
@@ -223,24 +225,25 @@ def run(rtable, ctable, g, dtable, off, use_drives, rkind, rparam, rstate, rstep
             else:
                 for j in range(nx):
                     xs[j] = x[j] + h2 * K4[st - 1, j]
-            _rates(xs, U, DIST, k, n, rtable, g, dtable, off, use_drives, generic_drives,
-                   q, qd, xd, dxd, tau, qdd, K4, st, fext, work, tmp)
+            _rates(xs, U, ref.dist[kr], n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext,
+                   awork, tmp)
             if st != 0:
                 continue
-            if wait_rec == 0:
-                wait_rec = every
-                T[rec] = k * dt
+            if work.rec[1] == 0:
+                work.rec[1] = every
+                row = work.rec[0]
+                rec.t[row] = k * dt
                 for j in range(n):
-                    Q[rec, j] = x[j]
-                    QD[rec, j] = x[n + j]
-                    U_out[rec, j] = U[j]
-                    I_out[rec, j] = (_current(dtable, off, x, m, U[j], x[n + j], j)
-                                     if use_drives else math.nan)
-                    TAU_out[rec, j] = tau[j]
-                rec += 1
-            wait_rec -= 1
-            if k == K:
-                return 0, K, -1
+                    rec.q[row, j] = x[j]
+                    rec.qd[row, j] = x[n + j]
+                    rec.u[row, j] = U[j]
+                    rec.i[row, j] = (_current(plant.dtable, plant.off, x, m, U[j], x[n + j], j)
+                                     if plant.use_drives else math.nan)
+                    rec.tau[row, j] = tau[j]
+                work.rec[0] = row + 1
+            work.rec[1] -= 1
+            if last and kr == K:
+                return 0, k, -1
             for j in range(nx):
                 if not math.isfinite(x[j]) or not math.isfinite(K4[0, j]):
                     return 1, k, j % n if j < m else -1
@@ -249,4 +252,4 @@ def run(rtable, ctable, g, dtable, off, use_drives, rkind, rparam, rstate, rstep
                     return 2, k, j
         for j in range(nx):
             x[j] = x[j] + h6 * (K4[0, j] + 2.0 * K4[1, j] + 2.0 * K4[2, j] + K4[3, j])
-    return 0, K, -1
+    return 0, k0 + K, -1

@@ -8,8 +8,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from manipcad.control.registry import kind_of
+from manipcad.control.regulator import Regulator
+from manipcad.control.signals import MODEL_SIGNALS, NPARAM, NSTATE
 from manipcad.drives.params import (
     KIND_NONE,
+    KIND_RIGID,
+    KIND_RIGID_STATIC,
     P_KIND,
     joint_referred_terms,
     pack_drives,
@@ -17,9 +22,12 @@ from manipcad.drives.params import (
 )
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot
-from manipcad.sim.loop import run
+from manipcad.sim.loop import Control, Plant, Record, Reference, Work, run
 from manipcad.sim.metrics import joint_metrics
-from manipcad.sim.regulators import NPARAM, NSTATE, Regulator
+
+#: steps integrated per call of the compiled core (the reference is sampled per chunk,
+#: so memory follows the kept samples)
+CHUNK = 20000
 
 
 class SimulationDiverged(ManipcadError):
@@ -44,7 +52,8 @@ class SimulationResult:
         tau: (K, n) joint torques from the drives (plus disturbance), N·m or N.
         metrics: per joint name: max and RMS error, overshoot, rise and
             settling time (of a step), control effort, energy.
-        robot: the robot's name; joint_names: its joints.
+        robot: the robot's name; joint_names, joint_types: its joints ("revolute" in rad,
+            "prismatic" in m; ``units`` maps each joint to its unit).
         settings: dt, t_end and the regulators' descriptions.
     """
 
@@ -60,6 +69,14 @@ class SimulationResult:
     robot: str = ""
     settings: dict = field(default_factory=dict)
     metrics: dict = field(default_factory=dict)
+    joint_types: tuple[str, ...] = ()
+
+    @property
+    def units(self) -> dict[str, str]:
+        """Unit of each joint's position ("rad" or "m"); velocities are per s, torques
+        N·m or N, U in V, currents in A."""
+        return {nm: ("m" if t == "prismatic" else "rad")
+                for nm, t in zip(self.joint_names, self.joint_types, strict=False)}
 
     @property
     def error(self) -> np.ndarray:
@@ -82,6 +99,7 @@ def simulate(
     transmissions=None,
     order: int = 3,
     record_every: int = 1,
+    progress: Callable[[float], None] | None = None,
 ) -> SimulationResult:
     """Simulate the closed loop: coupled multibody dynamics, DC drives, sampled regulators.
 
@@ -96,7 +114,9 @@ def simulate(
         dt: integration step, s.
         trajectory: reference; anything with ``.sample(t) -> (q, qd, qdd)`` of
             shape (len(t), n). None: hold q0.
-        regulators: one :class:`Regulator` per controlled joint (others get 0).
+        regulators: :class:`~manipcad.control.regulator.Regulator` objects (a list, nested
+            lists as ``synthesize(robot, "all", ...)`` gives, or one); joints no regulator
+            controls get U = 0.
         q0, qd0: initial state (default: the reference at t = 0, zero speed).
         payload: None, a mass in kg (at the last link's origin), or a dict
             ``{"mass": kg, "com": [x, y, z] m}`` on the last link.
@@ -108,6 +128,8 @@ def simulate(
             (elasticity, backlash) or None.
         order: 3 keeps the armature inductance, 2 neglects it.
         record_every: keep every k-th step in the result.
+        progress: called with the fraction done (0..1) after each chunk of steps; an
+            exception it raises (e.g. KeyboardInterrupt to cancel) stops the run.
 
     Returns:
         :class:`SimulationResult`.
@@ -118,9 +140,8 @@ def simulate(
 
     Example:
         >>> import manipcad
-        >>> from manipcad.sim import simulate
         >>> arm = manipcad.load_robot("cylindrical")
-        >>> res = simulate(arm, t_end=0.1, dt=1e-3, drives=False)
+        >>> res = manipcad.simulate(arm, t_end=0.1, dt=1e-3, drives=False)
         >>> res.q.shape
         (101, 3)
     """
@@ -133,13 +154,12 @@ def simulate(
         raise ManipcadError(f"record_every must be >= 1, got {record_every}")
     robot = _with_payload(robot, payload)
     K = int(round(t_end / dt))
-    t = np.arange(K + 1) * dt
-    QR, QDR, QDDR = _reference(trajectory, t, n, q0)
-    x_q = QR[0].copy() if q0 is None else _vec(q0, n, "q0")
-    x_qd = np.zeros(n) if qd0 is None else _vec(qd0, n, "qd0")
     if trajectory is None:
-        QR[:] = x_q
-    DIST = _disturbance(disturbance, t, n)
+        q_start = np.zeros(n) if q0 is None else _vec(q0, n, "q0")
+    else:
+        q_start = _reference(trajectory, np.zeros(1), n)[0][0]
+    x_q = q_start.copy() if q0 is None else _vec(q0, n, "q0")
+    x_qd = np.zeros(n) if qd0 is None else _vec(qd0, n, "qd0")
 
     if drives:
         if not robot.has_drives:
@@ -151,22 +171,43 @@ def simulate(
     rtable = np.array(robot.table)
     rtable[:, [COL_JR, COL_BV, COL_FCP, COL_FCN]] = joint_referred_terms(dtable)
     x0 = np.concatenate([x_q, x_qd, _drive_initial_state(dtable, off, x_q, x_qd)])
+    generic = any(int(dtable[j, P_KIND]) not in (KIND_NONE, KIND_RIGID, KIND_RIGID_STATIC)
+                  for j in range(n))
+    plant = Plant(rtable, np.ascontiguousarray(robot.table), np.asarray(robot.gravity, float),
+                  dtable, off, bool(drives), generic)
+    ctrl, described = _pack_regulators(robot, regulators, dt)
 
-    rkind, rparam, rstate, rsteps, need_comp, described = _pack_regulators(
-        robot, regulators, dt)
     every = int(record_every)
-    m = K // every + 1
-    # the loop fills every row it keeps (a diverged run is cut after its last recorded row)
-    Q, QD, U, I, TAU = (np.empty((m, n)) for _ in range(5))
-    T = np.empty(m)
-    status, step, joint = run(rtable, robot.table, robot.gravity, dtable, off, bool(drives),
-                              rkind, rparam, rstate, rsteps, need_comp, QR, QDR, QDDR, DIST,
-                              x0, float(dt), K, every, T, Q, QD, U, I, TAU)
-    keep = slice(0, (step // every) + 1) if status else slice(None)
+    M = K // every + 1
+    rec = Record(np.empty(M), *(np.empty((M, n)) for _ in range(5)))
+    work = Work(x0, np.zeros(n), np.zeros(len(ctrl.kind), dtype=np.int64),
+                np.zeros(2, dtype=np.int64))
+    dist_of = _disturbance_source(disturbance, K, n)
+    status, step, joint = 0, 0, -1
+    for k0 in range(0, K + 1, CHUNK):
+        steps = min(CHUNK, K - k0)
+        last = k0 + steps == K
+        t_rows = np.arange(k0, k0 + steps + 1) * dt
+        QR, QDR, QDDR = (_reference(trajectory, t_rows, n) if trajectory is not None
+                         else (np.tile(x_q, (len(t_rows), 1)), np.zeros((len(t_rows), n)),
+                               np.zeros((len(t_rows), n))))
+        ref = Reference(QR, QDR, QDDR, dist_of(k0, t_rows))
+        status, step, joint = run(plant, ctrl, ref, rec, work, k0, steps, float(dt), every,
+                                  last)
+        if progress is not None:
+            progress(min(1.0, (k0 + steps) / K))
+        if status or last:
+            break
+    kept = int(work.rec[0])
+    t = rec.t[:kept]
+    if trajectory is not None:
+        QR, QDR, _ = _reference(trajectory, t, n)
+    else:
+        QR, QDR = np.tile(x_q, (kept, 1)), np.zeros((kept, n))
     res = SimulationResult(
-        t=T[keep], q=Q[keep], qd=QD[keep], q_ref=QR[::every][keep], qd_ref=QDR[::every][keep],
-        u=U[keep], current=I[keep], tau=TAU[keep], joint_names=robot.joint_names,
-        robot=robot.name,
+        t=t, q=rec.q[:kept], qd=rec.qd[:kept], q_ref=QR, qd_ref=QDR,
+        u=rec.u[:kept], current=rec.i[:kept], tau=rec.tau[:kept],
+        joint_names=robot.joint_names, joint_types=tuple(robot.joint_types), robot=robot.name,
         settings={"dt": dt, "t_end": t_end, "drives": bool(drives), "order": order,
                   "regulators": described},
     )
@@ -201,10 +242,7 @@ def _with_payload(robot: Robot, payload) -> Robot:
     return robot.with_payload(float(payload))
 
 
-def _reference(trajectory, t: np.ndarray, n: int, q0):
-    if trajectory is None:
-        zero = np.zeros((len(t), n))
-        return zero.copy(), zero.copy(), zero
+def _reference(trajectory, t: np.ndarray, n: int):
     q, qd, qdd = trajectory.sample(t)
     arrays = [np.ascontiguousarray(a, dtype=float) for a in (q, qd, qdd)]
     for a in arrays:
@@ -215,17 +253,27 @@ def _reference(trajectory, t: np.ndarray, n: int, q0):
     return arrays
 
 
-def _disturbance(disturbance, t: np.ndarray, n: int) -> np.ndarray:
+def _disturbance_source(disturbance, K: int, n: int):
+    """A function (first step, times of the chunk) -> disturbance rows (len(t), n), N·m."""
     if disturbance is None:
-        return np.zeros((len(t), n))
-    d = disturbance(t) if callable(disturbance) else disturbance
-    d = np.asarray(d, dtype=float)
-    if d.shape == (n,):
-        d = np.broadcast_to(d, (len(t), n))
-    if d.shape != (len(t), n) or not np.isfinite(d).all():
+        return lambda k0, t: np.zeros((len(t), n))
+    if callable(disturbance):
+        def rows(k0, t):
+            d = np.asarray(disturbance(t), dtype=float)
+            if d.shape == (n,):
+                d = np.broadcast_to(d, (len(t), n))
+            if d.shape != (len(t), n) or not np.isfinite(d).all():
+                raise ManipcadError(f"disturbance(t) must return finite values of shape "
+                                    f"({len(t)}, {n}), got {d.shape}")
+            return np.ascontiguousarray(d)
+        return rows
+    d = np.asarray(disturbance, dtype=float)
+    if d.shape not in ((n,), (K + 1, n)) or not np.isfinite(d).all():
         raise ManipcadError(f"disturbance must be finite with shape ({n},) or "
-                            f"({len(t)}, {n}), got {d.shape}")
-    return np.ascontiguousarray(d)
+                            f"({K + 1}, {n}), got {d.shape}")
+    if d.shape == (n,):
+        return lambda k0, t: np.ascontiguousarray(np.broadcast_to(d, (len(t), n)))
+    return lambda k0, t: np.ascontiguousarray(d[k0:k0 + len(t)])
 
 
 def _drive_initial_state(dtable, off, q, qd) -> np.ndarray:
@@ -240,29 +288,60 @@ def _drive_initial_state(dtable, off, q, qd) -> np.ndarray:
     return xd
 
 
+def _flatten(regulators) -> list[Regulator]:
+    if regulators is None:
+        return []
+    if isinstance(regulators, Regulator):
+        return [regulators]
+    out = []
+    for r in regulators:
+        out += _flatten(r) if isinstance(r, list | tuple) else [r]
+    for r in out:
+        if not isinstance(r, Regulator):
+            raise ManipcadError(f"regulators must be Regulator objects, got {type(r).__name__}")
+    return out
+
+
 def _pack_regulators(robot: Robot, regulators, dt: float):
+    """The regulators as a :class:`~manipcad.sim.loop.Control` (parameters packed once)."""
     n = robot.n
-    rkind = np.zeros(n, dtype=np.int64)
-    rparam = np.zeros((n, NPARAM))
-    rstate = np.zeros((n, NSTATE))
-    rsteps = np.ones(n, dtype=np.int64)
+    regs = _flatten(regulators)
+    R = len(regs)
+    kind = np.zeros(R, dtype=np.int64)
+    params = np.zeros((R, NPARAM))
+    state = np.zeros((R, NSTATE))
+    joints = np.zeros((R, n), dtype=np.int64)
+    nj = np.zeros(R, dtype=np.int64)
+    steps = np.ones(R, dtype=np.int64)
     described = {}
+    owner: dict[int, int] = {}
     need_comp = False
-    for reg in regulators or ():
-        j = robot.joint_index(reg.joint)
-        if rkind[j] != 0:
-            raise ManipcadError(f"two regulators for joint {robot.joint_names[j]!r}")
-        steps = reg.period / dt
-        if abs(steps - round(steps)) > 1e-6 * steps or round(steps) < 1:
+    for r, reg in enumerate(regs):
+        idx = []
+        for jt in reg.joints:
+            try:
+                j = robot.joint_index(jt)
+            except (ManipcadError, KeyError, IndexError, ValueError):
+                raise ManipcadError(f"regulator {reg.method!r}: robot {robot.name!r} has no "
+                                    f"joint {jt!r}") from None
+            if j in owner:
+                raise ManipcadError(f"two regulators for joint {robot.joint_names[j]!r}")
+            owner[j] = r
+            idx.append(j)
+        s = reg.period / dt
+        if abs(s - round(s)) > 1e-6 * s or round(s) < 1:
             raise ManipcadError(f"regulator period {reg.period:g} s of joint "
-                                f"{robot.joint_names[j]!r} is not a multiple of dt = {dt:g} s")
-        rkind[j] = reg.kind
-        rparam[j] = reg.params
-        rstate[j] = reg.initial_state()
-        rsteps[j] = int(round(steps))
-        need_comp = need_comp or any(s in reg.needs for s in ("H_ii", "h_i", "Q_i"))
-        described[robot.joint_names[j]] = reg.describe()
-    return rkind, rparam, rstate, rsteps, need_comp, described
+                                f"{robot.joint_names[idx[0]]!r} is not a multiple of "
+                                f"dt = {dt:g} s")
+        kind[r] = kind_of(reg.method)
+        params[r] = reg.params
+        state[r] = reg.initial_state()
+        joints[r, :len(idx)] = idx
+        nj[r] = len(idx)
+        steps[r] = int(round(s))
+        need_comp = need_comp or any(s_ in MODEL_SIGNALS for s_ in reg.needs)
+        described[", ".join(robot.joint_names[j] for j in idx)] = reg.describe()
+    return Control(kind, params, state, joints, nj, steps, need_comp), described
 
 
 __all__ = ["simulate", "SimulationResult", "SimulationDiverged", "KIND_NONE"]

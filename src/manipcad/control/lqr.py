@@ -39,39 +39,122 @@ import math
 from dataclasses import dataclass
 
 import control as ct
+import numba as nb
 import numpy as np
 
-from manipcad.drives.linear import linearize
-from manipcad.drives.params import Transmission, as_transmission
-from manipcad.errors import ManipcadError, ModelError
-from manipcad.model.robot import Drive, Robot
-from manipcad.synthesis._common import (
+from manipcad.control.design import (
     DEFAULT_PERIOD,
-    SynthesizedRegulator,
     check_period,
+    inertia_range,
     joint_drive,
-    load_range,
     packed,
 )
-from manipcad.synthesis.kernels import (
-    KIND_LQR,
-    LQ_ADAPT,
-    LQ_DH,
-    LQ_DV,
-    LQ_FF,
-    LQ_H0,
-    LQ_HFIX,
-    LQ_KS,
-    LQ_MAXCELLS,
-    LQ_MAXCELLS_EL,
-    LQ_NG,
-    LQ_NH,
-    LQ_NV,
-    LQ_TAB,
-    LQ_ULIM,
-    LQ_V0,
-    LQ_W,
+from manipcad.control.kernels import clip, load_rates, table_lookup
+from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.signals import (
+    NPARAM,
+    S_CI,
+    S_HII,
+    S_I,
+    S_Q,
+    S_QD,
+    S_QDDREF,
+    S_QDREF,
+    S_QI,
+    S_QREF,
+    S_THM,
+    S_WM,
 )
+from manipcad.drives.dc import static_input
+from manipcad.drives.linear import linearize
+from manipcad.drives.params import (
+    P_J,
+    P_KM,
+    P_KV,
+    P_RATIO,
+    Transmission,
+    as_transmission,
+)
+from manipcad.errors import ManipcadError, ModelError
+from manipcad.model.robot import Drive, Robot
+
+# grid sizes and axes of the gain table (H_ii kg·m², h = Ḣ_ii N·m·s/rad), output limit (V),
+# reference feed-forward (1/0), load-torque compensation (1/0), feed-forward at the current
+# load (1) or at LQ_HFIX (0, kg·m² joint side); gains per grid point (3 rigid model; 5 elastic
+# model: D_e, D_v, D_i, D_θ, D_ω), joint-side stiffness k_s for the deflection of the
+# motor-angle reference (0: θ_m* = i_r·q*); the table of each gain, nH×nV row-major, from LQ_TAB
+LQ_NH, LQ_NV, LQ_H0, LQ_DH, LQ_V0, LQ_DV, LQ_ULIM = 16, 17, 18, 19, 20, 21, 22
+LQ_FF, LQ_W, LQ_ADAPT, LQ_HFIX = 23, 24, 25, 26
+LQ_NG, LQ_KS = 27, 28
+LQ_TAB = 32
+#: largest nH·nV a gain table may have (3 gains each)
+LQ_MAXCELLS = (NPARAM - LQ_TAB) // 3
+#: largest nH·nV of an elastic-model table (5 gains each)
+LQ_MAXCELLS_EL = (NPARAM - LQ_TAB) // 5
+FIELDS = {"u_limit_V": LQ_ULIM, "feedforward": LQ_FF, "load_torque_compensation": LQ_W,
+          "feedforward_at_current_load": LQ_ADAPT, "H_ii_feedforward_kgm2": LQ_HFIX,
+          "k_s_Nm_per_rad": LQ_KS}
+#: the table's gains in files: key (with unit), in table order
+GAIN_NAMES = ("D_e_V_per_rad", "D_v_V_s_per_rad", "D_i_V_per_A", "D_theta_V_per_rad",
+              "D_omega_V_s_per_rad")
+
+
+@nb.njit(cache=True)
+def gain(p, k, H, h):
+    """Gain k (0 D_e, 1 D_v, 2 D_i, 3 D_θ, 4 D_ω) at (H_ii, h) from the packed table."""
+    nH = int(p[LQ_NH])
+    nV = int(p[LQ_NV])
+    return table_lookup(p, LQ_TAB + k * nH * nV, nH, nV, p[LQ_H0], p[LQ_DH], p[LQ_V0],
+                        p[LQ_DV], H, h)
+
+
+@nb.njit(cache=True)
+def lqr_feedforward(p, Di, H, sig, j):
+    """Model-inverse feed-forward of the reference (and of the load torque), V.
+
+    With U = D_e·e + D_v·ė − D_i·i + U_ff, e = ė = 0 along the reference needs
+    i* = (J_q·q̈* + k_v·i_r²·q̇* + τ_w)/(k_m·i_r) and, L neglected,
+    U_ff = D_i·i* + (R·i* + k_w·i_r·q̇*)/k_u with J_q = H_ii + J·i_r²;
+    τ_w = c_i + Q_i (velocity torque and gravity) when compensated.
+    """
+    r = p[P_RATIO]
+    tau = (H + p[P_J] * r * r) * sig[j, S_QDDREF] + p[P_KV] * r * r * sig[j, S_QDREF]
+    if p[LQ_W] != 0.0:
+        tau += sig[j, S_CI] + sig[j, S_QI]
+    i_star = tau / (p[P_KM] * r)
+    return Di * i_star + static_input(i_star, r * sig[j, S_QDREF], p)
+
+
+@nb.njit(cache=True)
+def lqr_update(p, s, sig, j, Ts):
+    """U = D_e·e + D_v·ė − D_i·i (+ U_ff), gains looked up at the current (H_ii, Ḣ_ii), V."""
+    H = sig[j, S_HII]
+    h = 0.0
+    if int(p[LQ_NV]) > 1:
+        h, _ = load_rates(H, s, Ts)
+    De = gain(p, 0, H, h)
+    Dv = gain(p, 1, H, h)
+    Di = gain(p, 2, H, h)
+    e = sig[j, S_QREF] - sig[j, S_Q]
+    ed = sig[j, S_QDREF] - sig[j, S_QD]
+    U = De * e + Dv * ed - Di * sig[j, S_I]
+    Hff = H if p[LQ_ADAPT] != 0.0 else p[LQ_HFIX]
+    if p[LQ_NG] == 5.0:
+        # elastic model: motor angle and speed errors against θ_m* = i_r·(q* + τ_s*/k_s),
+        # ω_m* = i_r·q̇*
+        r = p[P_RATIO]
+        th = sig[j, S_QREF]
+        if p[LQ_KS] > 0.0 and p[LQ_FF] != 0.0:
+            tau = Hff * sig[j, S_QDDREF]
+            if p[LQ_W] != 0.0:
+                tau += sig[j, S_CI] + sig[j, S_QI]
+            th += tau / p[LQ_KS]
+        U += (gain(p, 3, H, h) * (r * th - sig[j, S_THM])
+              + gain(p, 4, H, h) * (r * sig[j, S_QDREF] - sig[j, S_WM]))
+    if p[LQ_FF] != 0.0:
+        U += lqr_feedforward(p, Di, Hff, sig, j)
+    return clip(U, p[LQ_ULIM])
+
 
 _SPEC = {"e_max", "ed_max", "i_max", "u_max"}
 
@@ -176,22 +259,9 @@ class GainTable:
     h: np.ndarray
     gains: np.ndarray
 
-    def interpolator(self):
-        """A scipy ``RegularGridInterpolator`` (linear) over the axes with more than one point."""
-        from scipy.interpolate import RegularGridInterpolator
-
-        axes = [a for a in (self.H, self.h) if len(a) > 1]
-        g = self.gains
-        if len(self.h) == 1:
-            g = g[:, 0, :]
-        if len(self.H) == 1:
-            g = g[0]
-        if not axes:
-            return lambda pts: np.broadcast_to(g, (len(np.atleast_2d(pts)), g.shape[-1]))
-        return RegularGridInterpolator(axes, g, method="linear", bounds_error=True)
-
     def at(self, H_ii: float, h_i: float = 0.0) -> np.ndarray:
-        """Interpolated (D_e, D_v, D_i) at a load inside the table.
+        """Interpolated gains at a load inside the table: the compiled lookup the regulator
+        runs (:func:`gain`), D_e V/rad, D_v V·s/rad, D_i V/A (, D_θ V/rad, D_ω V·s/rad).
 
         Raises:
             ManipcadError: the load is outside the table.
@@ -202,11 +272,10 @@ class GainTable:
             if not (lo - tol <= v <= hi + tol):
                 raise ManipcadError(f"load outside the gain table: {name} = {v:g} not in "
                                     f"[{lo:g}, {hi:g}]")
-        pt = [v for v, ax in ((H_ii, self.H), (h_i, self.h)) if len(ax) > 1]
-        pt = [min(max(v, ax[0]), ax[-1]) for v, ax in
-              zip(pt, [a for a in (self.H, self.h) if len(a) > 1], strict=True)]
-        return np.asarray(self.interpolator()(np.array([pt]))).reshape(self.gains.shape[-1])
-
+        p = np.zeros(NPARAM)
+        pack_table(p, self, math.inf)
+        return np.array([gain(p, k, float(H_ii), float(h_i))
+                         for k in range(self.gains.shape[-1])])
 
     def fit(self, degree: int = 2):
         """Fit each gain by a polynomial in (H_ii, h_i) of total degree ``degree`` (least squares).
@@ -290,7 +359,7 @@ def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *
     return GainTable(H_grid, h_grid, g)
 
 
-def _pack_table(p: np.ndarray, table: GainTable, ulim: float,
+def pack_table(p: np.ndarray, table: GainTable, ulim: float,
                 tr: Transmission | None = None) -> None:
     nH, nV = len(table.H), len(table.h)
     ng = table.gains.shape[-1]
@@ -321,9 +390,9 @@ def _check_order(d: Drive, order: int) -> None:
 
 
 def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
-                   load_range_=None, H_nominal: float | None = None,
+                   load_range=None, H_nominal: float | None = None,
                    order: int = 3, feedforward: bool = True,
-                   transmission=None) -> SynthesizedRegulator:
+                   transmission=None) -> Regulator:
     """One LQR gain at the nominal load (default the middle of the H_ii range).
 
     Args:
@@ -331,7 +400,7 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
         spec: Bryson weights ``{"e_max": rad (0.01), "ed_max": rad/s (0.3),
             "i_max": A (10× rated current), "u_max": V (u_max/k_u)}``.
         period: control period, s.
-        load_range_: (H_min, H_max), kg·m².
+        load_range: (H_min, H_max), kg·m².
         H_nominal: the design load, kg·m².
         order: 3 (with the current) or 2.
         feedforward: the reference feed-forward U_ff at the nominal load.
@@ -343,7 +412,7 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
     period = check_period(period)
     j, d = joint_drive(robot, joint)
     _check_order(d, order)
-    Hmin, Hmax = load_range(robot, j, load_range_)
+    Hmin, Hmax = inertia_range(robot, j, load_range)
     H = 0.5 * (Hmin + Hmax) if H_nominal is None else float(H_nominal)
     if not (math.isfinite(H) and H >= 0):
         raise ManipcadError(f"H_nominal must be >= 0 kg·m², got {H}")
@@ -352,8 +421,8 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
     table = gain_table(d, [H], [0.0], w, order, transmission=tr)
     g = table.gains[0, 0]
     p = packed(d, order)
-    ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
-    _pack_table(p, table, ulim, tr)
+    ulim = u_limit(d)
+    pack_table(p, table, ulim, tr)
     p[LQ_FF], p[LQ_W], p[LQ_ADAPT], p[LQ_HFIX] = float(feedforward), 0.0, 0.0, H
     poles = closed_loop_poles(d, H, 0.0, g, order, tr)
     name = robot.joint_names[j]
@@ -367,9 +436,9 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
            f"H_ii = {H:.4g} kg·m², h_i = 0; Bryson e_max = {w.e_max:g} rad, "
            f"ė_max = {w.ed_max:g} rad/s, "
            f"i_max = {w.i_max:g} A, U_max = {w.u_max:g} V); |U| <= {ulim:g} V, T = {period:g} s")
-    signals = (["q", "q_dot", "q_ref", "q_dot_ref"] + (["i"] if order == 3 else [])
-               + (["theta_m", "omega_m"] if tr is not None else [])
-               + (["q_ddot_ref"] if feedforward else []))
+    needs = (["q", "q_dot", "q_ref", "q_dot_ref"] + (["i"] if order == 3 else [])
+             + (["theta_m", "omega_m"] if tr is not None else [])
+             + (["q_ddot_ref"] if feedforward else []))
     lin = _linearize(d, H, 0.0, order, tr)
     K = _state_gains(g, order, tr is not None)
     ref = np.zeros(lin.A.shape[0])
@@ -377,13 +446,8 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
     if tr is not None:
         ref[2] = d.ratio
     ne = 2 if tr is not None else 0
-    return SynthesizedRegulator(
-        joint=j, period=period, kind=KIND_LQR, params=p, name="lqr", needs=tuple(signals),
-        method="lqr", law=law,
-        complexity={"gains_stored": (3 if order == 3 else 2) + ne + (2 if feedforward else 0)
-                    + (1 if tr is not None and feedforward else 0),
-                    "ops_per_period": 8 + 5 * ne + (4 if feedforward else 0),
-                    "signals": signals, "period": period},
+    return Regulator(
+        method="lqr", joints=(j,), period=period, params=p, needs=tuple(needs), law=law,
         design={"gains": g, "H_nominal": H, "load_range": (Hmin, Hmax), "weights": w,
                 "closed_loop_poles": [complex(z) for z in poles], "table": table,
                 "transmission": tr},
@@ -400,16 +464,16 @@ def _transmission(transmission) -> Transmission | None:
 
 
 def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
-                      load_range_=None, h_range=None, grid=None, order: int = 3,
+                      load_range=None, h_range=None, grid=None, order: int = 3,
                       progress: bool = False, n_jobs: int = 1, feedforward: bool = True,
-                      load_torque: bool = True, transmission=None) -> SynthesizedRegulator:
+                      load_torque: bool = True, transmission=None) -> Regulator:
     """LQR gains scheduled on the load from a table computed ahead.
 
     Args:
         robot, joint: the joint.
         spec: Bryson weights, as :func:`synthesize_lqr`.
         period: control period, s.
-        load_range_: (H_min, H_max), kg·m² (the H_ii axis).
+        load_range: (H_min, H_max), kg·m² (the H_ii axis).
         h_range: (h_min, h_max) of h_i = Ḣ_ii, N·m·s/rad (default: no h axis, h_i = 0).
         grid: (nH, nV) grid points (default (8, 1), or (8, 7) with an h_range);
             at most 74 points in all (the compiled table's room).
@@ -424,7 +488,7 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     period = check_period(period)
     j, d = joint_drive(robot, joint)
     _check_order(d, order)
-    Hmin, Hmax = load_range(robot, j, load_range_)
+    Hmin, Hmax = inertia_range(robot, j, load_range)
     if h_range is None:
         hl, hh = 0.0, 0.0
     else:
@@ -449,8 +513,8 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     table = gain_table(d, H_grid, h_grid, w, order, progress=progress, n_jobs=n_jobs,
                        transmission=tr)
     p = packed(d, order)
-    ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
-    _pack_table(p, table, ulim, tr)
+    ulim = u_limit(d)
+    pack_table(p, table, ulim, tr)
     p[LQ_FF], p[LQ_W], p[LQ_ADAPT] = float(feedforward), float(feedforward and load_torque), 1.0
     name = robot.joint_names[j]
     g = table.gains
@@ -473,24 +537,40 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
            f"[{g[..., 2].min():.4g}, {g[..., 2].max():.4g}] V/A (LQR, Bryson e_max = "
            f"{w.e_max:g} rad, ė_max = {w.ed_max:g} rad/s, i_max = {w.i_max:g} A, "
            f"U_max = {w.u_max:g} V); |U| <= {ulim:g} V, T = {period:g} s")
-    signals = ["q", "q_dot", "q_ref", "q_dot_ref", "H_ii"] + (["i"] if order == 3 else [])
+    needs = ["q", "q_dot", "q_ref", "q_dot_ref", "H_ii"] + (["i"] if order == 3 else [])
     if tr is not None:
-        signals += ["theta_m", "omega_m"]
+        needs += ["theta_m", "omega_m"]
     if feedforward:
-        signals.append("q_ddot_ref")
+        needs.append("q_ddot_ref")
         if load_torque:
-            signals += ["h_i", "Q_i"]
-    nd = (3 if order == 3 else 2) + (2 if tr is not None else 0)
-    return SynthesizedRegulator(
-        joint=j, period=period, kind=KIND_LQR, params=p, name="lqr_gs", needs=tuple(signals),
-        method="lqr_gs", law=law,
-        complexity={"gains_stored": nd * len(H_grid) * len(h_grid) + 4 + (5 if feedforward else 0),
-                    # 2 cell indices ~10, 3 bilinear lookups 3×11, Ḣ difference 5 (h axis), law 8,
-                    # feed-forward 12 (+2 for τ_w)
-                    "ops_per_period": 10 + 11 * nd + 8 + (5 if len(h_grid) > 1 else 0)
-                    + ((12 + (2 if load_torque else 0)) if feedforward else 0),
-                    "signals": signals + (["H_ii history (Ḣ_ii)"] if len(h_grid) > 1 else []),
-                    "period": period},
+            needs += ["c_i", "Q_i"]
+    return Regulator(
+        method="lqr_gs", joints=(j,), period=period, params=p, needs=tuple(needs), law=law,
         design={"table": table, "load_range": (Hmin, Hmax), "h_range": (hl, hh),
-                "weights": w, "transmission": tr},
-        linear={})
+                "weights": w, "transmission": tr})
+
+
+def export_lqr(reg: Regulator):
+    """The LQR as python-control systems.
+
+    ``lqr`` (fixed gains): a static discrete-time gain from (e, ė, i[, θ_m error, ω_m
+    error], q̇*, q̈*) to U, V (feed-forward included at the design load; the clip left out).
+    ``lqr_gs``: a discrete-time nonlinear system calling :func:`lqr_update` (the gains
+    scheduled on H_ii): see :func:`manipcad.control.export.nonlinear_system`.
+    """
+    from manipcad.control.export import nonlinear_system
+
+    if reg.method == "lqr_gs":
+        return nonlinear_system(reg)
+    return nonlinear_system(reg)
+
+
+LQR = Method(
+    name="lqr", synthesize=synthesize_lqr, update=lqr_update, section="3.3 (7), fixed",
+    summary="LQR gains at the nominal load (no scheduling), with feed-forward",
+    fields=FIELDS, table=True, export=export_lqr)
+
+LQR_GS = Method(
+    name="lqr_gs", synthesize=synthesize_lqr_gs, update=lqr_update, section="3.3 (6)-(7)",
+    summary="LQR gains scheduled on H_ii (and Ḣ_ii) from a table computed ahead",
+    fields=FIELDS, table=True, export=export_lqr)

@@ -20,35 +20,90 @@ from __future__ import annotations
 
 import math
 
-from manipcad.drives.laws import ace1_target_tf
-from manipcad.errors import ManipcadError
-from manipcad.model.robot import Robot
-from manipcad.synthesis._common import (
+import numba as nb
+
+from manipcad.control.ace_de import DEFAULT_BANDWIDTH, DEFAULT_DAMPING, design_sce
+from manipcad.control.design import (
     DEFAULT_PERIOD,
-    SynthesizedRegulator,
     check_period,
+    inertia_range,
     joint_drive,
-    load_range,
     max_error_of,
     parse_spec,
 )
-from manipcad.synthesis.ace_de import DEFAULT_BANDWIDTH, DEFAULT_DAMPING, design_sce
-from manipcad.synthesis.kernels import (
-    AT_DENMIN,
-    AT_FORM,
-    AT_HDOT,
-    AT_T1,
-    KIND_ACE_TF,
+from manipcad.control.kernels import (
+    R_KD,
+    R_KFA,
+    R_KFV,
+    R_KP,
+    R_ULIM,
+    ST_X,
+    clip,
+    load_rates,
+    sce_output,
 )
+from manipcad.control.regulator import Method, Regulator
+from manipcad.control.signals import S_HII
+from manipcad.drives.laws import (
+    ace1_filter_step,
+    ace1_obs_output,
+    ace1_obs_step,
+    ace1_output,
+    ace1_parameters,
+    ace1_target_tf,
+    ace1_tf,
+)
+from manipcad.drives.params import P_KM, P_KV, P_KW, P_R, P_RATIO
+from manipcad.errors import ManipcadError
+from manipcad.model.robot import Robot
+
+# T_1 (s), realization (0 observable = quasi-stationary, 1 controllable), use h* = Ḣ* (1)
+# or h* = 0 (0), floor of (h*+k_v)·R + k_m·k_w as a fraction of k_m·k_w
+AT_T1, AT_FORM, AT_HDOT, AT_DENMIN = 21, 22, 23, 24
+FIELDS = {"kp_V_per_rad": R_KP, "kd_V_s_per_rad": R_KD, "kfv_V_s_per_rad": R_KFV,
+          "kfa_V_s2_per_rad": R_KFA, "u_limit_V": R_ULIM, "T_1_s": AT_T1,
+          "controllable_realization": AT_FORM, "h_from_H_dot": AT_HDOT, "den_floor": AT_DENMIN}
+
+
+@nb.njit(cache=True)
+def ace_tf_update(p, s, sig, j, Ts):
+    """ACE (1) after the SCE: W_k = (T_m·s + 1)/(k_p·k_w·(T_1·s + 1)) at the current load, V.
+
+    T_m, k_p from :func:`manipcad.drives.laws.ace1_parameters` at H* = H_ii/i_r² and
+    h* = Ḣ*/… (or 0), with (h*+k_v)·R + k_m·k_w floored at ``den_floor``·k_m·k_w; output
+    and state of the observable or controllable realization from :mod:`manipcad.drives.laws`,
+    the filter advanced exactly over the period with its input held.
+    """
+    r = p[P_RATIO]
+    r2 = r * r
+    Hd, _ = load_rates(sig[j, S_HII], s, Ts)
+    Hs = sig[j, S_HII] / r2
+    hs = Hd / r2 if p[AT_HDOT] != 0.0 else 0.0
+    kmkw = p[P_KM] * p[P_KW]
+    h_floor = (p[AT_DENMIN] * kmkw - kmkw) / p[P_R] - p[P_KV]
+    if hs < h_floor:
+        hs = h_floor
+    Tm, kp = ace1_parameters(Hs, hs, p)
+    T1 = p[AT_T1]
+    U = sce_output(p, sig, j)
+    x = s[ST_X]
+    if p[AT_FORM] != 0.0:
+        Uk = ace1_output(U, x, Tm, kp, T1, p)
+        s[ST_X] = ace1_filter_step(x, U, T1, Ts)
+    else:
+        Uk = ace1_obs_output(U, x, Tm, kp, T1, p)
+        s[ST_X] = ace1_obs_step(x, U, Tm, T1, Ts)
+    return clip(Uk, p[R_ULIM])
+
 
 REALIZATIONS = ("observable", "controllable")
 
 
 def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
-                      T_1: float | None = None, load_range_=None, order: int = 3,
+                      T_1: float | None = None, load_range=None, order: int = 3,
                       realization: str = "observable", h_dot: bool = True,
                       den_floor: float = 0.1, feedforward: bool = True,
-                      reference=None) -> SynthesizedRegulator:
+                      reference=None) -> Regulator:
     """ACE (1) + SCE for one joint.
 
     Args:
@@ -58,7 +113,7 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         period: control period, s.
         T_1: the ACE's time constant, s (default R·J_n/(k_m·k_w) with
             J_n = J + H*_max: the same nominal drive as ``ace_de``).
-        load_range_: (H_min, H_max) joint side, kg·m².
+        load_range: (H_min, H_max) joint side, kg·m².
         order: 3 or 2: the target includes the T_e = L/R factor (3) or not.
         realization: "observable" (quasi-stationary) or "controllable".
         h_dot: use h_i = Ḣ_ii (True) or h_i = 0 (False) in T_m and k_p.
@@ -67,7 +122,7 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         reference: for ``max_error``: the robot's trajectory or (t, q_ref) of the joint.
 
     Returns:
-        A :class:`SynthesizedRegulator` of kind ``KIND_ACE_TF``.
+        A :class:`~manipcad.control.regulator.Regulator` of method ``ace_tf``.
     """
     period = check_period(period)
     j, d = joint_drive(robot, joint)
@@ -78,7 +133,7 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         raise ManipcadError(f"order must be 2 or 3, got {order}")
     if not (0 < den_floor <= 1):
         raise ManipcadError(f"den_floor must be in (0, 1], got {den_floor}")
-    Hmin, Hmax = load_range(robot, j, load_range_)
+    Hmin, Hmax = inertia_range(robot, j, load_range)
     Jn = d.J + Hmax / d.ratio ** 2
     T1 = d.R * Jn / (d.k_m * d.k_w) if T_1 is None else float(T_1)
     if not (math.isfinite(T1) and T1 > 0):
@@ -104,24 +159,29 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
            f"k_v = {d.k_v:g} N·m·s/rad, i_r = {d.ratio:g}; H* = H_ii/i_r², "
            f"h* = {'Ḣ_ii' if h_dot else '0'}/i_r²; H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m²; "
            f"|U_k| <= {sce.ulim:g} V, T = {period:g} s")
-    signals = ["q", "q_dot", "q_ref", "q_dot_ref", "H_ii"]
+    needs = ["q", "q_dot", "q_ref", "q_dot_ref", "H_ii"]
     if feedforward:
-        signals.append("q_ddot_ref")
-    complexity = {
-        "gains_stored": 8 + (4 if feedforward else 2),  # J, i_r, k_v, R, k_m, k_w, T_1, e^(-T/T_1)
-        # SCE 5-7, Ḣ difference 5, T_m/k_p terms 8, filter output and update 10, clip 2
-        "ops_per_period": 30 + (4 if feedforward else 0),
-        "signals": signals,
-        "period": period,
-    }
+        needs.append("q_ddot_ref")
     design = {"T_1": T1, "J_n": Jn, "load_range": (Hmin, Hmax), **sce.design(),
               "realization": realization, "order": order, "closed_loop_poles": sce.poles()}
-    from manipcad.drives.laws import ace1_tf
-
     linear = {**sce.linear(plant),
               "ace_at_min_load": ace1_tf(d, Hmin, 0.0, T_1=T1),
               "ace_at_max_load": ace1_tf(d, Hmax, 0.0, T_1=T1)}
-    return SynthesizedRegulator(
-        joint=j, period=period, kind=KIND_ACE_TF, params=p, name="ace_tf",
-        needs=tuple(signals), method="ace_tf", law=law, complexity=complexity,
-        design=design, linear=linear)
+    return Regulator(
+        method="ace_tf", joints=(j,), period=period, params=p, needs=tuple(needs), law=law,
+        design=design, linear=linear, options={"realization": realization})
+
+
+def export_ace_tf(reg: Regulator):
+    """ACE (1) + SCE as a discrete-time nonlinear python-control system calling
+    :func:`ace_tf_update` (see :func:`manipcad.control.export.nonlinear_system`)."""
+    from manipcad.control.export import nonlinear_system
+
+    return nonlinear_system(reg)
+
+
+METHOD = Method(
+    name="ace_tf", synthesize=synthesize_ace_tf, update=ace_tf_update, section="3.1 (1)",
+    summary="ACE (1): moving zero cancels the load pole (realization observable|controllable)"
+            ", + SCE",
+    fields=FIELDS, export=export_ace_tf)

@@ -1,4 +1,4 @@
-"""What every synthesis method shares: the regulator class, the load range, the SCE design.
+"""What every synthesis method shares: the joint's drive, the load range, the spec, the PD design.
 
 SI units: V, rad (m), s, kg·m² (kg), N·m (N). Loads are joint side unless
 marked ``*`` (motor side, divided by i_r²).
@@ -7,49 +7,17 @@ marked ``*`` (motor side, divided by i_r²).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import control as ct
 import numpy as np
 
+from manipcad.control.signals import NPARAM
 from manipcad.drives.params import check_electrics, pack_drive
 from manipcad.errors import ManipcadError, ModelError
 from manipcad.model.robot import Drive, Robot
-from manipcad.sim.regulators import NPARAM, Regulator
 
 #: default control period of the synthesized regulators, s
 DEFAULT_PERIOD = 1e-4
-
-
-@dataclass
-class SynthesizedRegulator(Regulator):
-    """A regulator made by :func:`manipcad.synthesize`.
-
-    Attributes (beyond :class:`~manipcad.sim.regulators.Regulator`):
-        method: the method name ("ace_de", "lqr_gs", ...).
-        law: the control law with its numbers (what :meth:`describe` returns).
-        complexity: realization complexity: ``gains_stored`` (numbers the
-            controller keeps), ``ops_per_period`` (arithmetic operations per
-            control period, counted from the compiled update), ``signals``
-            (measured or computed each period), ``period`` (s).
-        design: the design numbers (load range, spec, gains, poles ...).
-        linear: the linear parts as python-control objects (e.g. ``"sce"``,
-            ``"plant"``, ``"closed_loop"``).
-    """
-
-    method: str = ""
-    law: str = ""
-    complexity: dict = field(default_factory=dict)
-    design: dict = field(default_factory=dict)
-    linear: dict = field(default_factory=dict)
-
-    def describe(self) -> str:
-        """The law with its numbers filled in."""
-        return self.law
-
-    def realization_complexity(self) -> dict:
-        """Gains stored, operations per control period, signals measured, period."""
-        return dict(self.complexity)
 
 
 def joint_drive(robot: Robot, joint: int | str) -> tuple[int, Drive]:
@@ -84,13 +52,44 @@ def packed(drive: Drive, order: int) -> np.ndarray:
 
 
 def check_period(period: float) -> float:
-    period = float(period)
+    """The control period as a float, s; refused unless finite and > 0."""
+    try:
+        period = float(period)
+    except (TypeError, ValueError):
+        raise ManipcadError(f"period must be a number of seconds, got {period!r}") from None
     if not (math.isfinite(period) and period > 0):
         raise ManipcadError(f"period must be > 0 s, got {period}")
     return period
 
 
-def load_range(robot: Robot, j: int, given=None, *, samples: int = 256,
+def check_finite(name: str, value: float, what: str) -> float:
+    """``value`` as a float; refused unless finite (``what`` names the method)."""
+    v = float(value)
+    if not math.isfinite(v):
+        raise ManipcadError(f"{what} {name} must be finite, got {value}")
+    return v
+
+
+def nominal_drive(robot: Robot, joint, load_range_=None, H_nominal: float | None = None):
+    """The joint's drive at its nominal load (default the largest H_ii, the slowest drive).
+
+    Returns:
+        (j, drive, (H_min, H_max) kg·m², H kg·m², K rad/(V·s) = k_u·k_p/i_r of the
+        2nd-order model q/U = K/(s·(T_m·s + 1)), T_m s).
+    """
+    from manipcad.drives.linear import drive_gain, mechanical_time_constant
+
+    j, d = joint_drive(robot, joint)
+    Hmin, Hmax = inertia_range(robot, j, load_range_)
+    H = Hmax if H_nominal is None else float(H_nominal)
+    if not (math.isfinite(H) and H >= 0):
+        raise ManipcadError(f"H_nominal must be >= 0 kg·m², got {H}")
+    K = d.k_u * drive_gain(d, H, 0.0) / d.ratio
+    T = mechanical_time_constant(d, H, 0.0)
+    return j, d, (Hmin, Hmax), H, K, T
+
+
+def inertia_range(robot: Robot, j: int, given=None, *, samples: int = 256,
                seed: int = 0) -> tuple[float, float]:
     """Range of the rigid-body inertia H_ii of joint j over the workspace, kg·m² (kg).
 

@@ -1,9 +1,7 @@
-"""Regulator files: YAML, validated with pydantic, loaded into :class:`Regulator` objects.
+"""The short hand-written PID form of regulator files (``type: pid``).
 
-A file holds one regulator group (a mapping with a ``type``) or several
-(``regulators:`` followed by a list of such mappings, for different settings
-on different joints). SI units; every gain is one number (all joints of the
-group) or a list with one entry per joint of the group::
+One group gives a PID to each of its joints; every gain is one number (all joints of the
+group) or a list with one entry per joint::
 
     # PID on every joint of the PUMA 560, sampled at 1 kHz
     type: pid
@@ -15,25 +13,8 @@ group) or a list with one entry per joint of the group::
     u_limit: 40            # output clip, V (N·m without drives); optional, default .inf
     joints: [waist, shoulder, elbow, wrist_roll, wrist_pitch, flange]  # optional: all
 
-    # or several groups
-    regulators:
-      - {type: pid, joints: [turn], period: 0.001, kp: 400, kd: 12}
-      - {type: pid, joints: [lift, reach], period: 0.0005, kp: [2e4, 8e3], kd: [300, 90]}
-
-``joints`` names the joints a group controls (names or 0-based indices;
-default: all joints of the robot), and its length sets the length every list
-must have. A joint may appear in only one group; joints in no group get no
-control (U = 0).
-
-Types: ``pid`` (:func:`manipcad.sim.pid`). To add one, write its schema (a
-subclass of :class:`GroupFile` with ``type: Literal["name"]``) and a builder
-taking (schema, joint index, k) -> Regulator, and register both in
-:data:`TYPES`.
-
-Bad files raise :class:`manipcad.errors.InputError` naming the file, the
-dotted field (``regulators[1].kd[2]``) and the reason: no such file, YAML
-syntax, unknown type or field, wrong list length, unknown joint, joint in two
-groups, non-positive period or limit, period not a multiple of the step.
+or several groups (``regulators:`` with a list of them). ``joints`` names the joints a
+group controls (names, or 0-based indices; default: all joints of the robot).
 """
 
 from __future__ import annotations
@@ -41,15 +22,15 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable, Mapping
-from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
 
+from manipcad.control.pid import PID_KP, pid
+from manipcad.control.regulator import Regulator
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
-from manipcad.fileio import describe_error, read_yaml, validation_error
+from manipcad.fileio import describe_error, validation_error
 from manipcad.model.robot import Robot
-from manipcad.sim.regulators import KIND_PID, PID_KP, Regulator, pid
 
 
 def _listify(v: Any) -> Any:
@@ -108,61 +89,12 @@ _CHECKS: dict[str, dict[str, tuple[Callable[[float], bool], str]]] = {
 _UNION_TAGS = frozenset({"list[str]", "list[float]", "int", "str", "float"})
 
 
-def regulators_from_dict(data: Any, robot: Robot, source: str = "<dict>", *,
-                         dt: float | None = None, drives: bool = True) -> list[Regulator]:
-    """Build the regulators of a robot from a regulator file's mapping.
-
-    Args:
-        data: the mapping (see the module docstring).
-        robot: the robot whose joints the groups name.
-        source: the name used in errors (usually the file path).
-        dt: the simulation step, s; if given, every period must be a multiple of it.
-        drives: whether the run simulates the drives (for the sign check).
-
-    Returns:
-        One :class:`Regulator` per controlled joint.
-
-    Raises:
-        InputError: naming ``source``, the dotted field and the reason.
-
-    Warns:
-        ManipcadWarning: a PID's kp has the sign that makes positive feedback
-        (with a drive, the drive gain i_r·k_m·k_u/R has the gear ratio's sign).
-
-    Example:
-        >>> import manipcad
-        >>> from manipcad.sim.files import regulators_from_dict
-        >>> arm = manipcad.load_robot("cylindrical")
-        >>> regs = regulators_from_dict({"type": "pid", "period": 1e-3, "kp": [3640, 2170],
-        ...                              "kd": [0, 48], "joints": ["lift", "reach"]}, arm)
-        >>> [r.joint for r in regs]
-        [1, 2]
-    """
-    if not isinstance(data, dict):
-        raise InputError(source, "", "expected a mapping with a 'type' or a 'regulators' list, "
-                         f"got {type(data).__name__}")
-    if "regulators" in data:
-        extra = sorted(set(data) - {"regulators"})
-        if extra:
-            raise InputError(source, extra[0], "unknown field beside 'regulators' (put it "
-                             "inside a group)")
-        groups = data["regulators"]
-        if not isinstance(groups, list) or not groups:
-            raise InputError(source, "regulators", "expected a non-empty list of regulator "
-                             "groups (mappings with a 'type')")
-        prefixes = [f"regulators[{g}]" for g in range(len(groups))]
-    else:
-        groups, prefixes = [data], [""]
+def short_pid_groups(groups: list, prefixes: list[str], robot: Robot, source: str,
+                     dt: float | None, drives: bool) -> list[Regulator]:
+    """The regulators of the short ``type: pid`` groups (one per joint of each group)."""
     out: list[Regulator] = []
-    owner: dict[int, str] = {}
     for group, prefix in zip(groups, prefixes, strict=True):
         for reg in _group(group, robot, source, prefix, dt):
-            j = int(reg.joint)
-            where = _join(prefix, "joints")
-            if j in owner:
-                raise InputError(source, where, f"joint {robot.joint_names[j]!r} already has a "
-                                 f"regulator (in {owner[j] or 'the file'})")
-            owner[j] = prefix
             out.append(reg)
             _check_sign(reg, robot, drives, source, _join(prefix, "kp"))
     return out
@@ -170,9 +102,9 @@ def regulators_from_dict(data: Any, robot: Robot, source: str = "<dict>", *,
 
 def _check_sign(reg: Regulator, robot: Robot, drives: bool, source: str, where: str) -> None:
     """Warn when a PID's proportional gain gives positive feedback through the drive."""
-    if reg.kind != KIND_PID:
+    if reg.method != "pid":
         return
-    j = int(reg.joint)
+    j = int(reg.joints[0])
     d = robot.drives[j] if drives else None
     gain = 1.0 if d is None else math.copysign(1.0, d.ratio * d.k_u * d.k_m)
     kp = float(reg.params[PID_KP])
@@ -234,6 +166,9 @@ def _group(data: Any, robot: Robot, source: str, prefix: str,
                              "out to control every joint")
         joints = []
         for k, name in enumerate(spec.joints):
+            if isinstance(name, int) and not 0 <= name < robot.n:
+                raise InputError(source, _join(prefix, f"joints[{k}]"),
+                                 f"no joint {name}: indices are 0-based, 0..{robot.n - 1}")
             try:
                 j = robot.joint_index(name)
             except ManipcadError:
@@ -260,7 +195,10 @@ def _group(data: Any, robot: Robot, source: str, prefix: str,
     regs = []
     for k, j in enumerate(joints):
         try:
-            regs.append(build(spec, j, k))
+            reg = build(spec, j, k)
+            reg.joint_names = (robot.joint_names[j],)
+            reg.robot = robot.name
+            regs.append(reg)
         except ManipcadError as exc:  # the constructor's own checks
             raise InputError(source, prefix, str(exc)) from None
     return regs
@@ -280,37 +218,3 @@ def _floats(v: Any) -> Any:
         except ValueError:
             return v
     return v
-
-
-def load_regulators(path: str | Path, robot: Robot, *, dt: float | None = None,
-                    drives: bool = True) -> list[Regulator]:
-    """Load the regulators of a robot from a YAML regulator file.
-
-    Args:
-        path: the file (schema in this module's docstring; SI units).
-        robot: the robot the file's joints belong to.
-        dt: the simulation step, s; if given, every period must be a multiple of it.
-        drives: whether the run simulates the drives (for the sign check).
-
-    Returns:
-        One :class:`Regulator` per controlled joint, for :func:`manipcad.sim.simulate`.
-
-    Raises:
-        InputError: naming the file, the dotted field and the reason.
-
-    Warns:
-        ManipcadWarning: a PID gain sign that makes positive feedback.
-
-    Example:
-        >>> import manipcad
-        >>> from manipcad.sim.files import load_regulators
-        >>> puma = manipcad.load_robot("puma560")  # doctest: +SKIP
-        >>> regs = load_regulators("examples/pid_puma.yaml", puma, dt=1e-4)  # doctest: +SKIP
-        >>> len(regs)  # doctest: +SKIP
-        6
-    """
-    data = read_yaml(path, "a mapping with a 'type' or a 'regulators' list", unique_keys=False)
-    return regulators_from_dict(data, robot, str(path), dt=dt, drives=drives)
-
-
-__all__ = ["load_regulators", "regulators_from_dict", "TYPES", "GroupFile", "PIDFile"]

@@ -11,7 +11,7 @@ PD (plus optional feed-forward) designed with python-control on that nominal
 model to meet a bandwidth/damping spec; since the law keeps the drive nominal,
 the SCE's design holds for every load.
 
-Run time (compiled, :func:`manipcad.synthesis.kernels.ace_de_update`): the
+Run time (compiled, :func:`ace_de_update`): the
 simulator supplies H_ii, the velocity torque c_i and gravity Q_i; the law takes
 h_i = Ḣ_ii (the momentum split), Ḣ_ii, Ḧ_ii and ṁ_f by backward differences,
 m_f = M_f·sgn ω_m + (c_i − Ḣ_ii·q̇ + Q_i)/i_r, and q̈ from the measured armature
@@ -24,34 +24,77 @@ import math
 from dataclasses import dataclass
 
 import control as ct
+import numba as nb
 import numpy as np
 
-from manipcad.drives.laws import nominal_tf
-from manipcad.errors import ManipcadError
-from manipcad.model.robot import Drive, Robot
-from manipcad.synthesis._common import (
+from manipcad.control.design import (
     DEFAULT_PERIOD,
-    SynthesizedRegulator,
     check_period,
     design_for_accuracy,
     design_pd,
+    inertia_range,
     joint_drive,
-    load_range,
     max_error_of,
     packed,
     parse_spec,
 )
-from manipcad.synthesis.kernels import (
-    AD_FRIC,
-    AD_JN,
-    AD_TORQUE,
-    KIND_ACE_DE,
+from manipcad.control.kernels import (
     R_KD,
     R_KFA,
     R_KFV,
     R_KP,
     R_ULIM,
+    clip,
+    load_rates,
+    sce_output,
+    torque_rate,
 )
+from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.signals import S_CI, S_HII, S_I, S_QD, S_QI
+from manipcad.drives.dc import dry_friction
+from manipcad.drives.laws import law3_voltage, nominal_tf
+from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO
+from manipcad.errors import ManipcadError
+from manipcad.model.robot import Drive, Robot
+
+# nominal inertia J_n (kg·m², motor side), compensate dry friction (1/0), compensate the
+# measured load torque (1/0)
+AD_JN, AD_FRIC, AD_TORQUE = 21, 22, 23
+FIELDS = {"kp_V_per_rad": R_KP, "kd_V_s_per_rad": R_KD, "kfv_V_s_per_rad": R_KFV,
+          "kfa_V_s2_per_rad": R_KFA, "u_limit_V": R_ULIM, "J_n_kgm2": AD_JN,
+          "friction_compensation": AD_FRIC, "load_torque_compensation": AD_TORQUE}
+
+
+@nb.njit(cache=True)
+def ace_de_update(p, s, sig, j, Ts):
+    """Law (3) after the SCE: the drive made the constant-coefficient nominal model, V.
+
+    H* = H_ii/i_r², h* = Ḣ*/… (the momentum split h_i = Ḣ_ii), m_f = M_f·sgn ω_m +
+    (c_i − Ḣ_ii·q̇_i + Q_i)/i_r; q̈ from the measured current by the shaft equation
+    i_r·q̈ = (k_m·i − (h*+k_v)·ω_m − m_f)/(J+H*). Returns U_k, V.
+    """
+    r = p[P_RATIO]
+    r2 = r * r
+    qd = sig[j, S_QD]
+    H = sig[j, S_HII]
+    Hd, Hdd = load_rates(H, s, Ts)
+    tau = 0.0
+    if p[AD_TORQUE] != 0.0:
+        # the velocity torque less the part written as h_i·q̇, plus gravity
+        tau = sig[j, S_CI] - Hd * qd + sig[j, S_QI]
+    md = torque_rate(tau / r, s, Ts)
+    Hs = H / r2
+    hs = Hd / r2
+    hsd = Hdd / r2
+    w = r * qd
+    mf = tau / r
+    if p[AD_FRIC] != 0.0:
+        mf += dry_friction(w, p)
+    qdd = (p[P_KM] * sig[j, S_I] - (hs + p[P_KV]) * w - mf) / ((p[P_J] + Hs) * r)
+    U = sce_output(p, sig, j)
+    Uk = law3_voltage(U, qd, qdd, Hs, hs, hs, hsd, mf, md, p[AD_JN], p)
+    return clip(Uk, p[R_ULIM])
+
 
 #: default closed-loop spec of the SCE: ω_n (rad/s), ζ
 DEFAULT_BANDWIDTH = 30.0
@@ -120,9 +163,9 @@ def design_sce(d: Drive, plant: ct.TransferFunction, T: float, J_n: float, order
                what: str) -> SCEDesign:
     """The SCE of ``ace_de`` and ``ace_tf`` on the nominal ``plant`` (time constant T), packed.
 
-    The PD of :func:`~manipcad.synthesis._common.design_pd` at (ω_n, ζ), or with
+    The PD of :func:`~manipcad.control.design.design_pd` at (ω_n, ζ), or with
     ``e_max`` the smallest ω_n that meets it on ``ref``
-    (:func:`~manipcad.synthesis._common.design_for_accuracy`); the nominal
+    (:func:`~manipcad.control.design.design_for_accuracy`); the nominal
     feed-forward of :func:`sce_feedforward` (J_n) when ``feedforward``.
     """
     K = d.k_u / (d.k_w * d.ratio)
@@ -134,16 +177,16 @@ def design_sce(d: Drive, plant: ct.TransferFunction, T: float, J_n: float, order
         kp, kd, cl, wn, e_reached = design_for_accuracy(plant, K, T, wn, zeta, period,
                                                         (kfv, kfa), e_max, ref, what=what)
     p = packed(d, order)
-    ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
+    ulim = u_limit(d)
     p[R_KP], p[R_KD], p[R_KFV], p[R_KFA], p[R_ULIM] = kp, kd, kfv, kfa, ulim
     return SCEDesign(params=p, kp=kp, kd=kd, kfv=kfv, kfa=kfa, ulim=ulim, bandwidth=wn,
                      damping=zeta, max_error=e_max, nominal_max_error=e_reached, closed_loop=cl)
 
 
 def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
-                      J_n: float | None = None, load_range_=None, order: int = 3,
+                      J_n: float | None = None, load_range=None, order: int = 3,
                       feedforward: bool = True, friction: bool = True,
-                      load_torque: bool = True, reference=None) -> SynthesizedRegulator:
+                      load_torque: bool = True, reference=None) -> Regulator:
     """Law (3) + SCE for one joint.
 
     Args:
@@ -156,7 +199,7 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         period: control period, s.
         J_n: nominal inertia, kg·m² motor side (default J + H*_max, the largest
             load, which keeps the gain ρ = (J+H*)/J_n <= 1 and the amplifier linear).
-        load_range_: (H_min, H_max) joint side, kg·m² (default: over the joint limits).
+        load_range: (H_min, H_max) joint side, kg·m² (default: over the joint limits).
         order: 3 (the law's inductance terms) or 2 (L neglected); match ``simulate(order=)``.
         feedforward: add the nominal model's velocity/acceleration feed-forward to the SCE.
         friction: compensate the dry friction M_f·sgn ω_m.
@@ -165,7 +208,7 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         reference: for ``max_error``: the robot's trajectory or (t, q_ref) of the joint.
 
     Returns:
-        A :class:`SynthesizedRegulator` of kind ``KIND_ACE_DE``.
+        A :class:`~manipcad.control.regulator.Regulator` of method ``ace_de``.
     """
     period = check_period(period)
     j, d = joint_drive(robot, joint)
@@ -174,7 +217,7 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     if order == 3 and not (math.isfinite(d.L) and d.L > 0):
         raise ManipcadError(f"joint {robot.joint_names[j]!r}: law (3) of order 3 needs the "
                             f"armature inductance L > 0 (got {d.L}); use order=2")
-    Hmin, Hmax = load_range(robot, j, load_range_)
+    Hmin, Hmax = inertia_range(robot, j, load_range)
     r2 = d.ratio ** 2
     Jn = d.J + Hmax / r2 if J_n is None else float(J_n)
     if not (math.isfinite(Jn) and Jn > 0):
@@ -200,74 +243,27 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
            f"i_r = {d.ratio:g}; h_i = Ḣ_ii; H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m² "
            f"(ρ in [{rho[0]:.3g}, {rho[1]:.3g}]); "
            f"|U_k| <= {sce.ulim:g} V, T = {period:g} s")
-    signals = ["q", "q_dot", "i", "q_ref", "q_dot_ref", "H_ii", "h_i", "Q_i"]
+    needs = ["q", "q_dot", "i", "q_ref", "q_dot_ref", "H_ii"]
+    if load_torque:
+        needs += ["c_i", "Q_i"]
     if feedforward:
-        signals.append("q_ddot_ref")
-    complexity = {
-        # drive constants J, i_r, k_v, M_f±, R, L, k_m, k_w, k_u, J_n + SCE gains
-        "gains_stored": 11 + (4 if feedforward else 2),
-        # SCE 5-7, Ḣ/Ḧ differences 9, load torque 4, m_f and ṁ_f 6, q̈ from i 7,
-        # law (3) coefficients 20, output 9, clip 2
-        "ops_per_period": 62 + (4 if feedforward else 0),
-        "signals": signals,
-        "period": period,
-    }
+        needs.append("q_ddot_ref")
     design = {"J_n": Jn, "load_range": (Hmin, Hmax), "rho_range": rho, **sce.design(),
               "closed_loop_poles": sce.poles(), "order": order}
-    return SynthesizedRegulator(
-        joint=j, period=period, kind=KIND_ACE_DE, params=p, name="ace_de",
-        needs=tuple(signals), method="ace_de", law=law, complexity=complexity,
+    return Regulator(
+        method="ace_de", joints=(j,), period=period, params=p, needs=tuple(needs), law=law,
         design=design, linear=sce.linear(plant))
 
 
-def nominal_prediction(reg: SynthesizedRegulator, t, q_ref, qd_ref, qdd_ref=None):
-    """The joint trajectory the nominal model predicts under the regulator's SCE.
+def export_ace_de(reg: Regulator):
+    """Law (3) + SCE as a discrete-time nonlinear python-control system calling
+    :func:`ace_de_update` (see :func:`manipcad.control.export.nonlinear_system`)."""
+    from manipcad.control.export import nonlinear_system
 
-    Integrates the constant-coefficient nominal model with the same sampled SCE
-    (zero-order hold at the regulator's period) by RK4 at the step of ``t``.
+    return nonlinear_system(reg)
 
-    Args:
-        reg: an ``ace_de`` (or ``ace_tf``) regulator.
-        t: (K,) uniform times, s (a multiple of the period).
-        q_ref, qd_ref, qdd_ref: (K,) reference of the joint, rad, rad/s, rad/s².
 
-    Returns:
-        (K,) joint positions, rad.
-    """
-    import numpy as np
-
-    from manipcad.drives.params import P_KM, P_KU, P_KW, P_L, P_R, P_RATIO
-
-    p = reg.params
-    t = np.asarray(t, dtype=float)
-    dt = float(t[1] - t[0])
-    steps = max(1, int(round(reg.period / dt)))
-    Jn = reg.design["J_n"]
-    r, R, L, km, kw, ku = p[P_RATIO], p[P_R], p[P_L], p[P_KM], p[P_KW], p[P_KU]
-    qdd_ref = np.zeros_like(t) if qdd_ref is None else qdd_ref
-
-    def f(x, U):
-        q, qd, i = x
-        if L > 0:
-            di = (ku * U - R * i - kw * r * qd) / L
-        else:
-            i = (ku * U - kw * r * qd) / R
-            di = 0.0
-        return np.array([qd, km * i / (Jn * r), di]), i
-
-    x = np.array([q_ref[0], 0.0, 0.0])
-    out = np.empty_like(t)
-    U = 0.0
-    for k in range(len(t)):
-        out[k] = x[0]
-        if k % steps == 0:
-            U = (p[R_KP] * (q_ref[k] - x[0]) + p[R_KD] * (qd_ref[k] - x[1])
-                 + p[R_KFV] * qd_ref[k] + p[R_KFA] * qdd_ref[k])
-        k1, _ = f(x, U)
-        k2, _ = f(x + 0.5 * dt * k1, U)
-        k3, _ = f(x + 0.5 * dt * k2, U)
-        k4, _ = f(x + dt * k3, U)
-        x = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        if L == 0:
-            x[2] = 0.0
-    return out
+METHOD = Method(
+    name="ace_de", synthesize=synthesize_ace_de, update=ace_de_update, section="3.1 (3)",
+    summary="law (3): the drive's differential equation stabilized at the nominal, + SCE",
+    fields=FIELDS, export=export_ace_de)

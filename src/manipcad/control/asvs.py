@@ -22,52 +22,95 @@ from __future__ import annotations
 
 import math
 
-from manipcad.errors import ManipcadError
-from manipcad.model.robot import Robot
-from manipcad.synthesis._common import (
+import numba as nb
+
+from manipcad.control.design import (
     DEFAULT_PERIOD,
-    SynthesizedRegulator,
     check_period,
+    inertia_range,
     joint_drive,
-    load_range,
     packed,
 )
-from manipcad.synthesis.kernels import (
-    AS_ADAPT,
-    AS_CM,
-    AS_HFIX,
-    AS_KE,
-    AS_KGM,
-    AS_KSM,
-    AS_TORQUE,
-    AS_ULIM,
-    KIND_ASVS,
-)
+from manipcad.control.kernels import ST_C, ST_S, clip
+from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.signals import S_CI, S_HII, S_Q, S_QD, S_QDDREF, S_QDREF, S_QI, S_QREF
+from manipcad.drives.dc import dry_friction
+from manipcad.drives.laws import asvs_a, asvs_beta, asvs_c_stationary, asvs_gains, asvs_voltage
+from manipcad.drives.params import P_RATIO
+from manipcad.errors import ManipcadError
+from manipcad.model.robot import Robot
+
+# k_e (V/rad), k_s and k_g as multiples of their minima from (5), adapt (1: c, a, k_g from the
+# current H_ii; 0: fixed), H* used when fixed (kg·m², motor side), margin on c (fraction of
+# the largest sliding slope), output limit (V), use the measured load torque in m_f (1/0)
+AS_KE, AS_KSM, AS_KGM, AS_ADAPT, AS_HFIX, AS_CM, AS_ULIM, AS_TORQUE = range(16, 24)
+FIELDS = {"k_e_V_per_rad": AS_KE, "k_s_margin": AS_KSM, "k_g_margin": AS_KGM,
+          "adapt": AS_ADAPT, "H_star_fixed_kgm2": AS_HFIX, "c_margin": AS_CM,
+          "u_limit_V": AS_ULIM, "load_torque_compensation": AS_TORQUE}
+
+
+@nb.njit(cache=True)
+def sliding_slope(Hs, k_e, p):
+    """(a 1/s, β rad/(s²·V), c_max 1/s) of the 2nd-order drive at motor-side load H* (h* = 0).
+
+    c_max is the stationary root of (5) with sgn(S·e) = −1
+    (:func:`manipcad.drives.laws.asvs_c_stationary`): on S = 0 the e-term of Ṡ pushes
+    back while |c·(c − a)| <= |β|·k_e.
+    """
+    a = asvs_a(Hs, 0.0, p)
+    beta = asvs_beta(Hs, p)
+    return a, beta, asvs_c_stationary(a, beta, k_e, -1.0)
+
+
+@nb.njit(cache=True)
+def asvs_update(p, s, sig, j, Ts):
+    """Law (4) with the slope c and the gains of (5) at the current load (or fixed), V.
+
+    U_k = (k_e·|e| + k_s·|m_f| + k_g·|q̈* + a·q̇*|)·sgn(S)·sgn(i_r), S = ė + c·e.
+    """
+    r = p[P_RATIO]
+    if p[AS_ADAPT] != 0.0:
+        Hs = sig[j, S_HII] / (r * r)
+    else:
+        Hs = p[AS_HFIX]
+    k_e = p[AS_KE]
+    a, beta, cmax = sliding_slope(Hs, k_e, p)
+    c = p[AS_CM] * cmax
+    ks_min, kg_min = asvs_gains(Hs, p)
+    k_s = p[AS_KSM] * ks_min
+    k_g = p[AS_KGM] * kg_min
+    e = sig[j, S_QREF] - sig[j, S_Q]
+    S = sig[j, S_QDREF] - sig[j, S_QD] + c * e
+    d = sig[j, S_QDDREF] + a * sig[j, S_QDREF]
+    mf = dry_friction(r * sig[j, S_QD], p)
+    if p[AS_TORQUE] != 0.0:
+        mf += (sig[j, S_CI] + sig[j, S_QI]) / r
+    s[ST_C] = c
+    s[ST_S] = S
+    return clip(asvs_voltage(e, S, mf, d, k_e, k_s, k_g, p), p[AS_ULIM])
 
 
 def slope(drive, H_ii: float, k_e: float) -> tuple[float, float, float]:
-    """(a 1/s, β rad/(s²·V), c_max 1/s) of the drive at joint-side load H_ii (h* = 0)."""
-    Hs = H_ii / drive.ratio ** 2
-    Jh = drive.J + Hs
-    a = (drive.k_m * drive.k_w + drive.R * drive.k_v) / (drive.R * Jh)
-    beta = drive.k_m * drive.k_u / (drive.R * drive.ratio * Jh)
-    c = 0.5 * (a + math.sqrt(a * a + 4.0 * abs(beta) * k_e))
-    return a, beta, c
+    """(a 1/s, β rad/(s²·V), c_max 1/s) of a drive at joint-side load H_ii (h* = 0)."""
+    from manipcad.drives.params import pack_drive
+
+    return tuple(float(v) for v in sliding_slope(H_ii / drive.ratio ** 2, k_e,
+                                                 pack_drive(drive, order=2)))
 
 
 _SPEC = {"k_e", "c_margin", "k_s_margin", "k_g_margin"}
 
 
-def _synth(robot: Robot, joint, adapt: bool, spec, period, load_range_, order,
-           load_torque: bool) -> SynthesizedRegulator:
+def _synth(robot: Robot, joint, adapt: bool, spec, period, load_range, order,
+           load_torque: bool) -> Regulator:
     period = check_period(period)
     j, d = joint_drive(robot, joint)
     spec = dict(spec or {})
     unknown = set(spec) - _SPEC
     if unknown:
         raise ManipcadError(f"unknown spec keys {sorted(unknown)}; known: {sorted(_SPEC)}")
-    ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
-    Hmin, Hmax = load_range(robot, j, load_range_)
+    ulim = u_limit(d)
+    Hmin, Hmax = inertia_range(robot, j, load_range)
     if "k_e" in spec:
         k_e = float(spec["k_e"])
     else:
@@ -93,10 +136,9 @@ def _synth(robot: Robot, joint, adapt: bool, spec, period, load_range_, order,
     p[AS_CM], p[AS_ULIM], p[AS_TORQUE] = cm, ulim, float(adapt and load_torque)
     a_lo, b_lo, c_lo = slope(d, Hmax, k_e)
     a_hi, b_hi, c_hi = slope(d, Hmin, k_e)
-    kmku = d.k_m * d.k_u
-    ks = ksm * d.R / kmku
-    kg_min = kgm * d.R * abs(d.ratio) * (d.J + Hmin / d.ratio ** 2) / kmku
-    kg_max = kgm * d.R * abs(d.ratio) * (d.J + Hmax / d.ratio ** 2) / kmku
+    ks_min, kg_lo = asvs_gains(Hmin / d.ratio ** 2, p)
+    _, kg_hi = asvs_gains(Hmax / d.ratio ** 2, p)
+    ks, kg_min, kg_max = ksm * ks_min, kgm * kg_lo, kgm * kg_hi
     name = robot.joint_names[j]
     method = "asvs" if adapt else "vss"
     if adapt:
@@ -107,33 +149,25 @@ def _synth(robot: Robot, joint, adapt: bool, spec, period, load_range_, order,
                f"1/s, k_g = {kgm:g}·R|i_r|(J+H*)/(k_m k_u) in "
                f"[{kg_min:.4g}, {kg_max:.4g}] V·s²/rad; H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m²; "
                f"|U_k| <= {ulim:g} V, T = {period:g} s")
-        signals = ["q", "q_dot", "q_ref", "q_dot_ref", "q_ddot_ref", "H_ii"]
+        needs = ["q", "q_dot", "q_ref", "q_dot_ref", "q_ddot_ref", "H_ii"]
         if load_torque:
-            signals += ["h_i", "Q_i"]
-        gains = 11  # J, i_r, R, k_m, k_w, k_u, k_v, M_f±, k_e, margins folded: k_s
-        ops = 45 + (4 if load_torque else 0)
+            needs += ["c_i", "Q_i"]
     else:
         law = (f"vss ({name}): U_k = ({k_e:.6g}·|e| + {ks:.6g}·|m_f| + {kg_max:.6g}·|q̈* + "
                f"{a_lo:.6g}·q̇*|)·sgn(S)·sgn(i_r), S = ė + {cm * c_lo:.6g}·e (fixed for the largest "
                f"load H_ii = {Hmax:.4g} kg·m²; m_f = dry friction); |U_k| <= {ulim:g} V, "
                f"T = {period:g} s")
-        signals = ["q", "q_dot", "q_ref", "q_dot_ref", "q_ddot_ref"]
-        gains = 7  # k_e, k_s, k_g, a, c, M_f±
-        ops = 18
-    return SynthesizedRegulator(
-        joint=j, period=period, kind=KIND_ASVS, params=p, name=method, needs=tuple(signals),
-        method=method, law=law,
-        complexity={"gains_stored": gains, "ops_per_period": ops, "signals": signals,
-                    "period": period},
+        needs = ["q", "q_dot", "q_ref", "q_dot_ref", "q_ddot_ref"]
+    return Regulator(
+        method=method, joints=(j,), period=period, params=p, needs=tuple(needs), law=law,
         design={"k_e": k_e, "k_s": ks, "k_g_range": (kg_min, kg_max),
                 "c_range": (cm * c_lo, cm * c_hi) if adapt else (cm * c_lo, cm * c_lo),
-                "a_range": (a_lo, a_hi), "load_range": (Hmin, Hmax), "c_margin": cm},
-        linear={})
+                "a_range": (a_lo, a_hi), "load_range": (Hmin, Hmax), "c_margin": cm})
 
 
 def synthesize_asvs(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
-                    load_range_=None, order: int = 3,
-                    load_torque: bool = True) -> SynthesizedRegulator:
+                    load_range=None, order: int = 3,
+                    load_torque: bool = True) -> Regulator:
     """The adaptive VSS: law (4) with c, a, k_g from the current load.
 
     Args:
@@ -144,18 +178,37 @@ def synthesize_asvs(robot: Robot, joint, *, spec=None, period: float = DEFAULT_P
             (c = κ·c_max, default 0.9), "k_s_margin", "k_g_margin": >= 1 (multiples
             of the minima of (5), default 1.5)}``.
         period: control period, s.
-        load_range_: (H_min, H_max), kg·m².
+        load_range: (H_min, H_max), kg·m².
         order: the drive model order of the packed parameters (the law is
             designed on the 2nd-order drive either way).
         load_torque: add the measured velocity torque and gravity to m_f.
     """
-    return _synth(robot, joint, True, spec, period, load_range_, order, load_torque)
+    return _synth(robot, joint, True, spec, period, load_range, order, load_torque)
 
 
 def synthesize_vss(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
-                   load_range_=None, order: int = 3) -> SynthesizedRegulator:
+                   load_range=None, order: int = 3) -> Regulator:
     """The fixed VSS baseline: law (4) with c, a, k_g for the worst-case (largest) load.
 
     Args: as :func:`synthesize_asvs` (no load signal is measured).
     """
-    return _synth(robot, joint, False, spec, period, load_range_, order, False)
+    return _synth(robot, joint, False, spec, period, load_range, order, False)
+
+
+def export_asvs(reg: Regulator):
+    """Law (4)-(5) as a discrete-time nonlinear python-control system calling
+    :func:`asvs_update` (see :func:`manipcad.control.export.nonlinear_system`)."""
+    from manipcad.control.export import nonlinear_system
+
+    return nonlinear_system(reg)
+
+
+ASVS = Method(
+    name="asvs", synthesize=synthesize_asvs, update=asvs_update, section="3.2 (4)-(5)",
+    summary="adaptive variable structure: sliding slope and gains of (5) at the current load",
+    fields=FIELDS, export=export_asvs)
+
+VSS = Method(
+    name="vss", synthesize=synthesize_vss, update=asvs_update, section="3.2 (baseline)",
+    summary="law (4) with slope and gains fixed for the heaviest load (no adaptation)",
+    fields=FIELDS, export=export_asvs)

@@ -1,0 +1,112 @@
+"""``computed_torque``: decentralized computed torque through the drive model (a baseline).
+
+``v = q̈* + k_d·ė + k_p·e``; joint torque ``τ = (H_ii + J·i_r²)·v + k_v·i_r²·q̇ + c_i + Q_i``
+(+ ``|i_r|·M_f·sgn q̇``); current ``i* = τ/(k_m·i_r)``; ``U = (R·i* + k_w·i_r·q̇)/k_u``
+(:func:`manipcad.drives.dc.static_input`). The coupling Σ H_ik·q̈_k of the other joints
+is not measured (decentralized) and the current's lag T_e = L/R is not compensated.
+"""
+
+from __future__ import annotations
+
+import control as ct
+import numba as nb
+
+from manipcad.control.design import (
+    DEFAULT_PERIOD,
+    check_period,
+    inertia_range,
+    joint_drive,
+    packed,
+    parse_spec,
+)
+from manipcad.control.kernels import clip
+from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.signals import S_CI, S_HII, S_Q, S_QD, S_QDDREF, S_QDREF, S_QI, S_QREF
+from manipcad.drives.dc import dry_friction, static_input
+from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO
+from manipcad.errors import ManipcadError
+from manipcad.model.robot import Robot
+
+# outer-loop gains k_p (1/s²), k_d (1/s), output limit (V), compensate dry friction (1/0)
+CT_KP, CT_KD, CT_ULIM, CT_FRIC = 16, 17, 18, 19
+FIELDS = {"kp_per_s2": CT_KP, "kd_per_s": CT_KD, "u_limit_V": CT_ULIM,
+          "friction_compensation": CT_FRIC}
+
+
+@nb.njit(cache=True)
+def joint_torque_to_input(tau, qd, p):
+    """Amplifier input that makes a rigid drive give the joint torque τ at speed q̇, V.
+
+    i* = τ/(k_m·i_r) (the joint torque of a rigid gear is i_r·k_m·i), L neglected.
+    """
+    r = p[P_RATIO]
+    return static_input(tau / (p[P_KM] * r), r * qd, p)
+
+
+@nb.njit(cache=True)
+def computed_torque_update(p, s, sig, j, Ts):
+    """Decentralized computed torque through the drive model (L neglected), V."""
+    r = p[P_RATIO]
+    qd = sig[j, S_QD]
+    v = (sig[j, S_QDDREF] + p[CT_KD] * (sig[j, S_QDREF] - qd)
+         + p[CT_KP] * (sig[j, S_QREF] - sig[j, S_Q]))
+    tau = ((sig[j, S_HII] + p[P_J] * r * r) * v + p[P_KV] * r * r * qd
+           + sig[j, S_CI] + sig[j, S_QI])
+    if p[CT_FRIC] != 0.0:
+        tau += r * dry_friction(r * qd, p)
+    return clip(joint_torque_to_input(tau, qd, p), p[CT_ULIM])
+
+
+def outer_gains(spec, period: float, what: str) -> tuple[float, float, float, float]:
+    """(k_p 1/s², k_d 1/s, ω_n rad/s, ζ) of the error dynamics ë + k_d·ė + k_p·e = 0."""
+    wn, zeta = parse_spec(spec, bandwidth=30.0, damping=1.0)
+    if wn * period > 0.5:
+        raise ManipcadError(f"{what}: bandwidth {wn:g} rad/s is unreachable with the "
+                            f"control period {period:g} s (need ω_n·T_s <= 0.5)")
+    return wn * wn, 2.0 * zeta * wn, wn, zeta
+
+
+def synthesize_computed_torque(robot: Robot, joint, *, spec=None,
+                               period: float = DEFAULT_PERIOD, load_range=None,
+                               friction: bool = True, order: int = 3) -> Regulator:
+    """Decentralized computed torque for one joint.
+
+    Args:
+        robot, joint: the joint (with a drive).
+        spec: ``{"bandwidth": ω_n rad/s, "damping": ζ}`` of the error dynamics (default
+            30 rad/s, 1.0): k_p = ω_n², k_d = 2ζω_n.
+        period: control period, s.
+        load_range: (H_min, H_max) kg·m² (for the description).
+        friction: compensate the dry friction.
+        order: packed drive order (the law itself neglects L).
+
+    Returns:
+        A :class:`~manipcad.control.regulator.Regulator` of method ``computed_torque``.
+    """
+    period = check_period(period)
+    j, d = joint_drive(robot, joint)
+    kp, kd, wn, zeta = outer_gains(spec, period, "computed_torque")
+    Hmin, Hmax = inertia_range(robot, j, load_range)
+    p = packed(d, order)
+    ulim = u_limit(d)
+    p[CT_KP], p[CT_KD], p[CT_ULIM], p[CT_FRIC] = kp, kd, ulim, float(friction)
+    name = robot.joint_names[j]
+    law = (f"computed_torque ({name}): v = q̈* + {kd:.6g}·ė + {kp:.6g}·e; τ = (H_ii + "
+           f"{d.J * d.ratio ** 2:.6g})·v + {d.k_v * d.ratio ** 2:.6g}·q̇ + c_i + Q_i"
+           f"{' + |i_r|·M_f·sgn q̇' if friction else ''}; U = ({d.R:g}·τ/({d.k_m:g}·{d.ratio:g}) "
+           f"+ {d.k_w * d.ratio:.6g}·q̇)/{d.k_u:g} (|U| <= {ulim:g} V); H_ii in "
+           f"[{Hmin:.4g}, {Hmax:.4g}] kg·m²; T = {period:g} s")
+    needs = ("q", "q_dot", "q_ref", "q_dot_ref", "q_ddot_ref", "H_ii", "c_i", "Q_i")
+    return Regulator(
+        method="computed_torque", joints=(j,), period=period, params=p, needs=needs, law=law,
+        design={"kp": kp, "kd": kd, "bandwidth": wn, "damping": zeta,
+                "load_range": (Hmin, Hmax)},
+        linear={"closed_loop": ct.tf([kd, kp], [1.0, kd, kp]),
+                "error": ct.tf([1.0, 0.0, 0.0], [1.0, kd, kp])})
+
+
+METHOD = Method(
+    name="computed_torque", synthesize=synthesize_computed_torque,
+    update=computed_torque_update, section="baseline",
+    summary="decentralized computed torque: H_ii, c_i, Q_i of the joint through the drive model",
+    fields=FIELDS)

@@ -1,0 +1,139 @@
+"""``computed_torque_full``: centralized inverse-dynamics control from the full model.
+
+The textbook (and Drake's ``InverseDynamicsController``) law over all its joints:
+``v = q̈* + K_d·ė + K_p·e``, ``τ = H(q)·v + c(q, q̇) + Q(q)`` with the whole joint-space
+inertia matrix (the coupling Σ_k H_ik·v_k included), plus each drive's rotor inertia,
+viscous and dry friction; each joint's torque is turned into its amplifier input through
+the static drive equations (:func:`manipcad.control.computed_torque.joint_torque_to_input`).
+One regulator spans the joints; its parameters hold one packed drive per joint.
+"""
+
+from __future__ import annotations
+
+import control as ct
+import numba as nb
+import numpy as np
+
+from manipcad.control.computed_torque import joint_torque_to_input, outer_gains
+from manipcad.control.design import DEFAULT_PERIOD, check_period, joint_drive
+from manipcad.control.kernels import clip
+from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.signals import (
+    NPARAM,
+    S_CI,
+    S_Q,
+    S_QD,
+    S_QDDREF,
+    S_QDREF,
+    S_QI,
+    S_QREF,
+)
+from manipcad.drives.dc import dry_friction
+from manipcad.drives.params import NPAR, P_J, P_KV, P_RATIO, pack_drive
+from manipcad.errors import ManipcadError
+from manipcad.model.robot import Robot
+
+# gains k_p (1/s²), k_d (1/s), compensate dry friction (1/0); drive k from DRV + k·NPAR,
+# its input limit (V) at ULIM0 + k
+CTF_KP, CTF_KD, CTF_FRIC = 0, 1, 2
+CTF_ULIM0 = 3
+CTF_DRV = 32
+#: most joints one spanning regulator can hold
+MAX_JOINTS = (NPARAM - CTF_DRV) // NPAR
+FIELDS = {"kp_per_s2": CTF_KP, "kd_per_s": CTF_KD, "friction_compensation": CTF_FRIC}
+
+
+@nb.njit(cache=True)
+def computed_torque_full_update(p, s, sig, H, joints, nj, Ts, U):
+    """τ = H·v + c + Q (+ drive terms) over the regulator's joints; writes U of each, V.
+
+    ``H`` is the rigid-body joint-space inertia matrix (n × n, kg·m²) at the sample;
+    the rows of ``sig`` give q, q̇, the reference and c_i, Q_i of each joint.
+    """
+    for a in range(nj):
+        ja = joints[a]
+        tau = sig[ja, S_CI] + sig[ja, S_QI]
+        for b in range(nj):
+            jb = joints[b]
+            v = (sig[jb, S_QDDREF] + p[CTF_KD] * (sig[jb, S_QDREF] - sig[jb, S_QD])
+                 + p[CTF_KP] * (sig[jb, S_QREF] - sig[jb, S_Q]))
+            tau += H[ja, jb] * v
+            if a == b:
+                o = CTF_DRV + a * NPAR
+                r = p[o + P_RATIO]
+                qd = sig[ja, S_QD]
+                tau += p[o + P_J] * r * r * v + p[o + P_KV] * r * r * qd
+                if p[CTF_FRIC] != 0.0:
+                    tau += r * dry_friction(r * qd, p[o:o + NPAR])
+        o = CTF_DRV + a * NPAR
+        U[ja] = clip(joint_torque_to_input(tau, sig[ja, S_QD], p[o:o + NPAR]),
+                     p[CTF_ULIM0 + a])
+
+
+def synthesize_computed_torque_full(robot: Robot, joints="all", *, spec=None,
+                                    period: float = DEFAULT_PERIOD, friction: bool = True,
+                                    order: int = 3, load_range=None) -> Regulator:
+    """Inverse-dynamics control of several joints from the full model.
+
+    Args:
+        robot: the robot (a drive on every joint controlled).
+        joints: "all", or a list of joint names or indices.
+        spec: ``{"bandwidth": ω_n rad/s, "damping": ζ}`` of each joint's error dynamics
+            (default 30 rad/s, 1.0): K_p = ω_n², K_d = 2ζω_n.
+        period: control period, s.
+        friction: compensate the drives' dry friction.
+        order: packed drive order (the law neglects L).
+        load_range: not used (the full model needs no load range); refused if given.
+
+    Returns:
+        One :class:`~manipcad.control.regulator.Regulator` spanning the joints.
+
+    Example:
+        >>> import manipcad
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> reg = manipcad.synthesize(arm, "all", "computed_torque_full")
+        >>> reg.joint_names
+        ('turn', 'lift', 'reach')
+    """
+    if load_range is not None:
+        raise ManipcadError("computed_torque_full uses the full model; it takes no load_range")
+    period = check_period(period)
+    if isinstance(joints, str | int):
+        joints = list(range(robot.n)) if joints == "all" else [joints]
+    idx = []
+    for jt in joints:
+        j, _ = joint_drive(robot, jt)
+        if j in idx:
+            raise ManipcadError(f"computed_torque_full: joint {robot.joint_names[j]!r} "
+                                "listed twice")
+        idx.append(j)
+    if not idx or len(idx) > MAX_JOINTS:
+        raise ManipcadError(f"computed_torque_full spans 1 to {MAX_JOINTS} joints, "
+                            f"got {len(idx)}")
+    kp, kd, wn, zeta = outer_gains(spec, period, "computed_torque_full")
+    p = np.zeros(NPARAM)
+    p[CTF_KP], p[CTF_KD], p[CTF_FRIC] = kp, kd, float(friction)
+    for a, j in enumerate(idx):
+        d = robot.drives[j]
+        p[CTF_DRV + a * NPAR: CTF_DRV + (a + 1) * NPAR] = pack_drive(d, order=order)
+        p[CTF_ULIM0 + a] = u_limit(d)
+    names = tuple(robot.joint_names[j] for j in idx)
+    law = (f"computed_torque_full ({', '.join(names)}): v = q̈* + {kd:.6g}·ė + {kp:.6g}·e; "
+           f"τ = H(q)·v + c(q, q̇) + Q(q) + J·i_r²·v + k_v·i_r²·q̇"
+           f"{' + |i_r|·M_f·sgn q̇' if friction else ''} (full model, coupling included); "
+           f"U = (R·τ/(k_m·i_r) + k_w·i_r·q̇)/k_u per joint; T = {period:g} s")
+    needs = ("q", "q_dot", "q_ref", "q_dot_ref", "q_ddot_ref", "H", "c_i", "Q_i")
+    return Regulator(
+        method="computed_torque_full", joints=tuple(idx), period=period, params=p,
+        needs=needs, law=law, joint_names=names,
+        design={"kp": kp, "kd": kd, "bandwidth": wn, "damping": zeta},
+        linear={"error": ct.tf([1.0, 0.0, 0.0], [1.0, kd, kp])})
+
+
+METHOD = Method(
+    name="computed_torque_full", synthesize=synthesize_computed_torque_full,
+    update=computed_torque_full_update, section="baseline",
+    summary="centralized inverse dynamics H(q)·v + c + Q over all joints (Drake's "
+            "InverseDynamicsController)",
+    fields=FIELDS, spans=True, drive_blocks="per_joint",
+    joint_fields={"u_limit_V": CTF_ULIM0})

@@ -1,0 +1,78 @@
+"""Regulators as python-control systems.
+
+Every regulator exports as a discrete-time nonlinear I/O system
+(:func:`nonlinear_system`) whose update and output call the very compiled law the
+simulator runs; its inputs are the signals the regulator reads (``needs``), its output
+the amplifier input U (V), its states the regulator's state vector. Methods that are
+linear time-invariant give a state-space system instead where their module says so
+(``pid``, ``none``, ``none_sce``).
+"""
+
+from __future__ import annotations
+
+import control as ct
+import numpy as np
+
+from manipcad.control.regulator import Regulator
+from manipcad.control.signals import NSIG, NSTATE, SIGNALS
+from manipcad.errors import ManipcadError
+
+
+def to_control(reg: Regulator):
+    """The regulator as a python-control system (see the module docstring).
+
+    Example:
+        >>> import manipcad
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> sys = manipcad.synthesize(arm, "turn", "asvs", period=1e-3).to_control()
+        >>> sys.dt, sys.output_labels
+        (0.001, ['U'])
+    """
+    from manipcad.control.registry import method
+
+    m = method(reg.method)
+    if m.export is None:
+        return nonlinear_system(reg)
+    return m.export(reg)
+
+
+def _inputs(reg: Regulator) -> list[str]:
+    return [s for s in SIGNALS if s in reg.needs and s not in ("H", "t")]
+
+
+def nonlinear_system(reg: Regulator) -> ct.NonlinearIOSystem:
+    """A discrete-time nonlinear I/O system (period ``reg.period``) running the compiled law.
+
+    Inputs: the signals of ``reg.needs`` in :data:`~manipcad.control.signals.SIGNALS`
+    order (units there); output ``U`` (V); states: the regulator's ``NSTATE`` state
+    entries (zero at t = 0). A regulator spanning several joints is refused (its law
+    needs the whole inertia matrix; export its joints' single-joint laws instead).
+    """
+    from manipcad.control.registry import method
+
+    m = method(reg.method)
+    if m.spans:
+        raise ManipcadError(f"{reg.method}: a regulator spanning joints has no single-joint "
+                            "python-control export")
+    names = _inputs(reg)
+    cols = [SIGNALS[s][0] for s in names]
+    p = np.ascontiguousarray(reg.params, dtype=float)
+    Ts = float(reg.period)
+    law = m.update
+
+    def run(t, x, u):
+        sig = np.zeros((1, NSIG))
+        sig[0, cols] = u
+        sig[0, 0] = t
+        s = np.array(x, dtype=float)
+        U = law(p, s, sig, 0, Ts)
+        return U, s
+
+    def update(t, x, u, params):
+        return run(t, x, u)[1]
+
+    def output(t, x, u, params):
+        return np.array([run(t, x, u)[0]])
+
+    return ct.nlsys(update, output, inputs=names, outputs=["U"], states=NSTATE, dt=Ts,
+                    name=f"{reg.method}_{'_'.join(reg.joint_names) or reg.joints[0]}")

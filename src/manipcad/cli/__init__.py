@@ -10,7 +10,8 @@ from __future__ import annotations
 from manipcad.cli.app import app, main
 
 # sub-commands register on import
-from manipcad.cli import demo, robots, simulate, size, identify, coupling, recommend, study, warmup  # noqa: E402,F401  isort: skip
+from manipcad.cli import (  # noqa: E402,F401  isort: skip
+    demo, robots, simulate, size, identify, coupling, recommend, study, synthesize, warmup)
 from manipcad.cli import codegen  # noqa: E402,F401  isort: skip
 from manipcad.cli import ws  # noqa: E402,F401  isort: skip
 

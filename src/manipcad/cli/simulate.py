@@ -8,7 +8,7 @@
 
 ROBOT is a catalog name or a robot file; the trajectory and regulator files
 are the YAML schemas of :mod:`manipcad.trajectories.io` and
-:mod:`manipcad.sim.files`. DIR receives the inputs, the time series, the
+:mod:`manipcad.control.files` (any method, made by ``manipcad synthesize``). DIR receives the inputs, the time series, the
 metrics and a PNG of the errors (:mod:`manipcad.store.results`), all at once
 when the run is complete: an interrupted run (Ctrl-C), bad input or a
 divergent simulation leaves DIR as it was. A divergent run exits with status
@@ -119,12 +119,15 @@ def simulate(
     save_diverged: Annotated[bool, typer.Option(
         "--save-diverged", help="If the run diverges, still save its partial time series "
         "(status 'diverged'); the exit status stays 2.")] = False,
+    allow_other_robot: Annotated[bool, typer.Option(
+        "--allow-other-robot", help="Run regulator files made for a robot model with another "
+        "hash (refused by default).")] = False,
 ) -> None:
     """Simulate the closed loop (multibody + DC drives + sampled regulators) and save it."""
+    from manipcad.control.files import load_regulators
     from manipcad.model.load import load_robot
     from manipcad.sim import SimulationDiverged
     from manipcad.sim import simulate as run_simulation
-    from manipcad.sim.files import load_regulators
     from manipcad.store import check_out_dir, result_document, save_result
     from manipcad.trajectories import load_trajectory
 
@@ -152,12 +155,14 @@ def simulate(
         regs = []
         owner: dict[int, str] = {}
         for path in regulator or ():
-            for reg in load_regulators(path, arm, dt=dt, drives=not no_drives):
-                if reg.joint in owner:
-                    raise InputError(str(path), "joints", f"joint "
-                                     f"{arm.joint_names[reg.joint]!r} already has a "
-                                     f"regulator in {owner[reg.joint]}")
-                owner[reg.joint] = str(path)
+            for reg in load_regulators(path, arm, dt=dt, drives=not no_drives,
+                                       allow_other_robot=allow_other_robot):
+                for j in reg.joints:
+                    if j in owner:
+                        raise InputError(str(path), "joints", f"joint "
+                                         f"{arm.joint_names[j]!r} already has a "
+                                         f"regulator in {owner[j]}")
+                    owner[j] = str(path)
                 regs.append(reg)
     # the catalog robots' data notes are documented ('manipcad robots show'); a user's
     # robot file's are news

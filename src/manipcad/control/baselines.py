@@ -21,15 +21,22 @@ from manipcad.control.design import (
     parse_spec,
 )
 from manipcad.control.kernels import R_KD, R_KFA, R_KFV, R_KP, R_ULIM, clip, sce_output
-from manipcad.control.pid import FIELDS as PID_FIELDS
-from manipcad.control.pid import export_pid, pid, pid_update
+from manipcad.control.pid import PID_KP, PID_ULIM, pid
 from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.signals import S_Q, S_QREF
 from manipcad.drives.linear import linearize
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
 
+P_FIELDS = {"kp_V_per_rad": PID_KP, "u_limit_V": PID_ULIM}
 SCE_FIELDS = {"kp_V_per_rad": R_KP, "kd_V_s_per_rad": R_KD, "kfv_V_s_per_rad": R_KFV,
               "kfa_V_s2_per_rad": R_KFA, "u_limit_V": R_ULIM}
+
+
+@nb.njit(cache=True)
+def p_update(p, s, sig, j, Ts):
+    """The plain position loop U = k_p·e, clipped, V."""
+    return clip(p[PID_KP] * (sig[j, S_QREF] - sig[j, S_Q]), p[PID_ULIM])
 
 
 @nb.njit(cache=True)
@@ -140,10 +147,16 @@ def export_sce(reg: Regulator):
                  name=f"{reg.method}_{'_'.join(reg.joint_names) or reg.joints[0]}")
 
 
+def export_p(reg: Regulator):
+    """The P loop as a static gain: input e (rad), output U (V); the clip left out."""
+    return ct.ss([], [], [], [[reg.params[PID_KP]]], reg.period, inputs=["e"], outputs=["U"],
+                 name=f"none_{'_'.join(reg.joint_names) or reg.joints[0]}")
+
+
 NONE = Method(
-    name="none", synthesize=synthesize_none, update=pid_update, section="baseline",
+    name="none", synthesize=synthesize_none, update=p_update, section="3.1 (Fig. 3 curve 1)",
     summary="plain P position loop at the nominal load, no adaptation",
-    fields=PID_FIELDS, export=export_pid, drive_blocks=0)
+    fields=P_FIELDS, export=export_p, drive_blocks=0)
 
 NONE_SCE = Method(
     name="none_sce", synthesize=synthesize_none_sce, update=sce_update, section="3.1",

@@ -471,7 +471,8 @@ def _table(t: Any, p: np.ndarray, robot: Robot, j: int, source: str, where: str)
         a = axes[ax]
         st = _num(source, f"{where}.{key}", t.get(key, a[1] - a[0] if len(a) > 1 else 1.0),
                   positive=True)
-        if len(a) > 1 and not np.allclose(np.diff(a), st, rtol=1e-9, atol=0):
+        if len(a) > 1 and not np.allclose(np.diff(a), st, rtol=1e-9,
+                                          atol=1e-12 * np.abs(a).max()):
             raise InputError(source, f"{where}.{ax}", f"must be uniform with step {st:g}")
         steps[key] = st
     H, h = axes["H_ii_grid_kgm2"], axes["h_grid_Nms_per_rad"]

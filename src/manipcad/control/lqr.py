@@ -128,7 +128,10 @@ def lqr_feedforward(p, Di, H, sig, j):
 @nb.njit(cache=True)
 def lqr_update(p, s, sig, j, Ts):
     """U = D_e·e + D_v·ė − D_i·i (+ U_ff), gains looked up at the current (H_ii, Ḣ_ii), V."""
-    H = sig[j, S_HII]
+    if p[LQ_NH] > 1.0 or p[LQ_ADAPT] != 0.0:
+        H = sig[j, S_HII]
+    else:
+        H = p[LQ_HFIX]
     h = 0.0
     if int(p[LQ_NV]) > 1:
         h, _ = load_rates(H, s, Ts)
@@ -368,7 +371,8 @@ def pack_table(p: np.ndarray, table: GainTable, ulim: float,
         raise ManipcadError(f"gain table {nH}×{nV} too large for the compiled regulator "
                             f"(at most {cells} grid points)")
     for ax, name in ((table.H, "H_ii"), (table.h, "h_i")):
-        if len(ax) > 1 and not np.allclose(np.diff(ax), ax[1] - ax[0], rtol=1e-9, atol=0):
+        if len(ax) > 1 and not np.allclose(np.diff(ax), ax[1] - ax[0], rtol=1e-9,
+                                           atol=1e-12 * np.abs(ax).max()):
             raise ManipcadError(f"the {name} grid must be uniform")
     p[LQ_NH], p[LQ_NV] = nH, nV
     p[LQ_H0] = table.H[0]
@@ -445,7 +449,6 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
     ref[0] = 1.0
     if tr is not None:
         ref[2] = d.ratio
-    ne = 2 if tr is not None else 0
     return Regulator(
         method="lqr", joints=(j,), period=period, params=p, needs=tuple(needs), law=law,
         design={"gains": g, "H_nominal": H, "load_range": (Hmin, Hmax), "weights": w,
@@ -498,6 +501,10 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
             raise ManipcadError(f"h_range must be a pair (h_min, h_max), got {h_range!r}") from exc
         if not (math.isfinite(hl) and math.isfinite(hh) and hl <= hh):
             raise ManipcadError(f"h_range must satisfy h_min <= h_max, got {h_range!r}")
+    if Hmax - Hmin <= 1e-9 * max(abs(Hmax), 1e-300):
+        Hmin = Hmax = 0.5 * (Hmin + Hmax)  # the load does not vary: one grid point
+        if grid is None:
+            grid = (1, 1 if hl == hh else 7)
     if grid is None:
         grid = (8, 1 if hl == hh else 7)
     nH, nV = (int(v) for v in grid)

@@ -18,7 +18,7 @@ The rules are data (``rules.yaml`` next to this module; see docs/expert-rules.md
    (cost = ops + w_g·gains + w_s·signals, weights in the data);
 6. with ``verify=True`` synthesizes the top candidates (and further ones while
    none meets the accuracy) with
-   :func:`manipcad.synthesis.synthesize`, simulates them along the trajectory
+   :func:`manipcad.control.synthesize`, simulates them along the trajectory
    (:func:`manipcad.sim.simulate`) and re-ranks: those whose measured largest
    error meets the accuracy first, least complexity first; then the ones not
    verified; then those that miss it, smallest error first.
@@ -225,8 +225,11 @@ def _load_rules(source: str) -> RuleBase:
         raise InputError(source, "", "expected a mapping with 'methods' and 'rules'")
     methods = data.get("methods") or {}
     for m in METHODS:
-        if m not in methods or "complexity" not in methods[m]:
-            raise InputError(source, f"methods.{m}.complexity", "missing")
+        if m not in methods:
+            raise InputError(source, f"methods.{m}", "missing")
+        if "complexity" in methods[m]:
+            raise InputError(source, f"methods.{m}.complexity", "not read from the rule base: "
+                             "realization complexity is counted from the registry's code")
     weights = {"ops_per_period": 1.0, "gains_stored": 0.1, "signal": 10.0}
     weights.update(data.get("complexity_weights") or {})
     rules = tuple(_parse_rule(r, f"rules[{i}]", source, effects=True)
@@ -329,19 +332,49 @@ def _expr(v: Any, n: int) -> float:
     return ev(ast.parse(str(v), mode="eval").body)
 
 
-def base_complexity(rules: RuleBase, method: str, n: int = DEFAULT_N) -> dict:
-    """A method's base complexity from the rule base, expressions evaluated for n joints."""
-    c = rules.methods[method]["complexity"]
-    signals: list[str] = []
-    for s in c.get("signals", []):
-        s = str(s)
-        if s.endswith("[n]"):
-            signals += [f"{s[:-3]}_{k + 1}" for k in range(n)]
-        else:
-            signals.append(s)
-    return {"gains_stored": int(round(_expr(c.get("gains_stored", 0), n))),
-            "ops_per_period": int(round(_expr(c.get("ops_per_period", 0), n))),
-            "signals": signals, "source": "rule base"}
+def base_complexity(rules: RuleBase, method: str, n: int = DEFAULT_N, robot=None) -> dict:
+    """A method's realization complexity per drive, counted from the registry's code.
+
+    The method is synthesized with its defaults for the first driven joint of ``robot``
+    (or, without a robot or when that fails, for the turning drive of the catalog's
+    cylindrical arm, the paper's Fig. 2) and its compiled update counted
+    (:func:`manipcad.control.complexity.count`). ``rules`` and ``n`` are kept for the
+    callers; nothing is read from the rule base.
+    """
+    return dict(_counted_complexity(method, robot))
+
+
+_COUNTED: dict = {}
+
+
+def _counted_complexity(method: str, robot) -> dict:
+    from manipcad.control import synthesize
+    from manipcad.model import load_robot
+    from manipcad.model.hashing import robot_hash
+
+    candidates = []
+    if robot is not None and robot.drives is not None:
+        driven = [j for j, d in enumerate(robot.drives) if d is not None]
+        if driven:
+            candidates.append((robot, driven[0]))
+    candidates.append((None, "turn"))
+    for rob, joint in candidates:
+        key = (method, robot_hash(rob) if rob is not None else "fig2", joint)
+        if key in _COUNTED:
+            return _COUNTED[key]
+        arm = rob if rob is not None else load_robot("cylindrical")
+        try:
+            reg = synthesize(arm, joint, method)
+        except ManipcadError:
+            continue
+        regs = reg if isinstance(reg, list) else [reg]
+        c = regs[0].realization_complexity()
+        _COUNTED[key] = {"gains_stored": c["gains_stored"], "ops_per_period": c["ops_per_period"],
+                         "signals": list(c["signals"]),
+                         "source": f"counted: {method} on {arm.name} joint "
+                                   f"{arm.joint_names[regs[0].joints[0]]}"}
+        return _COUNTED[key]
+    raise ManipcadError(f"cannot count the complexity of {method!r}: its synthesis fails")
 
 
 def complexity_cost(complexity: dict, weights: dict[str, float]) -> float:
@@ -359,7 +392,7 @@ class Recommendation:
     """One recommended method.
 
     Attributes:
-        method: a synthesis method name (``manipcad.synthesis``; ``computed_torque``).
+        method: a synthesis method name (``manipcad.control``; ``computed_torque``).
         reasons: why it is here: the fired rules that prefer or require it, in words.
         complexity: realization complexity: gains_stored, ops_per_period (per
             control period), signals (measured or computed), source.
@@ -600,7 +633,7 @@ def recommend(requirements: Requirements | dict | str | Path, robot=None, trajec
     n = robot.n if robot is not None else DEFAULT_N
     recs = []
     for m in survivors:
-        cx = base_complexity(rb, m, n)
+        cx = base_complexity(rb, m, n, robot)
         rs = reasons[m] or ["meets every rule that fired; ranked by realization complexity"]
         recs.append(Recommendation(method=m, reasons=list(rs), complexity=cx,
                                    score=score[m], cost=complexity_cost(cx, rb.weights)))
@@ -622,13 +655,9 @@ def recommend(requirements: Requirements | dict | str | Path, robot=None, trajec
 def _verify(out: Recommendations, rb: RuleBase, robot, trajectory, *, top: int,
             dt: float) -> None:
     """Synthesize, simulate and re-rank ``out`` in place (see :func:`recommend`)."""
-    try:
-        from manipcad.synthesis import METHODS as SYNTH
-        from manipcad.synthesis import synthesize
-    except ImportError as exc:
-        raise ManipcadError("verification needs the synthesis package "
-                            f"(manipcad.synthesis.synthesize), which is not available: {exc}"
-                            ) from None
+    from manipcad.control import METHODS as SYNTH
+    from manipcad.control import synthesize
+
     if robot is None or trajectory is None:
         raise ManipcadError("verification needs a robot and a trajectory to simulate along")
     from manipcad.sim import simulate

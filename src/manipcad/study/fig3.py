@@ -17,7 +17,7 @@ The experiment (paper 3.1-3.3):
 
 - Tracking: q1 = 0.5·(1 − cos 4t) rad and q3 = 0.25·(1 − cos 16t) m (laws
   (2)), q2 held at 0 m, for 1.6 s. The turning drive q1 is controlled by the
-  method under study, synthesized by :func:`manipcad.synthesis.synthesize`;
+  method under study, synthesized by :func:`manipcad.control.synthesize`;
   the reach q3 and the lift q2 by their own PID regulators with velocity
   feed-forward (:func:`support_regulators`), the same in every run, so every
   method sees the same load motion. Methods: ``none`` (a plain P position
@@ -30,15 +30,10 @@ The experiment (paper 3.1-3.3):
   reach; ``vss`` (slope fixed for the worst load) and ``asvs`` (slope adapted
   to the current load): rise time (10-90 %), overshoot, settling time (±2 %).
 
-A method whose synthesis raises :class:`NotImplementedError`,
-:class:`ImportError` or :class:`~manipcad.errors.ManipcadError` (not written
-yet, not importable, or refused for this arm) is skipped and listed under
-``"skipped"`` with the reason; so is one whose closed loop diverges. Nothing
-is made up: every number in the files is a metric of a simulation run here
-(:attr:`manipcad.sim.SimulationResult.metrics`). If
-:mod:`manipcad.synthesis` cannot be imported at all, ``none`` is run with a
-stand-in P loop built with :func:`manipcad.sim.pid` at the gain the ``none``
-method would use (critically damped at the largest load), labelled as such.
+A method whose synthesis raises :class:`~manipcad.errors.ManipcadError` (refused for this
+arm) is skipped and listed under ``"skipped"`` with the reason; so is one whose closed
+loop diverges. Nothing is made up: every number in the files is a metric of a simulation
+run here (:attr:`manipcad.sim.SimulationResult.metrics`).
 
 The three files are written into a temporary directory next to ``out_dir``
 and then moved into place (the whole directory is renamed when ``out_dir``
@@ -80,7 +75,7 @@ class Variant:
 
     Attributes:
         label: the key in the JSON (e.g. "ace_tf").
-        method: the :func:`manipcad.synthesis.synthesize` method.
+        method: the :func:`manipcad.control.synthesize` method.
         options: options passed to it.
         title: what it is, in words (legend and report).
         curve: the paper's curve number in Fig. 3, or "".
@@ -96,7 +91,7 @@ class Variant:
 #: the tracking runs (laws (2)), in plot order
 TRACKING: tuple[Variant, ...] = (
     Variant("none", "none", {}, "no adaptation: plain P position loop", "1"),
-    Variant("none_sce", "none", {"sce": True},
+    Variant("none_sce", "none_sce", {},
             "no adaptation: the SCE of ace_tf/ace_de without a corrector", "1'"),
     Variant("ace_tf", "ace_tf", {}, "ACE (1) + SCE (quasi-stationary)", "2"),
     Variant("ace_de", "ace_de", {}, "law (3) + SCE", "3"),
@@ -188,35 +183,6 @@ def support_regulators(robot: Robot, period: float, *, bandwidth: float = 200.0)
         out.append(pid(name, kp=kp, ki=kp * bandwidth / 10.0, kd=kd, period=period,
                        u_limit=ulim, kff=d.k_w * d.ratio / d.k_u))
     return out
-
-
-def _stand_in_none(robot: Robot, period: float):
-    """The ``none`` regulator without manipcad.synthesis: U = k_p·e, critically damped at H_max."""
-    from manipcad.drives.linear import drive_gain, mechanical_time_constant
-    from manipcad.sim import pid
-
-    j = robot.joint_index(TURN)
-    d = robot.drives[j]
-    H = max(turn_inertia(robot).values())
-    K = d.k_u * drive_gain(d, H, 0.0) / d.ratio
-    T = mechanical_time_constant(d, H, 0.0)
-    kp = 1.0 / (4.0 * T * K)
-    ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
-    reg = pid(TURN, kp=kp, period=period, u_limit=ulim)
-    law = (f"P loop (stand-in, manipcad.synthesis unavailable): U = {kp:.6g}·e "
-           f"(|U| <= {ulim:g} V), critically damped at H_11 = {H:.4g} kg·m²; T = {period:g} s")
-    complexity = {"gains_stored": 1, "ops_per_period": 2, "signals": ["q", "q_ref"],
-                  "period": period}
-    return reg, law, complexity
-
-
-def _synthesizer():
-    """``manipcad.synthesis.synthesize``, or the reason it cannot be imported."""
-    try:
-        from manipcad.synthesis import synthesize
-    except Exception as exc:  # noqa: BLE001 - any import failure means "not available"
-        return None, f"manipcad.synthesis is not importable: {type(exc).__name__}: {exc}"
-    return synthesize, ""
 
 
 # ----------------------------------------------------------------------------- the arm
@@ -489,7 +455,7 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
     period = control_period(dt)
     traj = cosine(list(LAWS["amplitude"]), list(LAWS["omega"]), LAWS["duration"])
     support = support_regulators(arm, period)
-    synthesize, why_not = _synthesizer()
+    from manipcad.control import synthesize
 
     data: dict[str, Any] = {
         "study": "fig3",
@@ -509,14 +475,14 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
             "gripper_speed_max": float(np.max(gripper_speed(
                 arm, traj, np.linspace(0.0, LAWS["duration"], 1601)))),
             "step": {"amplitude": step, "t_end": step_t_end, "q3": dict(STEP_CASES)},
-            "support_regulators": {arm.joint_names[r.joint] if isinstance(r.joint, int)
-                                   else r.joint: r.describe() for r in support},
+            "support_regulators": {arm.joint_names[arm.joint_index(r.joint)]: r.describe()
+                                   for r in support},
             "methods": [v.label for v in tracking_v + step_v],
         },
         "max_error": {}, "rms_error": {},
         "rise_time": {}, "overshoot": {}, "settling_time": {}, "monotone": {},
         "complexity": {}, "laws_used": {}, "titles": {}, "other_joints": {},
-        "stand_in": {}, "skipped": {},
+        "skipped": {},
     }
     data["arm"] = arm_parameters(arm)
     tracking: dict[str, Any] = {}
@@ -524,13 +490,6 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
 
     def regulator(v: Variant):
         """(regulator, law, complexity) or a skip reason (str)."""
-        if synthesize is None:
-            if v.method == "none" and not v.options:
-                reg, law, cx = _stand_in_none(arm, period)
-                data["stand_in"][v.label] = ("manipcad.synthesis is not available; a P loop "
-                                             "built with manipcad.sim.pid stands in. " + why_not)
-                return reg, law, cx
-            return why_not
         try:
             reg = synthesize(arm, TURN, v.method, period=period, **v.options)
         except SKIP_ERRORS as exc:

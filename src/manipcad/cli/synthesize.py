@@ -1,0 +1,180 @@
+"""``manipcad synthesize``: design regulators and save them to a regulator file.
+
+::
+
+    manipcad synthesize ROBOT --method M (--joint J [--joint J2 ...] | --all)
+                        [--spec KEY=VALUE ...] [--option KEY=VALUE ...] [--period S]
+                        [--load-range LO,HI] [--realization observable|controllable]
+                        --out reg.yaml [--force] [--json]
+    manipcad synthesize --list
+
+Several joints give one file with one group per joint (one group in all for a method
+that spans joints, ``computed_torque_full``). The file holds everything needed to run
+the regulators with no re-synthesis (:mod:`manipcad.control.files`); ``manipcad simulate
+ROBOT -t T.yaml -r reg.yaml`` runs it.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+import yaml
+from rich import box
+from rich.table import Table
+
+from manipcad.cli.app import app, console, err_console, guarded
+from manipcad.errors import InputError
+
+
+def _pairs(items: list[str] | None, flag: str) -> dict[str, Any]:
+    """KEY=VALUE pairs; values read as YAML scalars (numbers, true/false, [lists])."""
+    out: dict[str, Any] = {}
+    for item in items or ():
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise InputError(flag, "", f"expected KEY=VALUE, got {item!r}")
+        try:
+            v = yaml.safe_load(value)
+        except yaml.YAMLError:
+            raise InputError(flag, key, f"cannot read the value {value!r}") from None
+        if isinstance(v, str):
+            try:
+                v = float(v)
+            except ValueError:
+                pass
+        out[key.strip()] = v
+    return out
+
+
+def method_table() -> Table:
+    """The registry as a table: method, paper section, signals, complexity, summary."""
+    from manipcad.control import METHODS
+    from manipcad.expert.engine import base_complexity
+
+    t = Table(box=box.SIMPLE_HEAD, title="synthesis methods (manipcad.control.METHODS)")
+    for col in ("method", "section", "ops", "stored", "signals it needs; what it is"):
+        t.add_column(col, overflow="fold")
+    for name, m in METHODS.items():
+        c = base_complexity(None, name)
+        t.add_row(name, m.section, str(c["ops_per_period"]), str(c["gains_stored"]),
+                  f"{' '.join(c['signals'])}; {m.summary}")
+    t.caption = ("ops: arithmetic operations per control period and numbers stored, counted "
+                 "from the compiled law on the Fig. 2 arm's turning drive")
+    return t
+
+
+@app.command()
+@guarded
+def synthesize(
+    robot: Annotated[str | None, typer.Argument(
+        help="A catalog robot name or a robot file.")] = None,
+    method: Annotated[str | None, typer.Option(
+        "--method", "-m", help="Synthesis method (see --list).")] = None,
+    joint: Annotated[list[str] | None, typer.Option(
+        "--joint", "-j", help="Joint name or number 1..n; repeat for several.")] = None,
+    all_joints: Annotated[bool, typer.Option("--all", help="Every joint with a drive.")]
+    = False,
+    spec: Annotated[list[str] | None, typer.Option(
+        "--spec", help="Spec entry KEY=VALUE, e.g. bandwidth=40 (rad/s), damping=1, "
+        "max_error=1e-3 (rad); repeat.")] = None,
+    option: Annotated[list[str] | None, typer.Option(
+        "--option", help="Method option KEY=VALUE, e.g. order=2, feedforward=false, "
+        "grid=[8,1]; repeat.")] = None,
+    period: Annotated[float | None, typer.Option(
+        "--period", help="Control period, s (default 1e-4).")] = None,
+    load_range: Annotated[str | None, typer.Option(
+        "--load-range", help="H_ii range LO,HI of the joint, kg·m² (default: over the "
+        "joint limits).")] = None,
+    realization: Annotated[str | None, typer.Option(
+        "--realization", help="ace_tf: observable (quasi-stationary) or controllable "
+        "(filter first).")] = None,
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", help="Regulator file to write (YAML).")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing file.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the file as JSON.")] = False,
+    list_methods: Annotated[bool, typer.Option(
+        "--list", help="List the methods with their signals, complexity and section.")]
+    = False,
+) -> None:
+    """Synthesize regulators (paper section 3 and baselines) and save them to a file."""
+    from manipcad.control import METHODS
+    from manipcad.control import synthesize as run_synthesis
+    from manipcad.control.files import regulators_document, save_regulators
+    from manipcad.model.load import load_robot
+
+    if list_methods:
+        console.print(method_table())
+        return
+    if robot is None:
+        raise InputError("ROBOT", "", "missing: give a robot (or --list)")
+    if method is None:
+        raise InputError("--method", "", f"missing; one of {', '.join(METHODS)}")
+    if method not in METHODS:
+        raise InputError("--method", "", f"unknown method {method!r}; one of "
+                         f"{', '.join(METHODS)}")
+    if not joint and not all_joints:
+        raise InputError("--joint", "", "missing: give --joint J (repeatable) or --all")
+    if joint and all_joints:
+        raise InputError("--all", "", "give --joint or --all, not both")
+    if out is None and not as_json:
+        raise InputError("--out", "", "missing: the regulator file to write (or --json)")
+    if out is not None and out.exists() and not force:
+        raise InputError(str(out), "", "exists; give --force to replace it")
+    arm = load_robot(robot)
+    if all_joints:
+        idx = [j for j in range(arm.n) if arm.drives and arm.drives[j] is not None]
+        if not idx:
+            raise InputError(robot, "drives", "the robot has no drives to design for")
+    else:
+        idx = []
+        for name in joint:
+            idx.append(_joint(arm, name))
+    options = _pairs(option, "--option")
+    if period is not None:
+        options["period"] = period
+    if realization is not None:
+        options["realization"] = realization
+    if load_range is not None:
+        try:
+            lo, hi = (float(v) for v in load_range.split(","))
+        except ValueError:
+            raise InputError("--load-range", "", f"expected LO,HI in kg·m², got "
+                             f"{load_range!r}") from None
+        options["load_range"] = (lo, hi)
+    with err_console.status(f"synthesizing {method} for {len(idx)} joint(s)..."):
+        regs = run_synthesis(arm, idx, method, spec=_pairs(spec, "--spec") or None, **options)
+    regs = regs if isinstance(regs, list) else [regs]
+    doc = regulators_document(regs, robot=arm)
+    if out is not None:
+        save_regulators(regs, out, robot=arm)
+    if as_json:
+        typer.echo(json.dumps(doc, indent=2, default=str))
+        return
+    t = Table(box=box.SIMPLE_HEAD, title=f"{method} on {arm.name}")
+    for col in ("joint(s)", "law", "ops/period", "stored", "signals"):
+        t.add_column(col, overflow="fold")
+    for r in regs:
+        c = r.realization_complexity()
+        t.add_row(", ".join(r.joint_names), r.describe(), str(c["ops_per_period"]),
+                  str(c["gains_stored"]), ", ".join(c["signals"]))
+    console.print(t)
+    if out is not None:
+        console.print(f"wrote {out} (run it: manipcad simulate {robot} -t TRAJECTORY.yaml "
+                      f"-r {out})", highlight=False, soft_wrap=True)
+
+
+def _joint(arm, name: str) -> int:
+    """A joint by name or by number 1..n."""
+    if name in arm.joint_names:
+        return arm.joint_names.index(name)
+    try:
+        k = int(name)
+    except ValueError:
+        raise InputError("--joint", "", f"no joint {name!r} in {arm.name!r}; joints: "
+                         f"{', '.join(arm.joint_names)} (or numbers 1..{arm.n})") from None
+    if not 1 <= k <= arm.n:
+        raise InputError("--joint", "", f"joint number {k} out of 1..{arm.n}")
+    return k - 1

@@ -19,10 +19,10 @@ from conftest import random_tree
 from scipy.integrate import simpson, solve_ivp
 
 import manipcad
+from manipcad.control.files import load_regulators, regulators_from_dict
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.model.robot import Drive, Robot
 from manipcad.sim import SimulationDiverged, pid, simulate
-from manipcad.sim.files import load_regulators, regulators_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -265,7 +265,7 @@ kd: 5
 def test_regulator_file_scalar_and_lists(tmp_path):
     robot = puma()
     regs = load_regulators(write(tmp_path, GOOD), robot, dt=1e-4)
-    assert [r.joint for r in regs] == list(range(6))
+    assert [r.joints[0] for r in regs] == list(range(6))
     assert regs[1].params[0] == 950 and regs[4].params[2] == 5
     assert math.isinf(regs[0].params[3])  # no u_limit: none
     assert regs[0].period == 1e-3
@@ -279,7 +279,7 @@ regulators:
   - {type: pid, joints: [elbow, 0], period: 0.0005, kp: [-500, -800], kd: [-3, -20]}
 """
     regs = load_regulators(write(tmp_path, text), robot, dt=1e-4)
-    by_joint = {r.joint: r for r in regs}
+    by_joint = {r.joints[0]: r for r in regs}
     assert sorted(by_joint) == [0, 1, 2]
     assert by_joint[1].params[1] == 100 and by_joint[1].params[3] == 30
     assert by_joint[0].params[0] == -800 and by_joint[0].period == 5e-4
@@ -292,7 +292,7 @@ def test_example_files_load():
         assert len(load_regulators(EXAMPLES / "pid_puma.yaml", puma(), dt=1e-4)) == 6
         cyl = manipcad.load_robot("cylindrical")
         regs = load_regulators(EXAMPLES / "pid_cylindrical.yaml", cyl, dt=1e-4)
-    assert sorted(r.joint for r in regs) == [0, 1, 2]
+    assert sorted(r.joints[0] for r in regs) == [0, 1, 2]
 
 
 BAD = [

@@ -93,7 +93,5 @@ def print_fig3(res) -> None:
                       f"{escape(c['measured'])}", highlight=False)
     for lab, why in d["skipped"].items():
         console.print(f"[grey50]skipped {escape(lab)}: {escape(why)}[/]", highlight=False)
-    for lab, why in d["stand_in"].items():
-        console.print(f"[yellow]stand-in {escape(lab)}: {escape(why)}[/]", highlight=False)
     console.print("wrote " + ", ".join(escape(str(p)) for p in res.files.values()),
                   highlight=False, soft_wrap=True)

@@ -241,38 +241,42 @@ def regulators_from_dict(data: Any, robot: Robot, source: str = "<dict>", *,
         raise InputError(source, "", "expected a mapping with 'regulators' (or a 'type'), got "
                          f"{type(data).__name__}")
     if "type" in data:
-        return _owned(short_pid_groups([data], [""], robot, source, dt, drives), robot, source)
+        regs = short_pid_groups([data], [""], robot, source, dt, drives)
+        return _owned(regs, [""] * len(regs), robot, source)
+    if "regulators" not in data:
+        raise InputError(source, "type", "missing: a file holds 'regulators:' (a list of "
+                         "groups) or one short group with 'type: pid'")
     extra = sorted(set(data) - {"manipcad_version", "robot", "regulators"})
     if extra:
-        raise InputError(source, extra[0], "unknown field (expected manipcad_version, robot, "
-                         "regulators)")
+        raise InputError(source, extra[0], "unknown field beside 'regulators' (expected "
+                         "manipcad_version, robot, regulators; put it inside a group)")
     groups = data.get("regulators")
     if not isinstance(groups, list) or not groups:
         raise InputError(source, "regulators", "expected a non-empty list of regulator groups")
     _check_robot(data.get("robot"), robot, source, allow_other_robot)
     out: list[Regulator] = []
-    short, short_at = [], []
+    at: list[str] = []
     for g, group in enumerate(groups):
         where = f"regulators[{g}]"
         if isinstance(group, dict) and "type" in group:
-            short.append(group)
-            short_at.append(where)
-            continue
-        out.append(_group(group, robot, source, where, dt))
-    if short:
-        out += short_pid_groups(short, short_at, robot, source, dt, drives)
-    return _owned(out, robot, source)
+            regs = short_pid_groups([group], [where], robot, source, dt, drives)
+        else:
+            regs = [_group(group, robot, source, where, dt)]
+        out += regs
+        at += [where] * len(regs)
+    return _owned(out, at, robot, source)
 
 
-def _owned(regs: list[Regulator], robot: Robot, source: str) -> list[Regulator]:
-    owner: dict[int, int] = {}
-    for r, reg in enumerate(regs):
+def _owned(regs: list[Regulator], at: list[str], robot: Robot,
+           source: str) -> list[Regulator]:
+    owner: dict[int, str] = {}
+    for reg, where in zip(regs, at, strict=True):
         for j in reg.joints:
-            if j in owner:
-                raise InputError(source, f"regulators[{r}].joints",
+            if j in owner and owner[j] != where:
+                raise InputError(source, f"{where}.joints" if where else "joints",
                                  f"joint {robot.joint_names[j]!r} already has a regulator "
-                                 f"(regulators[{owner[j]}])")
-            owner[j] = r
+                                 f"(in {owner[j] or 'the file'})")
+            owner[j] = where
     return regs
 
 

@@ -155,9 +155,6 @@ def fig3_html(data: Mapping[str, Any], png: str | Path) -> str:
         f"Every number below is a metric of a simulation of the full coupled arm "
         f"(rigid-body dynamics, DC motors with inductance, amplifier limits, friction) "
         f"run for this report; nothing is copied from the paper."))
-    if data.get("stand_in"):
-        for lab, why in data["stand_in"].items():
-            parts.append(paragraph(f"{lab}: {why}", cls="note"))
     parts.append(figure(png, "Errors ε = q1* − q1 of the turning drive (rad) over time (s), "
                              "one curve per method, and the step responses of vss and asvs.",
                         alt="Fig. 3 study"))

@@ -58,9 +58,10 @@ import numpy as np
 import pinocchio as pin
 
 import manipcad
+from manipcad.control import pid
 from manipcad.errors import ManipcadWarning
 from manipcad.interop.pinocchio import to_pinocchio
-from manipcad.sim import pid, simulate
+from manipcad.sim import simulate
 from manipcad.trajectories import quintic
 
 DT = 1e-4
@@ -173,12 +174,14 @@ def run_python_rk4(peer: Peer, t_end: float):
 def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
     """Per-call cost of the simulator's compiled pieces, and simulate()'s Python share."""
     sim_mod = sys.modules["manipcad.sim.simulate"]  # manipcad.sim.simulate is also a function
+    from manipcad.control import kind_of
+    from manipcad.control.pid import PID_KD, PID_KP, PID_ULIM
+    from manipcad.control.signals import NPARAM, NSIG, NSTATE
     from manipcad.drives.coupling import drive_rates
     from manipcad.drives.params import joint_referred_terms, pack_drives, state_offsets
     from manipcad.dynamics.aba import ABA_WORK, aba_one
     from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR
-    from manipcad.sim.loop import _rates
-    from manipcad.sim.regulators import NPARAM, NSIG, NSTATE, regulator_update
+    from manipcad.sim.loop import Plant, _rates, regulator_update
 
     dtable = pack_drives(robot.drives, order=3)
     off = state_offsets(dtable)
@@ -192,7 +195,7 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
     dist = np.zeros(n)
 
     @numba.njit(cache=False)
-    def loop_rates(reps, x, U, dist, n, rtable, g, dtable, off):
+    def loop_rates(reps, x, U, dist, n, plant):
         # the simulator's inlined right-hand side (rigid drives written out, ABA inlined)
         nx = x.size
         K4 = np.empty((4, nx))
@@ -202,15 +205,13 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
         tau = np.empty(n)
         xd = np.empty(nx - 2 * n)
         dxd = np.empty(nx - 2 * n)
-        DIST = dist.reshape((1, n))
         fext = np.zeros((n, 6))
         work = np.empty((n, ABA_WORK))
         tmp = np.empty((23, 6))
         s = 0.0
         for _ in range(reps):
             x[0] += 1e-12
-            _rates(x, U, DIST, 0, n, rtable, g, dtable, off, True, False, q, qd, xd, dxd,
-                   tau, qdd, K4, 0, fext, work, tmp)
+            _rates(x, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, 0, fext, work, tmp)
             s += K4[0, n]
         return s
 
@@ -245,18 +246,25 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
         return s
 
     @numba.njit(cache=False)
-    def loop_regulators(reps, n, rparam):
-        sig = np.zeros(NSIG)
+    def loop_regulators(reps, n, kind, rparam):
+        sig = np.zeros((n, NSIG))
         st = np.zeros(NSTATE)
+        H = np.zeros((n, n))
+        U = np.zeros(n)
+        joints = np.zeros((n, n), dtype=np.int64)
+        for j in range(n):
+            joints[j, 0] = j
         s = 0.0
         for _ in range(reps):
             for j in range(n):
-                sig[4] += 1e-9
-                s += regulator_update(1, rparam[j], st, sig, 1e-4)
+                sig[j, 4] += 1e-9
+                regulator_update(kind, rparam[j], st, sig, H, joints[j], 1, 1e-4, U)
+                s += U[j]
         return s
 
     rparam = np.zeros((n, NPARAM))
-    rparam[:, 0], rparam[:, 2], rparam[:, 3] = KP, KD, U_LIMIT
+    rparam[:, PID_KP], rparam[:, PID_KD], rparam[:, PID_ULIM] = KP, KD, U_LIMIT
+    plant = Plant(rtable, np.ascontiguousarray(robot.table), g, dtable, off, True, False)
 
     def per_call(fn, *args):
         fn(10, *args)  # compile
@@ -268,11 +276,10 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
         return best / reps
 
     out = {
-        "rates (drives + ABA) per call": per_call(loop_rates, x.copy(), U, dist, n, rtable, g,
-                                                  dtable, off),
+        "rates (drives + ABA) per call": per_call(loop_rates, x.copy(), U, dist, n, plant),
         "ABA alone per call": per_call(loop_aba, x.copy(), U, n, rtable, g),
         "drives alone per call": per_call(loop_drives, x.copy(), U, n, dtable, off),
-        "6 PID updates per step": per_call(loop_regulators, n, rparam),
+        "6 PID updates per step": per_call(loop_regulators, n, kind_of("pid"), rparam),
     }
     # simulate(): the compiled loop against the whole call
     kernel = []

@@ -19,10 +19,11 @@ from conftest import random_tree
 from scipy.integrate import simpson, solve_ivp
 
 import manipcad
+from manipcad.control import pid
 from manipcad.control.files import load_regulators, regulators_from_dict
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.model.robot import Drive, Robot
-from manipcad.sim import SimulationDiverged, pid, simulate
+from manipcad.sim import SimulationDiverged, simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"

@@ -54,7 +54,7 @@ class GroupFile(BaseModel):
 
 
 class PIDFile(GroupFile):
-    """``type: pid``: gains of :func:`manipcad.sim.pid` (one number or one per joint)."""
+    """``type: pid``: gains of :func:`manipcad.control.pid` (one number or one per joint)."""
 
     type: Literal["pid"]
     kp: Gains

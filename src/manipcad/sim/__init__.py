@@ -1,9 +1,10 @@
-"""Closed-loop simulation: multibody dynamics + DC drives + sampled regulators (paper 5)."""
+"""Closed-loop simulation: multibody dynamics + DC drives + sampled regulators (paper 5).
 
-from manipcad.control.pid import pid
-from manipcad.control.regulator import Regulator
+The simulator runs any :class:`manipcad.control.Regulator` through the regulator
+registry's compiled dispatch; it names no method.
+"""
+
 from manipcad.sim.metrics import step_metrics
 from manipcad.sim.simulate import SimulationDiverged, SimulationResult, simulate
 
-__all__ = ["simulate", "SimulationResult", "SimulationDiverged", "Regulator", "pid",
-           "step_metrics"]
+__all__ = ["simulate", "SimulationResult", "SimulationDiverged", "step_metrics"]

@@ -163,15 +163,15 @@ def _pid_design(drive, H: float, wn: float, zeta: float) -> tuple[float, float]:
 def support_regulators(robot: Robot, period: float, *, bandwidth: float = 200.0) -> list:
     """The PID regulators of the reach q3 and the lift q2, the same in every run.
 
-    Each is a PID with velocity feed-forward (:func:`manipcad.sim.pid`):
+    Each is a PID with velocity feed-forward (:func:`manipcad.control.pid`):
     k_p, k_d place the poles of the drive's 2nd-order model K/(s·(T_m·s + 1))
     at ``bandwidth`` rad/s, ζ = 1 (the load: the joint's own constant inertia,
     H_33 = m_3 for the reach, H_22 = m_2 + m_3 for the lift); k_i = k_p·ω_n/10;
     k_ff = k_w·i_r/k_u cancels the back-EMF at the reference speed; the output
     is clipped at the amplifier's limit.
     """
+    from manipcad.control import pid
     from manipcad.dynamics import mass_matrix
-    from manipcad.sim import pid
 
     H = mass_matrix(robot, np.zeros(robot.n), drives=False)
     out = []

@@ -4,11 +4,13 @@
 
     manipcad simulate ROBOT --trajectory FILE --regulator FILE --out DIR
                       [--t-end S] [--dt S] [--every N] [--json] [--no-drives]
-                      [--payload KG] [--force] [--save-diverged]
+                      [--payload KG] [--force] [--save-diverged] [--allow-other-robot]
 
 ROBOT is a catalog name or a robot file; the trajectory and regulator files
 are the YAML schemas of :mod:`manipcad.trajectories.io` and
-:mod:`manipcad.control.files` (any method, made by ``manipcad synthesize``). DIR receives the inputs, the time series, the
+:mod:`manipcad.control.files` (any method, as ``manipcad synthesize`` writes
+them; a file made for another robot model is refused unless
+``--allow-other-robot``). DIR receives the inputs, the time series, the
 metrics and a PNG of the errors (:mod:`manipcad.store.results`), all at once
 when the run is complete: an interrupted run (Ctrl-C), bad input or a
 divergent simulation leaves DIR as it was. A divergent run exits with status

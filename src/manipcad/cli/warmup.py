@@ -51,8 +51,8 @@ def _drives() -> None:
 
 
 def _simulator() -> None:
+    from manipcad.control import pid
     from manipcad.sim import simulate
-    from manipcad.sim.regulators import pid
 
     arm = _arm()
     regs = [pid(j, kp=10.0, kd=1.0) for j in range(arm.n)]

@@ -4,7 +4,7 @@
 current load (H_ii, h_i): the load-dependent pole of the drive is cancelled by
 a moving zero, so that under the quasi-stationary hypothesis
 ``W_k·W_p = (k_u/k_w)/((T_1·s + 1)(T_e·s + 1))`` (docs/drive-equations.md §4).
-The SCE is the PD of :mod:`manipcad.synthesis.ace_de` designed on that target.
+The SCE is the PD of :mod:`manipcad.control.ace_de` designed on that target.
 
 Realizations (a time-varying transfer function depends on its realization):
 ``"observable"`` (default; the load enters the state equation: the

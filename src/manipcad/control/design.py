@@ -70,7 +70,7 @@ def check_finite(name: str, value: float, what: str) -> float:
     return v
 
 
-def nominal_drive(robot: Robot, joint, load_range_=None, H_nominal: float | None = None):
+def nominal_drive(robot: Robot, joint, load_range=None, H_nominal: float | None = None):
     """The joint's drive at its nominal load (default the largest H_ii, the slowest drive).
 
     Returns:
@@ -80,7 +80,7 @@ def nominal_drive(robot: Robot, joint, load_range_=None, H_nominal: float | None
     from manipcad.drives.linear import drive_gain, mechanical_time_constant
 
     j, d = joint_drive(robot, joint)
-    Hmin, Hmax = inertia_range(robot, j, load_range_)
+    Hmin, Hmax = inertia_range(robot, j, load_range)
     H = Hmax if H_nominal is None else float(H_nominal)
     if not (math.isfinite(H) and H >= 0):
         raise ManipcadError(f"H_nominal must be >= 0 kg·m², got {H}")

@@ -101,7 +101,7 @@ def moment_components(robot: Robot, q, qd, *, gravity=None) -> MomentComponents:
         >>> arm = manipcad.load_robot("cylindrical")
         >>> mc = moment_components(arm, np.array([0.0, 0.2, 0.5]), np.array([1.0, 0.0, 0.0]))
         >>> round(float(mc.velocity[2]), 3)  # centrifugal force on the reach, N
-        -7.3
+        -0.391
     """
     (Q, QD), single = as_states(robot.n, q=q, qd=qd)
     g = as_gravity(robot, gravity)

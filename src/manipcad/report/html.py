@@ -7,7 +7,7 @@ can be mailed or archived alone.
 Example:
     >>> from manipcad.report.html import page, table
     >>> html = page("Demo", [table(["x", "unit"], [[1.5, "m"]])])
-    >>> html.startswith("<!DOCTYPE html>") and "<td>1.5</td>" in html
+    >>> html.startswith("<!DOCTYPE html>") and '<td class="num">1.5</td>' in html
     True
 """
 

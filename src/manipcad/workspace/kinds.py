@@ -185,7 +185,7 @@ def _check_regulator(path: Path, robot) -> str:
 
         robot = load_robot(data["robot"])
     if robot is not None:
-        from manipcad.sim.files import load_regulators
+        from manipcad.control.files import load_regulators
 
         regs = load_regulators(path, robot)
         return f"{len(regs)} joints of {robot.name}"
@@ -197,8 +197,23 @@ def _check_regulator(path: Path, robot) -> str:
     types = []
     for g, group in enumerate(groups):
         where = f"regulators[{g}]." if "regulators" in data else ""
+        if isinstance(group, dict) and "method" in group:
+            # a synthesized group (manipcad.control.files): a known method, a period
+            from manipcad.control import METHODS
+
+            if group["method"] not in METHODS:
+                raise InputError(src, f"{where}method", f"unknown method {group['method']!r}; "
+                                 f"one of {', '.join(METHODS)}")
+            period = group.get("period_s")
+            if not (isinstance(period, int | float) and not isinstance(period, bool)
+                    and math.isfinite(period) and period > 0):
+                raise InputError(src, f"{where}period_s",
+                                 f"must be a number > 0 s, got {period!r}")
+            types.append(group["method"])
+            continue
         if not isinstance(group, dict) or not isinstance(group.get("type"), str):
-            raise InputError(src, f"{where}type", "missing: each group needs a 'type'")
+            raise InputError(src, f"{where}type", "missing: each group needs a 'type' "
+                             "(or a 'method')")
         period = group.get("period")
         if not (isinstance(period, int | float) and not isinstance(period, bool)
                 and math.isfinite(period) and period > 0):

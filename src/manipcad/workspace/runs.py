@@ -121,9 +121,9 @@ def rerun(ws: Workspace, ref: str) -> Rerun:
 
 def run_from_folder(folder: Path, doc: dict[str, Any]):
     """Simulate again from a result folder's ``inputs/`` and recorded settings."""
+    from manipcad.control.files import load_regulators
     from manipcad.model.load import load_robot
     from manipcad.sim import simulate
-    from manipcad.sim.files import load_regulators
     from manipcad.trajectories import load_trajectory
 
     inputs = folder / "inputs"

@@ -188,7 +188,8 @@ def weights_from_spec(spec, drive: Drive) -> Weights:
     unknown = set(spec) - _SPEC
     if unknown:
         raise ManipcadError(f"unknown spec keys {sorted(unknown)}; known: {sorted(_SPEC)}")
-    ulim = drive.u_max / drive.k_u if math.isfinite(drive.u_max) else 10.0
+    ulim = u_limit(drive)
+    ulim = ulim if math.isfinite(ulim) else 10.0
     rated = drive.rated_current
     i_def = 10.0 * rated if math.isfinite(rated) and rated > 0 else ulim / drive.R
     w = Weights(float(spec.get("e_max", 0.01)), float(spec.get("ed_max", 0.3)),

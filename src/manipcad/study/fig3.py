@@ -171,6 +171,7 @@ def support_regulators(robot: Robot, period: float, *, bandwidth: float = 200.0)
     is clipped at the amplifier's limit.
     """
     from manipcad.control import pid
+    from manipcad.control.regulator import u_limit
     from manipcad.dynamics import mass_matrix
 
     H = mass_matrix(robot, np.zeros(robot.n), drives=False)
@@ -179,7 +180,7 @@ def support_regulators(robot: Robot, period: float, *, bandwidth: float = 200.0)
         j = robot.joint_index(name)
         d = robot.drives[j]
         kp, kd = _pid_design(d, float(H[j, j]), bandwidth, 1.0)
-        ulim = d.u_max / d.k_u if math.isfinite(d.u_max) else math.inf
+        ulim = u_limit(d)
         out.append(pid(name, kp=kp, ki=kp * bandwidth / 10.0, kd=kd, period=period,
                        u_limit=ulim, kff=d.k_w * d.ratio / d.k_u))
     return out

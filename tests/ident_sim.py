@@ -17,15 +17,11 @@ from pathlib import Path
 import numpy as np
 
 import manipcad
+from manipcad.control import synthesize
 from manipcad.errors import ManipcadWarning
 from manipcad.model.robot import Drive
 from manipcad.sim import simulate
 from manipcad.trajectories import waypoints
-
-try:  # the regulator registry of the design-loop refactor, when it has landed
-    from manipcad.control import synthesize
-except ImportError:  # pragma: no cover - before it
-    from manipcad.synthesis import synthesize
 
 #: noise of the measured signals: this fraction of each drive's RMS (torque and current)
 NOISE = 0.01

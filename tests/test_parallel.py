@@ -139,3 +139,17 @@ def test_scheduler_unreachable_is_an_input_error(monkeypatch):
     monkeypatch.setattr(executor, "CONNECT_TIMEOUT", 1.0)
     with pytest.raises((InputError, ManipcadError), match="cannot connect"):
         run_tasks(_square, [{"x": 1}], scheduler="tcp://127.0.0.1:9", progress=False)
+
+
+def test_existing_cluster_by_address():
+    """scheduler="tcp://HOST:PORT": the tasks run on a cluster started separately, with the
+    same results as the serial run."""
+    from distributed import LocalCluster
+
+    tasks = [{"x": float(k)} for k in range(6)]
+    serial = run_tasks(_square, tasks, common={"offset": 0.25}, workers=1, progress=False)
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                      dashboard_address=None) as cluster:
+        remote = run_tasks(_square, tasks, common={"offset": 0.25},
+                           scheduler=cluster.scheduler_address, chunk=2, progress=False)
+    assert list(remote) == list(serial) and remote.computed == 6

@@ -18,8 +18,9 @@ What is timed (``time.perf_counter``, wall clock, per state):
   (the general batch on one thread, as the generated batch runs);
 * right-hand side (forward dynamics with the drive terms, PUMA 560): the
   generated kernel and the general ABA kernel in a batch of N states, per
-  state, i.e. what one evaluation costs inside a compiled loop such as the
-  simulator's;
+  state; and a compiled loop calling the generated C-ABI kernel
+  (``gen.cfunc``, passed as an argument) against the same loop with the
+  general ``aba_state`` inlined, as the simulator's right-hand side does;
 * generation: ``generate`` of a 7-joint arm (the xArm7 URDF) into an empty
   cache (symbolic work, cse and printing), then the first numba compile of
   its inverse dynamics kernel, then a second ``generate`` (cache hit).
@@ -48,6 +49,7 @@ import pinocchio as pin
 
 import manipcad
 from manipcad.codegen import generate
+from manipcad.dynamics.aba import ABA_WORK, aba_state
 from manipcad.errors import ManipcadWarning
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -68,6 +70,37 @@ def load(path) -> manipcad.Robot:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
         return manipcad.load_robot(path)
+
+
+@numba.njit(cache=True)
+def loop_cfunc(f, Q, QD, T, OUT):
+    """A compiled loop calling a generated C-ABI kernel per state (as a simulator would)."""
+    n = Q.shape[1]
+    q, qd, tau, qdd = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    for k in range(Q.shape[0]):
+        for j in range(n):
+            q[j] = Q[k, j]
+            qd[j] = QD[k, j]
+            tau[j] = T[k, j]
+        f(q.ctypes.data, qd.ctypes.data, tau.ctypes.data, qdd.ctypes.data)
+        for j in range(n):
+            OUT[k, j] = qdd[j]
+
+
+@numba.njit(cache=True)
+def loop_aba(table, g, Q, QD, T, OUT):
+    """The same loop with the general ABA inlined (what sim/loop.py does today)."""
+    n = Q.shape[1]
+    q, qd, tau, qdd = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    work, tmp, fext = np.empty((n, ABA_WORK)), np.empty((23, 6)), np.zeros((n, 6))
+    for k in range(Q.shape[0]):
+        for j in range(n):
+            q[j] = Q[k, j]
+            qd[j] = QD[k, j]
+            tau[j] = T[k, j]
+        aba_state(table, g, q, qd, tau, fext, False, True, work, tmp, qdd)
+        for j in range(n):
+            OUT[k, j] = qdd[j]
 
 
 def per_state(fn, *args, **kwargs):
@@ -134,9 +167,14 @@ def bench_rhs(rounds: int, rng) -> dict:
     Q, QD, T = rng.uniform(-1.5, 1.5, (3, N_BATCH, n))
     out = np.empty_like(Q)
     kf = gen.kernel("forward_dynamics_batch")
-    cases = {"generated forward (chol)": per_state(kf, Q, QD, T, True, out),
-             "general forward (aba)": per_state(manipcad.forward_dynamics, robot, Q, QD, T,
-                                                use_generated=False)}
+    cf = gen.cfunc("forward_dynamics")
+    cases = {"generated forward (chol), batch kernel": per_state(kf, Q, QD, T, True, out),
+             "general forward (aba), batch kernel": per_state(
+                 manipcad.forward_dynamics, robot, Q, QD, T, use_generated=False),
+             "generated forward, C-ABI call in a compiled loop": per_state(
+                 loop_cfunc, cf, Q, QD, T, out),
+             "general aba_state inlined in a compiled loop": per_state(
+                 loop_aba, robot.table, robot.gravity, Q, QD, T, out)}
     for f in cases.values():
         f()
     return {"robot": "puma560 with drives", "n": n, "times": interleave(cases, rounds, rng)}

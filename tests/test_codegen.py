@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import warnings
 
+import numba
 import numpy as np
 import pytest
 from typer.testing import CliRunner
@@ -15,7 +16,7 @@ from typer.testing import CliRunner
 import manipcad
 from manipcad.analysis import moment_components
 from manipcad.cli import app
-from manipcad.codegen import generate, robot_hash
+from manipcad.codegen import CFUNC_SIGNATURES, generate, robot_hash
 from manipcad.codegen.emit import count_ops
 from manipcad.errors import ManipcadError, ManipcadWarning
 
@@ -183,6 +184,56 @@ def test_one_state_calls_equal_the_compiled_batch_bit_for_bit():
     strided = np.asfortranarray(Q)[1]  # not contiguous: the checked path
     assert not strided.flags.c_contiguous
     assert np.array_equal(gen.mass_matrix(strided), gen.mass_matrix(Q)[1])
+
+
+@numba.njit(cache=True)
+def _loop_with_kernels(fd, mc, Q, QD, T, QDD, HII, HV, QG):
+    """What a compiled simulator does: call C-ABI kernels given as arguments."""
+    q, qd, tau, out = np.empty(Q.shape[1]), np.empty(Q.shape[1]), np.empty(Q.shape[1]), \
+        np.empty(Q.shape[1])
+    a, b, c = np.empty(Q.shape[1]), np.empty(Q.shape[1]), np.empty(Q.shape[1])
+    bad = -1
+    for k in range(Q.shape[0]):
+        q[:] = Q[k]
+        qd[:] = QD[k]
+        tau[:] = T[k]
+        r = fd(q.ctypes.data, qd.ctypes.data, tau.ctypes.data, out.ctypes.data)
+        if r >= 0:
+            bad = k
+        mc(q.ctypes.data, qd.ctypes.data, a.ctypes.data, b.ctypes.data, c.ctypes.data)
+        QDD[k] = out
+        HII[k] = a
+        HV[k] = b
+        QG[k] = c
+    return bad
+
+
+def test_c_abi_kernels_run_inside_compiled_code():
+    robot = load("puma560")
+    gen = generate(robot, attach=False)
+    Q, QD, QDD = states(robot, 6, seed=4)
+    tau = manipcad.inverse_dynamics(robot, Q, QD, QDD, use_generated=False)
+    out, hii, hv, qg = (np.empty_like(Q) for _ in range(4))
+    fd, mc = gen.cfunc("forward_dynamics"), gen.cfunc("moment_components")
+    assert _loop_with_kernels(fd, mc, Q, QD, tau, out, hii, hv, qg) == -1
+    assert np.array_equal(out, gen.forward_dynamics(Q, QD, tau))
+    ref = moment_components(robot, Q, QD)
+    assert rel(hii, ref.H_ii) < TOL and rel(hv, ref.velocity) < TOL
+    assert rel(qg, ref.gravity) < TOL
+    # the same compiled loop serves another robot (the kernels' type is the signature)
+    other = load("stanford")
+    g2 = generate(other, attach=False)
+    Q2, QD2, QDD2 = states(other, 3, seed=5)
+    tau2 = manipcad.inverse_dynamics(other, Q2, QD2, QDD2, use_generated=False)
+    o2, a2, b2, c2 = (np.empty_like(Q2) for _ in range(4))
+    _loop_with_kernels(g2.cfunc("forward_dynamics"), g2.cfunc("moment_components"),
+                       Q2, QD2, tau2, o2, a2, b2, c2)
+    assert rel(manipcad.inverse_dynamics(other, Q2, QD2, o2, use_generated=False), tau2) < TOL
+    assert len(_loop_with_kernels.signatures) == 1
+    assert _loop_with_kernels.signatures[0][0] == numba.types.FunctionType(
+        CFUNC_SIGNATURES["forward_dynamics"])
+    with pytest.raises(ManipcadError, match="no C-ABI kernel"):
+        gen.cfunc("jacobian")
 
 
 def test_cache_is_keyed_by_content_hash(tmp_path):

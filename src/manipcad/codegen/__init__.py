@@ -7,6 +7,7 @@ dynamics, with the operation counts of the generated code in ``gen.ops``;
 """
 
 from manipcad.codegen.generate import (
+    CFUNC_SIGNATURES,
     MAX_JOINTS,
     GeneratedDynamics,
     c_identifier,
@@ -16,4 +17,4 @@ from manipcad.codegen.generate import (
 )
 
 __all__ = ["generate", "GeneratedDynamics", "robot_hash", "c_identifier", "cache_root",
-           "MAX_JOINTS"]
+           "MAX_JOINTS", "CFUNC_SIGNATURES"]

@@ -27,6 +27,8 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 import symengine as se
+from numba import carray
+from numba.core.extending import intrinsic
 
 from manipcad.codegen import emit
 from manipcad.codegen.emit import AddTo, Check, Friction, IfDrives, Let, Store
@@ -491,7 +493,7 @@ def _extension(path: Path, digest: str, n: int):
         src = src.replace('#include "mcg.h"', "")
         text = (_EXT_TEMPLATE.replace("@SOURCE@", src).replace("@N@", str(n))
                 .replace("@NAME@", name))
-        c_file = path / f"{name}.c"
+        c_file = path / f"{name}.{os.getpid()}.c"
         c_file.write_text(text)
         tmp = so.with_suffix(f".{os.getpid()}.tmp")
         cmd = [cc, "-O2", "-ffp-contract=off", "-shared", "-fPIC", f"-I{inc}",
@@ -506,6 +508,51 @@ def _extension(path: Path, digest: str, n: int):
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
+
+
+_ADDR = nb.types.uintp
+#: signatures of :meth:`GeneratedDynamics.cfunc` (arguments: buffer addresses)
+CFUNC_SIGNATURES = {
+    "inverse_dynamics": nb.types.int64(_ADDR, _ADDR, _ADDR, _ADDR),
+    "mass_matrix": nb.types.int64(_ADDR, _ADDR),
+    "moment_components": nb.types.int64(_ADDR, _ADDR, _ADDR, _ADDR, _ADDR),
+    "forward_dynamics": nb.types.int64(_ADDR, _ADDR, _ADDR, _ADDR),
+}
+
+
+@intrinsic
+def _f64_ptr(typingctx, addr):
+    """The address (an integer) as a ``double *``."""
+    sig = nb.types.CPointer(nb.types.float64)(addr)
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+
+    return sig, codegen
+
+
+def _make_cfunc(name: str, kern, n: int, drives: bool):
+    """The C-ABI wrapper of one generated kernel (see GeneratedDynamics.cfunc)."""
+    sig = CFUNC_SIGNATURES[name]
+    if name == "inverse_dynamics":
+        def f(a, b, c, d):
+            kern(carray(_f64_ptr(a), n), carray(_f64_ptr(b), n), carray(_f64_ptr(c), n),
+                 drives, carray(_f64_ptr(d), n))
+            return 0
+    elif name == "mass_matrix":
+        def f(a, b):
+            kern(carray(_f64_ptr(a), n), drives, carray(_f64_ptr(b), (n, n)))
+            return 0
+    elif name == "moment_components":
+        def f(a, b, c, d, e):
+            kern(carray(_f64_ptr(a), n), carray(_f64_ptr(b), n), carray(_f64_ptr(c), n),
+                 carray(_f64_ptr(d), n), carray(_f64_ptr(e), n))
+            return 0
+    else:
+        def f(a, b, c, d):
+            return kern(carray(_f64_ptr(a), n), carray(_f64_ptr(b), n), carray(_f64_ptr(c), n),
+                        drives, carray(_f64_ptr(d), n))
+    return nb.cfunc(sig, nogil=True, error_model="numpy")(f)
 
 
 class _NoExtension:
@@ -574,6 +621,7 @@ class GeneratedDynamics:
         self.ops, self.path, self.seconds = ops, path, seconds
         self._m = module
         self._c: dict = {}  # name -> compiled kernel
+        self._cf: dict = {}  # (name, drives) -> C-ABI kernel
         # one-state calls: the CPython extension of the C code, built on first use
         self._x = _LazyExtension(self) if module is not None else _NO_EXTENSION
 
@@ -600,6 +648,50 @@ class GeneratedDynamics:
     def __repr__(self) -> str:
         kind = "generated" if self.generated else "general fallback"
         return f"GeneratedDynamics({self.robot.name!r}, n={self.n}, {kind})"
+
+    def cfunc(self, name: str, drives: bool = True):
+        """A C-ABI kernel on raw addresses, for other compiled loops (the simulator's).
+
+        A numba ``cfunc`` taking the addresses (``arr.ctypes.data``) of float64
+        buffers of n entries (H: n·n, row-major) and returning an int64:
+
+        - ``inverse_dynamics(q, qd, qdd, tau) -> 0``
+        - ``mass_matrix(q, H) -> 0``
+        - ``moment_components(q, qd, H_ii, h, Qg) -> 0``
+        - ``forward_dynamics(q, qd, tau, qdd) -> -1`` or the joint where H is not
+          positive definite.
+
+        Passed to a numba function as an argument its type is
+        ``numba.types.FunctionType(sig)`` (:attr:`CFUNC_SIGNATURES`), the same
+        for every robot, so the caller compiles once and stays cacheable; the
+        call takes no reference counts (numba counts them on every array
+        passed to a compiled call).
+
+        Args:
+            name: one of the four names above.
+            drives: include the drive terms (all but moment_components).
+
+        Returns:
+            The ``numba.core.ccallback.CFunc``; ``.address`` is its C address.
+
+        Example:
+            >>> import numpy as np, manipcad
+            >>> from manipcad.codegen import generate
+            >>> gen = generate(manipcad.load_robot("cylindrical"))
+            >>> f = gen.cfunc("inverse_dynamics")
+            >>> q, qd, qdd, tau = np.zeros(3), np.zeros(3), np.zeros(3), np.empty(3)
+            >>> f.ctypes(q.ctypes.data, qd.ctypes.data, qdd.ctypes.data, tau.ctypes.data)
+            0
+        """
+        key = (name, bool(drives))
+        f = self._cf.get(key)
+        if f is None:
+            if name not in CFUNC_SIGNATURES:
+                raise ManipcadError(f"no C-ABI kernel {name!r}: one of "
+                                    f"{', '.join(CFUNC_SIGNATURES)}")
+            f = _make_cfunc(name, self.kernel(name), self.n, bool(drives))
+            self._cf[key] = f
+        return f
 
     # ---- fast single-state path, then the checked path
     def inverse_dynamics(self, q, qd, qdd, drives: bool = True) -> np.ndarray:

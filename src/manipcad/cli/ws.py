@@ -115,17 +115,35 @@ def add(source: Annotated[Path, typer.Argument(
         console.print("nothing new: the bundle's items are already here")
 
 
+_SINGULAR = {"robots": "robot", "motors": "motor", "gears": "gear",
+             "trajectories": "trajectory", "regulators": "regulator", "results": "result",
+             "studies": "study"}
+
+
 def _list_table(items, title: str) -> Table:
-    table = Table(title=title, box=box.SIMPLE_HEAD)
-    for col in ("kind", "name", "created (UTC)", "status", "max |e| rad|m", "RMS e rad|m",
-                "peak τ N·m|N", "peak i A", "sha256"):
-        table.add_column(col, overflow="fold",
-                         justify="right" if col[:3] in ("max", "RMS", "pea") else "left")
+    """The listing: kind, name, created, hash; results add their status and key metrics
+    (largest over the joints). Long names fold onto the next line; nothing is cut."""
+    results = any(i.kind == "results" for i in items)
+    table = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False)
+    table.add_column("kind", no_wrap=True)
+    table.add_column("name", overflow="fold", min_width=8)
+    table.add_column("created UTC", no_wrap=True)
+    if results:
+        table.add_column("status", no_wrap=True)
+        for col in ("max|e|", "RMS e", "peak τ", "peak i"):
+            table.add_column(col, justify="right", no_wrap=True)
+    table.add_column("sha256", no_wrap=True)
     for i in items:
-        m = i.metrics
-        table.add_row(i.kind, i.name, i.created.replace("+00:00", ""), i.status or "",
-                      _num(m.get("max_error")), _num(m.get("rms_error")),
-                      _num(m.get("peak_torque")), _num(m.get("peak_current")), i.hash[:12])
+        row = [_SINGULAR[i.kind], i.name,
+               i.created.replace("+00:00", "")[:16].replace("T", " ")]
+        if results:
+            m = i.metrics
+            row += [i.status or "", _num(m.get("max_error")), _num(m.get("rms_error")),
+                    _num(m.get("peak_torque")), _num(m.get("peak_current"))]
+        table.add_row(*row, i.hash[:8])
+    if results:
+        table.caption = ("max|e|, RMS e: rad or m; peak τ: N·m or N; peak i: A "
+                         "(largest over the joints)")
     return table
 
 
@@ -222,7 +240,7 @@ def compare(names: Annotated[list[str], typer.Argument(help="Result names.",
             ws: WsOpt = None, as_json: JsonOpt = False) -> None:
     """Compare results: a metrics table (largest over joints) and overlaid plots."""
     from manipcad.fileio import writable_target
-    from manipcad.workspace.runs import COMPARE_METRICS
+    from manipcad.workspace.runs import COMPARE_HEADINGS, COMPARE_METRICS
     from manipcad.workspace.runs import compare as run_compare
 
     if plot is not None:
@@ -239,8 +257,9 @@ def compare(names: Annotated[list[str], typer.Argument(help="Result names.",
     table = Table(title="results compared (largest over the joints)", box=box.SIMPLE_HEAD)
     table.add_column("result", overflow="fold")
     table.add_column("status")
-    for m, unit in COMPARE_METRICS:
-        table.add_column(f"{m} {unit}", justify="right")
+    for m, _unit in COMPARE_METRICS:
+        table.add_column(COMPARE_HEADINGS[m], justify="right", no_wrap=True)
+    table.caption = ", ".join(f"{COMPARE_HEADINGS[m]} {u}" for m, u in COMPARE_METRICS)
     for r in rows:
         table.add_row(r["name"], r["status"] or "", *(_num(r[m], ".4g")
                                                       for m, _ in COMPARE_METRICS))

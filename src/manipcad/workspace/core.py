@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import secrets
 import shutil
 import tempfile
@@ -391,9 +392,21 @@ class Workspace:
         facts = validate_item(kind, src, robot=robot)
         self._check_free(kind, name, force)
         folder = self.root / kind
+        stored_as = ""
         if kind in FILE_KINDS:
-            tmp = self._copy_file(src, folder, name)
-            target = folder / f"{name}{src.suffix.lower()}"
+            copy_from = src
+            if kind == "robots" and _references_files(src):
+                # a URDF + drives file or one naming motor/gear files by path: store it
+                # self-contained, in the tree form Robot.save writes (loads back identical)
+                copy_from = Path(tempfile.mkdtemp(prefix="manipcad-ws-")) / f"{name}.yaml"
+                _robot_quiet(src).save(copy_from)
+                stored_as = " (stored in the tree form: its file referenced other files)"
+            try:
+                tmp = self._copy_file(copy_from, folder, name)
+            finally:
+                if copy_from != src:
+                    shutil.rmtree(copy_from.parent, ignore_errors=True)
+            target = folder / f"{name}{copy_from.suffix.lower()}"
         else:
             from manipcad.store.results import temp_dir
 
@@ -402,7 +415,8 @@ class Workspace:
             shutil.copytree(src, tmp, symlinks=False,
                             ignore=shutil.ignore_patterns(".*"))
             target = folder / name
-        meta = {"created": _now(), "manipcad_version": _version(), "source": str(src.resolve())}
+        meta = {"created": _now(), "manipcad_version": _version(),
+                "source": str(src.resolve()) + stored_as}
         if kind == "results":
             meta["provenance"] = self._result_provenance(tmp)
         return self._commit(kind, name, tmp, target, meta, facts, force)
@@ -838,8 +852,8 @@ class Workspace:
         return out
 
 
-def _joint_types(robot_file: Path) -> tuple[str, ...]:
-    """The joint types of a robot file (its data warnings are the loader's business)."""
+def _robot_quiet(robot_file: Path):
+    """A robot file's robot (its data warnings are the loader's business, shown at add)."""
     import warnings
 
     from manipcad.errors import ManipcadWarning
@@ -847,7 +861,21 @@ def _joint_types(robot_file: Path) -> tuple[str, ...]:
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
-        return load_robot(robot_file).joint_types
+        return load_robot(robot_file)
+
+
+def _joint_types(robot_file: Path) -> tuple[str, ...]:
+    """The joint types of a robot file."""
+    return _robot_quiet(robot_file).joint_types
+
+
+def _references_files(robot_file: Path) -> bool:
+    """Whether a robot YAML file names other files (``urdf:``, motor or gear paths)."""
+    if robot_file.suffix.lower() not in (".yaml", ".yml"):
+        return False
+    text = robot_file.read_text(encoding="utf-8", errors="replace")
+    return bool(re.search(r"^\s*urdf\s*:", text, flags=re.M)
+                or re.search(r"[\w./-]+\.(ya?ml|urdf|xml)\b", text))
 
 
 def _no_links_out(src: Path) -> None:

@@ -16,6 +16,10 @@ from manipcad.workspace.core import Workspace
 COMPARE_METRICS = (("max_error", "rad|m"), ("rms_error", "rad|m"), ("peak_torque", "N·m|N"),
                    ("peak_current", "A"), ("peak_power", "W"), ("energy", "J"))
 
+#: short table headings of :data:`COMPARE_METRICS`
+COMPARE_HEADINGS = {"max_error": "max|e|", "rms_error": "RMS e", "peak_torque": "peak τ",
+                    "peak_current": "peak i", "peak_power": "peak P", "energy": "energy"}
+
 
 def compare(ws: Workspace, refs: list[str], *, quantities=("error", "tau", "current")):
     """Metrics of several stored results side by side, and their overlaid plots.

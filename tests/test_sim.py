@@ -65,7 +65,8 @@ def test_passive_random_chain_matches_pinocchio(seed):
     rng = np.random.default_rng(100 + seed)
     q0 = rng.normal(size=robot.n) * 0.5
     qd0 = rng.normal(size=robot.n) * 0.5
-    res = simulate(robot, t_end=0.5, dt=1e-4, q0=q0, qd0=qd0, drives=False)
+    res = simulate(robot, t_end=0.5, dt=1e-4, q0=q0, qd0=qd0, drives=False,
+                   joint_limits="ignore")
     q_ref, qd_ref = pinocchio_passive(robot, q0, qd0, res.t)
     assert res.q.shape == (5001, robot.n)
     # measured: 4e-14 .. 3.2e-12 rad
@@ -77,7 +78,8 @@ def test_passive_random_chain_matches_pinocchio(seed):
 def test_passive_random_tree_matches_pinocchio():
     robot = random_tree(5, n=7, chain=False)
     q0 = np.linspace(-0.5, 0.5, robot.n)
-    res = simulate(robot, t_end=0.5, dt=1e-4, q0=q0, qd0=np.zeros(robot.n), drives=False)
+    res = simulate(robot, t_end=0.5, dt=1e-4, q0=q0, qd0=np.zeros(robot.n), drives=False,
+                   joint_limits="ignore")
     q_ref, _ = pinocchio_passive(robot, q0, np.zeros(robot.n), res.t)
     assert np.abs(res.q - q_ref).max() < 1e-9
 
@@ -86,7 +88,8 @@ def test_passive_puma_without_drives_matches_pinocchio():
     robot = puma()
     q0 = np.array([0.1, 0.6, -0.4, 0.2, 0.5, -0.3])
     qd0 = np.array([0.3, 0.0, 0.2, -0.5, 0.1, 0.4])
-    res = simulate(robot, t_end=0.5, dt=1e-4, q0=q0, qd0=qd0, drives=False)
+    res = simulate(robot, t_end=0.5, dt=1e-4, q0=q0, qd0=qd0, drives=False,
+                   joint_limits="ignore")
     q_ref, _ = pinocchio_passive(robot, q0, qd0, res.t)
     assert np.abs(res.q - q_ref).max() < 1e-9   # measured 2.5e-12 rad
     assert np.abs(res.q[-1] - q0).max() > 0.1  # it fell under gravity
@@ -100,7 +103,8 @@ def test_rk4_converges_with_fourth_order():
     q0 = np.array([0.1, 0.6, -0.4, 0.2, 0.5, -0.3])
     qd0 = np.array([0.3, 0.0, 0.2, -0.5, 0.1, 0.4])
     q_ref, _ = pinocchio_passive(robot, q0, qd0, np.linspace(0.0, 0.4, 5))
-    err = [np.abs(simulate(robot, t_end=0.4, dt=dt, q0=q0, qd0=qd0, drives=False).q[-1]
+    err = [np.abs(simulate(robot, t_end=0.4, dt=dt, q0=q0, qd0=qd0, drives=False,
+                   joint_limits="ignore").q[-1]
                   - q_ref[-1]).max() for dt in (8e-3, 4e-3, 2e-3, 1e-3)]
     orders = np.log2(np.array(err[:-1]) / np.array(err[1:]))
     assert np.all((orders > 3.8) & (orders < 4.2)), (err, orders)
@@ -383,3 +387,29 @@ def test_positive_feedback_sign_warns(tmp_path):
     with pytest.warns(ManipcadWarning, match="without a drive"):
         regulators_from_dict({"type": "pid", "period": 1e-3, "kp": -1.0,
                               "joints": ["shoulder"]}, robot, drives=False)
+
+
+def _slider():
+    """A passive finger: a prismatic joint along -z under gravity, limits [0, 0.04] m."""
+    return Robot.from_arrays("finger", ["prismatic"], [-1], [np.eye(3)], [np.zeros(3)],
+                             [0.1], [np.zeros(3)], [np.eye(3) * 1e-5],
+                             gravity=(0.0, 0.0, 9.81), limits=[[0.0, 0.04]],
+                             joint_names=["finger_joint"])
+
+
+def test_joint_beyond_its_limits_is_never_silent():
+    """A passive finger slides past its 0.04 m limit: warned (with how far and when), or
+    the run stops there naming the joint and the time."""
+    from manipcad.sim import JointLimitExceeded
+
+    with pytest.warns(ManipcadWarning, match="'finger_joint' by up to .* m .first at t = 0.09"):
+        res = simulate(_slider(), t_end=0.5, dt=1e-3, q0=[0.0], drives=False)
+    assert res.q[-1, 0] > 1.0 and res.metrics["finger_joint"]["limit_excess"] > 1.0
+    with pytest.raises(JointLimitExceeded, match=r"'finger_joint' left its limits \[0, 0.04\] "
+                       r"m at t = 0.09"):
+        simulate(_slider(), t_end=0.5, dt=1e-3, q0=[0.0], drives=False, joint_limits="stop")
+    import warnings as w
+
+    with w.catch_warnings():
+        w.simplefilter("error")
+        simulate(_slider(), t_end=0.5, dt=1e-3, q0=[0.0], drives=False, joint_limits="ignore")

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import math
+import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -124,6 +125,9 @@ def simulate(
     allow_other_robot: Annotated[bool, typer.Option(
         "--allow-other-robot", help="Run regulator files made for a robot model with another "
         "hash (refused by default).")] = False,
+    joint_limits: Annotated[str, typer.Option(
+        "--joint-limits", help="A joint beyond its limits: warn (the run goes on), stop (the "
+        "run stops there, exit 2), ignore.")] = "warn",
 ) -> None:
     """Simulate the closed loop (multibody + DC drives + sampled regulators) and save it."""
     from manipcad.control.files import load_regulators
@@ -181,9 +185,14 @@ def simulate(
     if not no_drives and not arm.has_drives:
         raise InputError(robot, "drives", "the robot has no drives; use --no-drives")
 
+    if joint_limits not in ("warn", "stop", "ignore"):
+        raise InputError("--joint-limits", "", f"must be warn, stop or ignore, got "
+                         f"{joint_limits!r}")
     inputs: dict[str, Any] = {}
-    robot_file = _robot_file(robot)
-    inputs["robot"] = robot_file if robot_file is not None else {"name": arm.name}
+    # the robot as it ran, drives included, in one self-contained file (a robot file that
+    # points to a URDF by a relative path would not re-run from the result folder)
+    keep = tempfile.TemporaryDirectory()
+    inputs["robot"] = arm.save(Path(keep.name) / "robot.yaml")
     inputs["trajectory"] = trajectory
     if regulator:
         inputs["regulator"] = list(regulator)
@@ -192,12 +201,18 @@ def simulate(
            "every": every, "drives": not no_drives, "payload": payload,
            "robot_notes": notes}
 
+    from manipcad.cli.warmup import ensure_warm
+
+    ensure_warm("simulator")
     wall = time.perf_counter()
     with err_console.status(f"simulating {arm.name}: {t_end:g} s at dt = {dt:g} s "
-                            f"({int(round(t_end / dt))} RK4 steps)..."):
+                            f"({int(round(t_end / dt))} RK4 steps)..."), \
+            warnings.catch_warnings(record=True) as run_notes:
+        warnings.simplefilter("always", ManipcadWarning)
         try:
             res = run_simulation(arm, t_end=t_end, dt=dt, trajectory=traj, regulators=regs,
-                                 payload=payload, drives=not no_drives, record_every=every)
+                                 payload=payload, drives=not no_drives, record_every=every,
+                                 joint_limits=joint_limits)
         except SimulationDiverged as exc:
             if save_diverged:
                 save_result(exc.result, out, inputs=inputs, joint_types=arm.joint_types,
@@ -205,6 +220,10 @@ def simulate(
                 raise ManipcadError(f"{exc}; the partial result is in {out}") from None
             raise ManipcadError(f"{exc}; nothing was written to {out}") from None
     wall = time.perf_counter() - wall
+    for w in run_notes:
+        if issubclass(w.category, ManipcadWarning):
+            err_console.print(f"[yellow]warning:[/] {w.message}", highlight=False,
+                              soft_wrap=True)
     run["wall_time_s"] = wall
     with err_console.status(f"writing {out}..."):
         save_result(res, out, inputs=inputs, joint_types=arm.joint_types, force=force,

@@ -56,8 +56,9 @@ def _simulator() -> None:
 
     arm = _arm()
     regs = [pid(j, kp=10.0, kd=1.0) for j in range(arm.n)]
-    simulate(arm, t_end=2e-3, dt=1e-3, regulators=regs, drives=True)
-    simulate(arm, t_end=2e-3, dt=1e-3, regulators=regs, drives=True, order=2)
+    simulate(arm, t_end=2e-3, dt=1e-3, regulators=regs, drives=True, joint_limits="ignore")
+    simulate(arm, t_end=2e-3, dt=1e-3, regulators=regs, drives=True, order=2,
+             joint_limits="ignore")
 
 
 def _arm():

@@ -5,6 +5,12 @@ registry's compiled dispatch; it names no method.
 """
 
 from manipcad.sim.metrics import step_metrics
-from manipcad.sim.simulate import SimulationDiverged, SimulationResult, simulate
+from manipcad.sim.simulate import (
+    JointLimitExceeded,
+    SimulationDiverged,
+    SimulationResult,
+    simulate,
+)
 
-__all__ = ["simulate", "SimulationResult", "SimulationDiverged", "step_metrics"]
+__all__ = ["simulate", "SimulationResult", "SimulationDiverged", "JointLimitExceeded",
+           "step_metrics"]

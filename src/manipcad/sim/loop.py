@@ -63,8 +63,9 @@ MAX_SPEED = 1.0e4
 regulator_update = dispatch()
 
 #: the robot: body tables (with and without the joint-referred drive terms), gravity (3,)
-#: m/s², packed drives (n, NPAR), drive-state offsets (n+1,), drives on, any elastic drive
-Plant = namedtuple("Plant", "rtable ctable g dtable off use_drives generic_drives")
+#: m/s², packed drives (n, NPAR), drive-state offsets (n+1,), drives on, any elastic drive,
+#: joint limits (n, 2) rad or m (±inf: none)
+Plant = namedtuple("Plant", "rtable ctable g dtable off use_drives generic_drives limits")
 #: the regulators (R of them): kind code (R,), parameters (R, NPARAM), states (R, NSTATE),
 #: joints (R, n) and their count (R,), period in steps (R,), moment constituents needed
 Control = namedtuple("Control", "kind params state joints nj steps need_comp")
@@ -73,8 +74,9 @@ Reference = namedtuple("Reference", "q qd qdd dist")
 #: kept samples: t (M,) s; q, q̇, U, i, τ (M, n)
 Record = namedtuple("Record", "t q qd u i tau")
 #: carried between chunks: state x, held outputs U (n,), steps to each regulator's next
-#: sample (R,), [next record row, steps to the next record] (2,)
-Work = namedtuple("Work", "x U wait rec")
+#: sample (R,), [next record row, steps to the next record] (2,), per joint the largest
+#: excursion beyond its limits (rad or m) and the time it first left them (s) (n, 2)
+Work = namedtuple("Work", "x U wait rec excess")
 
 
 @nb.njit(cache=True, inline="always")
@@ -166,12 +168,14 @@ def _signals(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp):
 
 
 @nb.njit(cache=True)
-def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last):
+def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
     """Integrate the steps k0 .. k0+K−1 (RK4, dt s) from ``work.x``; record every ``every``.
 
     ``ref`` holds the rows of steps k0 .. k0+K (K+1 rows). With ``last`` the state at
-    step k0+K is sampled and recorded too and the run ends there. Returns
-    (status, step, joint): status 0 done, 1 NaN, 2 runaway speed.
+    step k0+K is sampled and recorded too and the run ends there. A joint beyond its
+    limits is recorded in ``work.excess``; with ``stop_at_limits`` the run stops there.
+    Returns (status, step, joint): status 0 done, 1 NaN, 2 runaway speed, 3 a joint left
+    its limits.
     """
     n = plant.rtable.shape[0]
     x = work.x
@@ -250,6 +254,14 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last):
             for j in range(n):
                 if abs(x[n + j]) > MAX_SPEED:
                     return 2, k, j
+            for j in range(n):
+                ex = max(plant.limits[j, 0] - x[j], x[j] - plant.limits[j, 1])
+                if ex > work.excess[j, 0]:
+                    if work.excess[j, 0] == 0.0:
+                        work.excess[j, 1] = k * dt
+                    work.excess[j, 0] = ex
+                    if stop_at_limits:
+                        return 3, k, j
         for j in range(nx):
             x[j] = x[j] + h6 * (K4[0, j] + 2.0 * K4[1, j] + 2.0 * K4[2, j] + K4[3, j])
     return 0, k0 + K, -1

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -20,7 +21,7 @@ from manipcad.drives.params import (
     pack_drives,
     state_offsets,
 )
-from manipcad.errors import ManipcadError
+from manipcad.errors import ManipcadError, ManipcadWarning
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot
 from manipcad.sim.loop import Control, Plant, Record, Reference, Work, run
 from manipcad.sim.metrics import joint_metrics
@@ -36,6 +37,10 @@ class SimulationDiverged(ManipcadError):
     def __init__(self, message: str, result: SimulationResult) -> None:
         super().__init__(message)
         self.result = result
+
+
+class JointLimitExceeded(SimulationDiverged):
+    """A joint left its limits (``joint_limits="stop"``); ``.result`` holds the run so far."""
 
 
 @dataclass
@@ -100,6 +105,7 @@ def simulate(
     order: int = 3,
     record_every: int = 1,
     progress: Callable[[float], None] | None = None,
+    joint_limits: str = "warn",
 ) -> SimulationResult:
     """Simulate the closed loop: coupled multibody dynamics, DC drives, sampled regulators.
 
@@ -130,6 +136,11 @@ def simulate(
         record_every: keep every k-th step in the result.
         progress: called with the fraction done (0..1) after each chunk of steps; an
             exception it raises (e.g. KeyboardInterrupt to cancel) stops the run.
+        joint_limits: what a joint beyond the robot's limits does: "warn" (default: the
+            run goes on; a :class:`~manipcad.errors.ManipcadWarning` names each joint, how
+            far and when, and ``metrics[joint]["limit_excess"]`` records it), "stop"
+            (:class:`JointLimitExceeded` at the first step beyond, with the partial
+            result), or "ignore". The limits are not modelled as stops.
 
     Returns:
         :class:`SimulationResult`.
@@ -137,6 +148,7 @@ def simulate(
     Raises:
         SimulationDiverged: NaN or runaway speed, with the time and joint and
             the partial result.
+        JointLimitExceeded: with ``joint_limits="stop"``, a joint left its limits.
 
     Example:
         >>> import manipcad
@@ -146,6 +158,9 @@ def simulate(
         (101, 3)
     """
     n = robot.n
+    if joint_limits not in ("warn", "stop", "ignore"):
+        raise ManipcadError(f"joint_limits must be 'warn', 'stop' or 'ignore', got "
+                            f"{joint_limits!r}")
     if not (t_end > 0 and math.isfinite(t_end)):
         raise ManipcadError(f"t_end must be > 0 s, got {t_end}")
     if not (dt > 0 and dt <= t_end):
@@ -173,15 +188,21 @@ def simulate(
     x0 = np.concatenate([x_q, x_qd, _drive_initial_state(dtable, off, x_q, x_qd)])
     generic = any(int(dtable[j, P_KIND]) not in (KIND_NONE, KIND_RIGID, KIND_RIGID_STATIC)
                   for j in range(n))
+    limits = (np.tile([-math.inf, math.inf], (n, 1)) if robot.limits is None
+              or joint_limits == "ignore" else np.array(robot.limits, dtype=float))
+    # excursions below a millionth of the joint's range are rounding, not a limit hit
+    span = limits[:, 1] - limits[:, 0]
+    tol = np.where(np.isfinite(span), np.maximum(1e-6 * span, 1e-12), 0.0)
+    wide = np.column_stack([limits[:, 0] - tol, limits[:, 1] + tol])
     plant = Plant(rtable, np.ascontiguousarray(robot.table), np.asarray(robot.gravity, float),
-                  dtable, off, bool(drives), generic)
+                  dtable, off, bool(drives), generic, wide)
     ctrl, described = _pack_regulators(robot, regulators, dt)
 
     every = int(record_every)
     M = K // every + 1
     rec = Record(np.empty(M), *(np.empty((M, n)) for _ in range(5)))
     work = Work(x0, np.zeros(n), np.zeros(len(ctrl.kind), dtype=np.int64),
-                np.zeros(2, dtype=np.int64))
+                np.zeros(2, dtype=np.int64), np.zeros((n, 2)))
     dist_of = _disturbance_source(disturbance, K, n)
     status, step, joint = 0, 0, -1
     for k0 in range(0, K + 1, CHUNK):
@@ -193,7 +214,7 @@ def simulate(
                                np.zeros((len(t_rows), n))))
         ref = Reference(QR, QDR, QDDR, dist_of(k0, t_rows))
         status, step, joint = run(plant, ctrl, ref, rec, work, k0, steps, float(dt), every,
-                                  last)
+                                  last, joint_limits == "stop")
         if progress is not None:
             progress(min(1.0, (k0 + steps) / K))
         if status or last:
@@ -211,12 +232,31 @@ def simulate(
         settings={"dt": dt, "t_end": t_end, "drives": bool(drives), "order": order,
                   "regulators": described},
     )
+    unit = {nm: u for nm, u in res.units.items()}
+    if status == 3:
+        nm = robot.joint_names[joint]
+        lo, hi = limits[joint]
+        raise JointLimitExceeded(
+            f"joint {nm!r} left its limits [{lo:.6g}, {hi:.6g}] {unit[nm]} at "
+            f"t = {step * dt:.6g} s (q = {work.x[joint]:.6g} {unit[nm]}); the run stopped "
+            "there (joint_limits='stop')", res)
     if status:
         what = "NaN in the state" if status == 1 else "speed above 1e4 rad/s (m/s)"
         where = f"joint {robot.joint_names[joint]!r}" if joint >= 0 else "a drive state"
         raise SimulationDiverged(f"simulation diverged at t = {step * dt:.6g} s: {what} "
                                  f"at {where}", res)
     res.metrics = joint_metrics(res, drives=bool(drives) and robot.has_drives, dtable=dtable)
+    out = []
+    for j, nm in enumerate(robot.joint_names):
+        if work.excess[j, 0] > 0.0:
+            excess = float(work.excess[j, 0] + tol[j])
+            res.metrics[nm]["limit_excess"] = excess
+            out.append(f"{nm!r} by up to {excess:.3g} {unit[nm]} (first at "
+                       f"t = {work.excess[j, 1]:.6g} s; limits [{limits[j, 0]:.6g}, "
+                       f"{limits[j, 1]:.6g}])")
+    if out:
+        warnings.warn(f"{robot.name}: joints beyond their limits (not modelled as stops): "
+                      + "; ".join(out), ManipcadWarning, stacklevel=2)
     return res
 
 
@@ -344,4 +384,4 @@ def _pack_regulators(robot: Robot, regulators, dt: float):
     return Control(kind, params, state, joints, nj, steps, need_comp), described
 
 
-__all__ = ["simulate", "SimulationResult", "SimulationDiverged", "KIND_NONE"]
+__all__ = ["simulate", "SimulationResult", "SimulationDiverged", "JointLimitExceeded"]

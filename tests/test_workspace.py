@@ -439,3 +439,16 @@ def test_store_result_then_rerun_is_identical_and_compare_plots(ws, tmp_path):
     assert not rerun(ws, "r1").identical
     rows, fig = compare(ws, ["r1", "r1"])
     assert rows[0]["max_error"] == item.metrics["max_error"] and len(fig.axes) == 3 * 3
+
+
+def test_catalog_listed_beside_the_users(ws):
+    ws.add(catalog("motors", "maxon_re25_118743"), name="mine")
+    items = ws.library("motor")
+    origins = {(i.name, i.source.split(" ")[0]) for i in items}
+    assert ("mine", ws.get("mine").source.split(" ")[0]) in origins
+    assert ("maxon_re25_118743", "catalog") in origins
+    assert {i.kind for i in ws.library()} >= {"robots", "motors", "gears"}
+    assert ws.library("trajectory") == []
+    r = cli("ws", "list", "gear", "--catalog", "--json", "--ws", ws.root)
+    assert r.exit_code == 0 and all(d["source"] == "catalog (read-only)"
+                                    for d in json.loads(r.stdout))

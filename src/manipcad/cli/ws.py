@@ -124,8 +124,11 @@ def _list_table(items, title: str) -> Table:
     """The listing: kind, name, created, hash; results add their status and key metrics
     (largest over the joints). Long names fold onto the next line; nothing is cut."""
     results = any(i.kind == "results" for i in items)
+    origin = any(i.source.startswith("catalog") for i in items)
     table = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False)
     table.add_column("kind", no_wrap=True)
+    if origin:
+        table.add_column("origin", no_wrap=True)
     table.add_column("name", overflow="fold", min_width=8)
     table.add_column("created UTC", no_wrap=True)
     if results:
@@ -134,7 +137,8 @@ def _list_table(items, title: str) -> Table:
             table.add_column(col, justify="right", no_wrap=True)
     table.add_column("sha256", no_wrap=True)
     for i in items:
-        row = [_SINGULAR[i.kind], i.name,
+        row = [_SINGULAR[i.kind], *(["catalog" if i.source.startswith("catalog") else "user"]
+                                    if origin else []), i.name,
                i.created.replace("+00:00", "")[:16].replace("T", " ")]
         if results:
             m = i.metrics
@@ -156,10 +160,13 @@ def list_items(kind: Annotated[str | None, typer.Argument(
                    "--where", help="Filter results by metrics, e.g. \"max_error<1e-3 and "
                    "status=ok\" or \"rms_error[elbow]<=2e-4\" (largest over joints unless a "
                    "[joint] is given).")] = None,
+               catalog: Annotated[bool, typer.Option(
+                   "--catalog", help="Also list the built-in catalog's robots, motors and "
+                   "gears (read-only), with their origin.")] = False,
                ws: WsOpt = None, as_json: JsonOpt = False) -> None:
     """List the items, with results' key metrics (largest over the joints)."""
     w = _open(ws)
-    items = w.list(kind, where=where)
+    items = w.library(kind, where=where) if catalog else w.list(kind, where=where)
     if as_json:
         _echo_json([i.to_dict() for i in items])
         return

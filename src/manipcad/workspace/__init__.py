@@ -16,6 +16,7 @@ from manipcad.workspace.core import (
     ItemList,
     Problem,
     Workspace,
+    catalog_items,
     default_root,
     resolve_input,
 )
@@ -24,4 +25,5 @@ from manipcad.workspace.names import KINDS, check_name, kind_of
 from manipcad.workspace.where import METRICS, parse_where
 
 __all__ = ["Workspace", "Item", "ItemList", "Problem", "default_root", "resolve_input",
+           "catalog_items",
            "results_dataframe", "KINDS", "check_name", "kind_of", "METRICS", "parse_where"]

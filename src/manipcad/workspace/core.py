@@ -315,6 +315,16 @@ class Workspace:
         sql += " ORDER BY kind, name"
         return ItemList(self._item(r) for r in self.index.query(sql, params))
 
+    def library(self, kind: str | None = None, where: str | None = None) -> ItemList:
+        """The workspace's items and, for robots, motors and gears, the built-in
+        catalog's beside them (``source`` "catalog (read-only)"); a filter selects
+        results only, so it leaves out the catalog."""
+        items = self.list(kind, where=where)
+        if where is None and (kind is None or kind_of(kind) in ("robots", "motors", "gears")):
+            items = ItemList(sorted([*items, *catalog_items(kind)],
+                                    key=lambda i: (i.kind, i.name, i.source)))
+        return items
+
     def get(self, ref: str) -> Item:
         """One item by ``kind/name`` or by a name unique across kinds.
 
@@ -894,6 +904,40 @@ def _flat(inputs: Mapping[str, Any]) -> list[dict[str, Any]]:
     for v in inputs.values():
         out.extend(v if isinstance(v, list) else [v])
     return [d for d in out if isinstance(d, dict)]
+
+
+def catalog_items(kind: str | None = None) -> ItemList:
+    """The built-in catalog's robots, motors and gears as read-only items.
+
+    Args:
+        kind: robots, motors or gears (singular too); None for all three.
+
+    Returns:
+        Items with ``source`` "catalog (read-only)", ``path`` "catalog/KIND/FILE"
+        and the file's SHA-256; ``created`` is empty.
+
+    Example:
+        >>> [i.name for i in catalog_items("gear")][:2]
+        ['ballscrew_d16_p10_l800', 'belt_at5_z20_omega']
+    """
+    from manipcad.model.load import CATALOG
+
+    kinds = ("robots", "motors", "gears") if kind is None else (kind_of(kind),)
+    out = ItemList()
+    for k in kinds:
+        folder = CATALOG / k if k in ("robots", "motors", "gears") else None
+        if folder is None or not folder.is_dir():
+            continue
+        for entry in sorted(folder.iterdir(), key=lambda e: e.name):
+            if not entry.name.endswith((".yaml", ".urdf")):
+                continue
+            import hashlib
+
+            digest = hashlib.sha256(entry.read_bytes()).hexdigest()
+            out.append(Item(kind=k, name=entry.name.rsplit(".", 1)[0],
+                            path=f"catalog/{k}/{entry.name}", hash=digest, created="",
+                            manipcad_version=_version(), source="catalog (read-only)"))
+    return out
 
 
 def resolve_input(kind: str, arg: str | Path, ws: Workspace | str | Path | None = None) -> str:

@@ -452,3 +452,22 @@ def test_catalog_listed_beside_the_users(ws):
     r = cli("ws", "list", "gear", "--catalog", "--json", "--ws", ws.root)
     assert r.exit_code == 0 and all(d["source"] == "catalog (read-only)"
                                     for d in json.loads(r.stdout))
+
+
+def test_jupyter_html(results_ws):
+    import manipcad
+    from manipcad.store import load_result
+    from manipcad.workspace import result_html, results_dataframe
+
+    html = results_ws.list()._repr_html_()
+    assert html.count("<tr>") == 1 + 5 and "medium" in html
+    assert "cyl" in results_ws._repr_html_()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        arm = manipcad.load_robot("cylindrical")
+    assert arm._repr_html_().count("<tr>") == 1 + arm.n
+    res, doc = load_result(results_ws.path("small"))
+    assert "turn" in result_html(res, doc["joint_types"])
+    df = results_dataframe(res, doc["joint_types"])
+    assert df.shape == (50, 3 * 8) and "lift.tau [N]" in df.columns
+    assert np.array_equal(df["reach.q [m]"].to_numpy(), res.q[:, 2])

@@ -507,6 +507,11 @@ class Robot:
 
         return save_robot(self, path)
 
+    def _repr_html_(self) -> str:
+        from manipcad.model.html import robot_html
+
+        return robot_html(self)
+
     def to_urdf(self, path=None) -> str:
         """The rigid-body model as URDF text (:mod:`manipcad.model.to_urdf`: no gravity,
         no drives); also written to ``path`` (str or Path) if given.

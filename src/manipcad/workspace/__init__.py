@@ -20,10 +20,10 @@ from manipcad.workspace.core import (
     default_root,
     resolve_input,
 )
-from manipcad.workspace.frame import results_dataframe
+from manipcad.workspace.frame import result_html, results_dataframe
 from manipcad.workspace.names import KINDS, check_name, kind_of
 from manipcad.workspace.where import METRICS, parse_where
 
 __all__ = ["Workspace", "Item", "ItemList", "Problem", "default_root", "resolve_input",
-           "catalog_items",
-           "results_dataframe", "KINDS", "check_name", "kind_of", "METRICS", "parse_where"]
+           "catalog_items", "results_dataframe", "result_html", "KINDS", "check_name",
+           "kind_of", "METRICS", "parse_where"]

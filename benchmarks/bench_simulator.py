@@ -58,6 +58,7 @@ import numpy as np
 import pinocchio as pin
 
 import manipcad
+from manipcad.codegen import simulation_kernels
 from manipcad.control import pid
 from manipcad.errors import ManipcadWarning
 from manipcad.interop.pinocchio import to_pinocchio
@@ -264,7 +265,9 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
 
     rparam = np.zeros((n, NPARAM))
     rparam[:, PID_KP], rparam[:, PID_KD], rparam[:, PID_ULIM] = KP, KD, U_LIMIT
-    plant = Plant(rtable, np.ascontiguousarray(robot.table), g, dtable, off, True, False)
+    plant = Plant(rtable, np.ascontiguousarray(robot.table), g, dtable, off, True, False,
+                  np.tile([-np.inf, np.inf], (robot.n, 1)),
+                  *simulation_kernels(robot, rtable, use_generated=False))
 
     def per_call(fn, *args):
         fn(10, *args)  # compile

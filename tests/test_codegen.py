@@ -236,6 +236,29 @@ def test_c_abi_kernels_run_inside_compiled_code():
         gen.cfunc("jacobian")
 
 
+def test_simulator_picks_the_generated_kernels():
+    from manipcad.control import pid
+    from manipcad.sim import simulate
+    from manipcad.trajectories import quintic
+
+    robot = load("puma560")
+    generate(robot)
+    traj = quintic(np.zeros(6), np.array([0.4, -0.3, 0.2, 0.5, -0.4, 0.6]), 0.05)
+    regs = [pid(j, kp=300.0, kd=10.0, u_limit=40.0, period=1e-3) for j in range(robot.n)]
+    runs = {use: simulate(robot, t_end=0.05, dt=1e-4, trajectory=traj, regulators=regs,
+                          use_generated=use) for use in (True, False)}
+    assert runs[True].settings["generated"] and not runs[False].settings["generated"]
+    assert np.abs(runs[True].q - runs[False].q).max() < 1e-9
+    assert np.abs(runs[True].current - runs[False].current).max() < 1e-7
+    # drives=False: the generated rigid body; a payload makes another robot (general kernels)
+    passive = simulate(robot, t_end=0.02, dt=1e-4, drives=False)
+    assert passive.settings["generated"]
+    ref = simulate(robot, t_end=0.02, dt=1e-4, drives=False, use_generated=False)
+    assert np.abs(passive.q - ref.q).max() < 1e-9
+    loaded = simulate(robot, t_end=0.01, dt=1e-4, drives=False, payload=1.0)
+    assert not loaded.settings["generated"]
+
+
 def test_cache_is_keyed_by_content_hash(tmp_path):
     robot = load("cylindrical")
     first = generate(robot, cache_dir=tmp_path, attach=False)

@@ -12,9 +12,11 @@ from manipcad.codegen.generate import (
     GeneratedDynamics,
     c_identifier,
     cache_root,
+    find,
     generate,
     robot_hash,
+    simulation_kernels,
 )
 
 __all__ = ["generate", "GeneratedDynamics", "robot_hash", "c_identifier", "cache_root",
-           "MAX_JOINTS", "CFUNC_SIGNATURES"]
+           "MAX_JOINTS", "CFUNC_SIGNATURES", "find", "simulation_kernels"]

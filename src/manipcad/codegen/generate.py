@@ -981,3 +981,96 @@ def generate(robot: Robot, *, cache_dir: str | Path | None = None, attach: bool 
     if attach:
         object.__setattr__(robot, "_generated", gen)
     return gen
+
+
+# ------------------------------------------------------------------ for compiled loops
+def find(robot: Robot, *, cache_dir: str | Path | None = None) -> GeneratedDynamics | None:
+    """The robot's generated kernels if they exist (attached, or in the cache); never generates.
+
+    Args:
+        robot: the manipulator.
+        cache_dir: folder of generated modules; default :func:`cache_root`.
+
+    Returns:
+        :class:`GeneratedDynamics` (attached to the robot), or None when
+        :func:`generate` has not run for this robot's content.
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.codegen import find, generate
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> _ = generate(arm)
+        >>> find(arm) is not None
+        True
+    """
+    gen = robot.__dict__.get("_generated")
+    if gen is not None:
+        return gen
+    if robot.n > MAX_JOINTS:
+        return None
+    digest = robot_hash(robot)
+    root = Path(cache_dir) if cache_dir is not None else cache_root()
+    path = root / f"{c_identifier(robot.name)[:40]}-{digest[:24]}"
+    try:
+        meta = json.loads((path / "meta.json").read_text())
+    except (OSError, ValueError):
+        return None
+    if meta.get("hash") != digest:
+        return None
+    return generate(robot, cache_dir=root)
+
+
+_DUMMIES: dict = {}
+
+
+def _dummy(name: str):
+    """A C-ABI kernel of ``name``'s signature that does nothing and returns -2."""
+    f = _DUMMIES.get(name)
+    if f is None:
+        nargs = len(CFUNC_SIGNATURES[name].args)
+        args = ", ".join(f"a{i}" for i in range(nargs))
+        ns: dict = {}
+        exec(f"def f({args}):\n    return -2\n", ns)  # one source per arity
+        f = nb.cfunc(CFUNC_SIGNATURES[name], nogil=True)(ns["f"])
+        _DUMMIES[name] = f
+    return f
+
+
+def simulation_kernels(robot: Robot, table: np.ndarray, *, use_generated: bool = True):
+    """C-ABI kernels a compiled simulator can call for ``robot`` with body table ``table``.
+
+    The generated kernels serve when they exist for the robot (see :func:`find`)
+    and ``table`` is the robot's own table (drive terms included) or that table
+    with the joint-referred drive columns zeroed (the rigid body); any other
+    table (e.g. elastic gears on some joints only) gets the general kernels.
+
+    Args:
+        robot: the manipulator.
+        table: the (n, TABLE_COLS) body table the simulator integrates.
+        use_generated: False: always the general kernels.
+
+    Returns:
+        ``(use, forward_dynamics, mass_matrix, moment_components)``: ``use`` is
+        True when the three C-ABI kernels (:meth:`GeneratedDynamics.cfunc`) are
+        the robot's generated ones — forward dynamics with or without the drive
+        terms as ``table`` says, mass matrix and moment components of the links;
+        otherwise placeholders of the same types (returning -2) and ``use`` False.
+    """
+    from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR
+
+    gen = find(robot) if use_generated else None
+    drives = None
+    if gen is not None:
+        cols = [COL_JR, COL_BV, COL_FCP, COL_FCN]
+        own = robot.table
+        rest = np.ones(own.shape[1], bool)
+        rest[cols] = False
+        if np.array_equal(table, own):
+            drives = True
+        elif np.array_equal(table[:, rest], own[:, rest]) and not np.any(table[:, cols]):
+            drives = False
+    if drives is None:
+        return False, _dummy("forward_dynamics"), _dummy("mass_matrix"), \
+            _dummy("moment_components")
+    return (True, gen.cfunc("forward_dynamics", drives), gen.cfunc("mass_matrix", False),
+            gen.cfunc("moment_components"))

@@ -64,8 +64,11 @@ regulator_update = dispatch()
 
 #: the robot: body tables (with and without the joint-referred drive terms), gravity (3,)
 #: m/s², packed drives (n, NPAR), drive-state offsets (n+1,), drives on, any elastic drive,
-#: joint limits (n, 2) rad or m (±inf: none)
-Plant = namedtuple("Plant", "rtable ctable g dtable off use_drives generic_drives limits")
+#: joint limits (n, 2) rad or m (±inf: none); with ``gen`` the robot's generated C-ABI
+#: kernels (manipcad.codegen.simulation_kernels) replace the general ones: forward
+#: dynamics on rtable, links' mass matrix and moment components on ctable
+Plant = namedtuple("Plant", "rtable ctable g dtable off use_drives generic_drives limits "
+                            "gen gen_fd gen_mass gen_comp")
 #: the regulators (R of them): kind code (R,), parameters (R, NPARAM), states (R, NSTATE),
 #: joints (R, n) and their count (R,), period in steps (R,), moment constituents needed
 Control = namedtuple("Control", "kind params state joints nj steps need_comp")
@@ -109,7 +112,12 @@ def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work, 
     for j in range(n):
         tau[j] = tau[j] + dist[j]
         K4[st, j] = qd[j]
-    aba_state(plant.rtable, plant.g, q, qd, tau, fext, False, True, work, tmp, qdd)
+    if plant.gen:
+        if plant.gen_fd(q.ctypes.data, qd.ctypes.data, tau.ctypes.data, qdd.ctypes.data) >= 0:
+            for j in range(n):  # H not positive definite: the run stops as diverged
+                qdd[j] = math.nan
+    else:
+        aba_state(plant.rtable, plant.g, q, qd, tau, fext, False, True, work, tmp, qdd)
     for j in range(n):
         K4[st, n + j] = qdd[j]
 
@@ -141,7 +149,13 @@ def _signals(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp):
         for j in range(n):
             q[j] = x[j]
             qd[j] = x[n + j]
-        components_one(plant.ctable, plant.g, q, qd, zero, rwork, cwork, tmp, H, Hii, hv, qg)
+        if plant.gen:
+            plant.gen_mass(q.ctypes.data, H.ctypes.data)
+            plant.gen_comp(q.ctypes.data, qd.ctypes.data, Hii.ctypes.data, hv.ctypes.data,
+                           qg.ctypes.data)
+        else:
+            components_one(plant.ctable, plant.g, q, qd, zero, rwork, cwork, tmp, H, Hii, hv,
+                           qg)
     for j in range(n):
         sig[j, S_T] = k * dt
         sig[j, S_QREF] = ref.q[kr, j]

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from manipcad.codegen import simulation_kernels
 from manipcad.control.registry import kind_of
 from manipcad.control.regulator import Regulator
 from manipcad.control.signals import MODEL_SIGNALS, NPARAM, NSTATE
@@ -106,6 +107,7 @@ def simulate(
     record_every: int = 1,
     progress: Callable[[float], None] | None = None,
     joint_limits: str = "warn",
+    use_generated: bool = True,
 ) -> SimulationResult:
     """Simulate the closed loop: coupled multibody dynamics, DC drives, sampled regulators.
 
@@ -141,6 +143,11 @@ def simulate(
             far and when, and ``metrics[joint]["limit_excess"]`` records it), "stop"
             (:class:`JointLimitExceeded` at the first step beyond, with the partial
             result), or "ignore". The limits are not modelled as stops.
+        use_generated: use the robot's customized kernels when
+            :func:`manipcad.codegen.generate` has made them for this robot (with the
+            payload, if any) and the drives' joint side is the robot's own or none
+            (``result.settings["generated"]`` says whether they ran); False: always
+            the general kernels.
 
     Returns:
         :class:`SimulationResult`.
@@ -188,6 +195,7 @@ def simulate(
     x0 = np.concatenate([x_q, x_qd, _drive_initial_state(dtable, off, x_q, x_qd)])
     generic = any(int(dtable[j, P_KIND]) not in (KIND_NONE, KIND_RIGID, KIND_RIGID_STATIC)
                   for j in range(n))
+    gen = simulation_kernels(robot, rtable, use_generated=use_generated)
     limits = (np.tile([-math.inf, math.inf], (n, 1)) if robot.limits is None
               or joint_limits == "ignore" else np.array(robot.limits, dtype=float))
     # excursions below a millionth of the joint's range are rounding, not a limit hit
@@ -195,7 +203,7 @@ def simulate(
     tol = np.where(np.isfinite(span), np.maximum(1e-6 * span, 1e-12), 0.0)
     wide = np.column_stack([limits[:, 0] - tol, limits[:, 1] + tol])
     plant = Plant(rtable, np.ascontiguousarray(robot.table), np.asarray(robot.gravity, float),
-                  dtable, off, bool(drives), generic, wide)
+                  dtable, off, bool(drives), generic, wide, *gen)
     ctrl, described = _pack_regulators(robot, regulators, dt)
 
     every = int(record_every)
@@ -230,7 +238,7 @@ def simulate(
         u=rec.u[:kept], current=rec.i[:kept], tau=rec.tau[:kept],
         joint_names=robot.joint_names, joint_types=tuple(robot.joint_types), robot=robot.name,
         settings={"dt": dt, "t_end": t_end, "drives": bool(drives), "order": order,
-                  "regulators": described},
+                  "regulators": described, "generated": bool(gen[0])},
     )
     unit = {nm: u for nm, u in res.units.items()}
     if status == 3:

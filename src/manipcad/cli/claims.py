@@ -1,0 +1,64 @@
+"""``manipcad study claims``: where the paper's claims hold, as maps over speed and load ratio.
+
+::
+
+    manipcad study claims [--arm light|FILE] [--grid quick|full]
+                          [--workers N | --scheduler ADDRESS] --out DIR
+
+Writes claims.json, claims.png and report.html into DIR (the cells' cache in
+DIR/cache: a rerun computes only new cells). See :mod:`manipcad.study.claims`.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich import box
+from rich.markup import escape
+from rich.table import Table
+
+from manipcad.cli.app import console, guarded
+from manipcad.cli.study import study_app
+
+
+@study_app.command("claims")
+@guarded
+def claims(
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (created).")],
+    arm: Annotated[str, typer.Option(
+        "--arm", help="light (the catalog Fig. 2 arm) or a robot file with joints turn, lift, "
+        "reach.")] = "light",
+    grid: Annotated[str, typer.Option("--grid", help="quick (4 × 4 cells) or full (7 × 7).")]
+    = "quick",
+    workers: Annotated[int | None, typer.Option(
+        "--workers", help="Worker processes of a local Dask cluster (default one per core; "
+        "1: serial, no cluster).")] = None,
+    scheduler: Annotated[str | None, typer.Option(
+        "--scheduler", help="Address of a running Dask scheduler, tcp://HOST:PORT.")] = None,
+    dt: Annotated[float, typer.Option("--dt", help="Integration step, s.")] = 1e-4,
+    progress: Annotated[bool, typer.Option(
+        "--progress/--no-progress", help="Show a progress bar of cells done.")] = True,
+) -> None:
+    """Claims maps: each claim's measured ratio over speed scale × load ratio; writes
+    claims.json, claims.png and report.html into --out."""
+    from manipcad.study.claims import run_claims
+
+    doc = run_claims(out, arm=arm, grid=grid, workers=workers, scheduler=scheduler, dt=dt,
+                     progress=progress)
+    t = Table(title=f"where the claims hold (arm {doc['arm']['name']}, grid {grid}: "
+                    f"{len(doc['grid']['load_ratio'])} load ratios × "
+                    f"{len(doc['grid']['speed_scale'])} speeds)", box=box.SIMPLE_HEAD)
+    for col in ("claim", "threshold", "range of the ratio", "where it holds"):
+        t.add_column(col, justify="right" if col == "threshold" else "left")
+    for cid, c in doc["claims"].items():
+        vals = [v for row in c["ratio"] for v in row if v is not None and math.isfinite(v)]
+        rng = f"{min(vals):.3g} .. {max(vals):.3g}" if vals else "-"
+        t.add_row(cid, f"{c['threshold']:g}", rng, c["where_it_holds"])
+    console.print(t)
+    s = doc["settings"]
+    console.print(f"{s['cells_computed']} cells computed, {s['cells_cached']} from the cache; "
+                  f"wrote {escape(str(Path(out) / 'claims.json'))}, claims.png, report.html",
+                  highlight=False, soft_wrap=True)

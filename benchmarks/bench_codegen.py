@@ -21,6 +21,9 @@ What is timed (``time.perf_counter``, wall clock, per state):
   state; and a compiled loop calling the generated C-ABI kernel
   (``gen.cfunc``, passed as an argument) against the same loop with the
   general ``aba_state`` inlined, as the simulator's right-hand side does;
+* the closed loop of ``benchmarks/bench_simulator.py`` (PUMA 560, drives with
+  inductance, PD, dt = 1e-4 s, RK4, 1 s): ``simulate`` with
+  ``use_generated=True`` and ``False``, wall time and real-time factor;
 * generation: ``generate`` of a 7-joint arm (the xArm7 URDF) into an empty
   cache (symbolic work, cse and printing), then the first numba compile of
   its inverse dynamics kernel, then a second ``generate`` (cache hit).
@@ -29,7 +32,7 @@ Cases are interleaved: every round times each case once, in a new random
 order; the table shows the minimum over rounds and (in brackets) the median.
 
 Targets (issue 14, "Speed"): generated single call <= 0.5x Pinocchio's, batch
-<= 0.1x per state, generation of a 7-joint arm < 5 s.
+<= 0.1x per state, generation of a 7-joint arm < 5 s, simulator RTF >= 100.
 """
 
 from __future__ import annotations
@@ -180,6 +183,44 @@ def bench_rhs(rounds: int, rng) -> dict:
     return {"robot": "puma560 with drives", "n": n, "times": interleave(cases, rounds, rng)}
 
 
+def bench_simulator(rounds: int, rng) -> dict:
+    """Real-time factor of ``simulate`` with and without the generated kernels.
+
+    The closed loop of benchmarks/bench_simulator.py: PUMA 560 with its drives
+    (armature inductance kept), PD + back-EMF feed-forward on every joint
+    sampled every step, RK4 with dt = 1e-4 s, a 1 s quintic move.
+    """
+    from bench_simulator import DT, KD, KFF, KP, Q_END, Q_START, U_LIMIT
+
+    from manipcad.control import pid
+    from manipcad.sim import simulate
+    from manipcad.trajectories import quintic
+
+    robot = load("puma560")
+    generate(robot)
+    traj = quintic(Q_START, Q_END, 1.0)
+    regs = [pid(j, kp=KP[j], kd=KD[j], kff=KFF[j], u_limit=U_LIMIT, period=DT)
+            for j in range(robot.n)]
+    used = {}
+
+    def case(use):
+        def run() -> float:
+            t = time.perf_counter()
+            res = simulate(robot, t_end=1.0, dt=DT, trajectory=traj, regulators=regs,
+                           use_generated=use)
+            used[use] = (res.settings["generated"], res.q[-1])
+            return time.perf_counter() - t
+        return run
+
+    cases = {"simulate, generated kernels": case(True),
+             "simulate, general kernels": case(False)}
+    for f in cases.values():
+        f()
+    times = interleave(cases, rounds, rng)
+    dq = float(np.abs(used[True][1] - used[False][1]).max())
+    return {"times": times, "generated_used": bool(used[True][0]), "max_dq_end": dq}
+
+
 def bench_generation() -> dict:
     path = erd("xarm_description/urdf/xarm7.urdf")
     robot = load(path)
@@ -225,6 +266,13 @@ def report(res: dict) -> str:
     out += ["| right-hand side, " + rhs["robot"] + " | µs per state, min (median) |", "|---|---|"]
     for k, v in rhs["times"].items():
         out.append(f"| {k} | {us(v['min'])} ({us(v['median'])}) |")
+    sim = res["simulator"]
+    out += ["", "| closed loop, PUMA 560 with drives, 1 s, dt 1e-4, RK4 | wall s, min (median) "
+            "| real-time factor (min wall) |", "|---|---|---|"]
+    for k, v in sim["times"].items():
+        out.append(f"| {k} | {v['min']:.3f} ({v['median']:.3f}) | {1.0 / v['min']:.1f} |")
+    out.append(f"| (generated kernels used: {sim['generated_used']}; end states differ by "
+               f"{sim['max_dq_end']:.1e} rad) | | |")
     g = res["generation"]
     out += ["", f"generation, {g['robot']}: generate {g['generate_s']:.2f} s "
             f"(symbolic + printing {g['symbolic_s']:.2f} s), first numba compile of the "
@@ -302,6 +350,7 @@ def main() -> None:
         "id": [bench_id("ur5", erd("ur_description/urdf/ur5_robot.urdf"), args.rounds, rng),
                bench_id("panda", erd("panda_description/urdf/panda.urdf"), args.rounds, rng)],
         "rhs": bench_rhs(args.rounds, rng),
+        "simulator": bench_simulator(max(3, args.rounds // 2), rng),
         "generation": bench_generation(),
         "pinocchio": pin.__version__, "numba": numba.__version__,
     }

@@ -42,9 +42,9 @@ def main() -> None:
     args = ap.parse_args()
 
     import manipcad
+    from manipcad.control import load_regulators
     from manipcad.errors import ManipcadWarning
     from manipcad.sim import simulate
-    from manipcad.sim.files import load_regulators
     from manipcad.store.results import record_every_for, result_arrays, save_result, write_csv
     from manipcad.trajectories import quintic
 

@@ -409,8 +409,8 @@ def manipcad_load(path):
 
 def test_store_result_then_rerun_is_identical_and_compare_plots(ws, tmp_path):
     import manipcad
+    from manipcad.control import load_regulators
     from manipcad.sim import simulate
-    from manipcad.sim.files import load_regulators
     from manipcad.trajectories import load_trajectory
     from manipcad.workspace.runs import compare, rerun
 

@@ -11,9 +11,8 @@ import sys
 import warnings
 from pathlib import Path
 
-from manipcad.sim.files import load_regulators
-
 import manipcad
+from manipcad.control import load_regulators
 from manipcad.errors import ManipcadWarning
 from manipcad.model.load import CATALOG
 from manipcad.sim import simulate

@@ -395,10 +395,14 @@ class Workspace:
         if kind in FILE_KINDS and src.suffix.lower() not in _SUFFIXES:
             raise InputError(str(src), "", f"a {kind[:-1]} file ends in "
                              f"{', '.join(_SUFFIXES)}")
-        if robot is not None and not hasattr(robot, "joint_types"):
-            from manipcad.model.load import load_robot
+        if robot is None and kind == "regulators":
+            from manipcad.workspace.kinds import regulator_robot_name
 
-            robot = load_robot(self.find("robots", robot) or robot)
+            named = regulator_robot_name(src)  # a workspace robot of that name checks it
+            robot = str(self.find("robots", named)) if named and self.find("robots", named) \
+                else None
+        if robot is not None and not hasattr(robot, "joint_types"):
+            robot = _robot_quiet(self.find("robots", robot) or robot)
         facts = validate_item(kind, src, robot=robot)
         self._check_free(kind, name, force)
         folder = self.root / kind

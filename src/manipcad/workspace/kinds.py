@@ -108,7 +108,7 @@ def detect_kind(path: Path) -> str:
         return "gears"
     if data.get("type") in SCHEMAS:
         return "trajectories"
-    if "regulators" in data or "period" in data:
+    if "regulators" in data or "period" in data or "period_s" in data or "method" in data:
         return "regulators"
     raise InputError(src, "", "cannot tell the kind from the keys "
                      f"({', '.join(map(str, list(data)[:6]))}); give --kind")
@@ -175,19 +175,35 @@ def _load_any_robot(path: Path):
     return load_robot(path)
 
 
+def regulator_robot_name(path: Path) -> str | None:
+    """The robot a regulator file names (``robot: {name: ...}`` or ``robot: NAME``), or None."""
+    try:
+        data = _yaml_data(path)
+    except InputError:
+        return None
+    ref = data.get("robot") if isinstance(data, dict) else None
+    if isinstance(ref, dict):
+        ref = ref.get("name")
+    return ref if isinstance(ref, str) and ref else None
+
+
 def _check_regulator(path: Path, robot) -> str:
-    """A regulator file: against ``robot`` with the regulator loader when known,
-    otherwise its structure (groups with a type and a positive period)."""
+    """A regulator file: with the regulator loader against ``robot`` (given, or the
+    catalog robot the file names); otherwise its structure (groups with a type or
+    method and a positive period)."""
     src = str(path)
     data = _yaml_data(path)
-    if robot is None and isinstance(data, dict) and isinstance(data.get("robot"), str):
-        from manipcad.model.load import load_robot
+    if robot is None:
+        name = regulator_robot_name(path)
+        if name is not None:
+            from manipcad.model.load import catalog_names, load_robot
 
-        robot = load_robot(data["robot"])
+            if name in catalog_names("robots"):
+                robot = _quiet(load_robot, name)
     if robot is not None:
-        from manipcad.control.files import load_regulators
+        from manipcad.control import load_regulators
 
-        regs = load_regulators(path, robot)
+        regs = _quiet(load_regulators, path, robot)
         return f"{len(regs)} joints of {robot.name}"
     if not isinstance(data, dict):
         raise InputError(src, "", "expected a mapping with a 'type' or a 'regulators' list")
@@ -197,29 +213,27 @@ def _check_regulator(path: Path, robot) -> str:
     types = []
     for g, group in enumerate(groups):
         where = f"regulators[{g}]." if "regulators" in data else ""
-        if isinstance(group, dict) and "method" in group:
-            # a synthesized group (manipcad.control.files): a known method, a period
-            from manipcad.control import METHODS
-
-            if group["method"] not in METHODS:
-                raise InputError(src, f"{where}method", f"unknown method {group['method']!r}; "
-                                 f"one of {', '.join(METHODS)}")
-            period = group.get("period_s")
-            if not (isinstance(period, int | float) and not isinstance(period, bool)
-                    and math.isfinite(period) and period > 0):
-                raise InputError(src, f"{where}period_s",
-                                 f"must be a number > 0 s, got {period!r}")
-            types.append(group["method"])
-            continue
-        if not isinstance(group, dict) or not isinstance(group.get("type"), str):
+        kind = group.get("type", group.get("method")) if isinstance(group, dict) else None
+        if not isinstance(kind, str):
             raise InputError(src, f"{where}type", "missing: each group needs a 'type' "
                              "(or a 'method')")
-        period = group.get("period")
+        period = group.get("period", group.get("period_s"))
         if not (isinstance(period, int | float) and not isinstance(period, bool)
                 and math.isfinite(period) and period > 0):
             raise InputError(src, f"{where}period", f"must be a number > 0 s, got {period!r}")
-        types.append(group["type"])
+        types.append(kind)
     return f"{', '.join(types)} (checked against a robot when one is given)"
+
+
+def _quiet(fn, *args):
+    """Call a loader with its data warnings silenced (shown where the data is used)."""
+    import warnings
+
+    from manipcad.errors import ManipcadWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        return fn(*args)
 
 
 def result_metrics(doc: dict[str, Any], res) -> dict[tuple[str, str], float]:

@@ -22,7 +22,7 @@ import yaml
 import manipcad
 from manipcad.control import METHODS, load_regulators, save_regulators, synthesize
 from manipcad.control.files import regulators_document
-from manipcad.errors import InputError
+from manipcad.errors import InputError, ManipcadError
 from manipcad.trajectories import cosine, quintic
 
 SRC = Path(manipcad.__file__).parent
@@ -292,3 +292,32 @@ def test_python_control_export_closes_the_same_loop(arm, method):
             xc = np.ravel(sysc.dynamics(t[k], xc, u))
         x = np.ravel(plant.A @ x + plant.B[:, 0] * U)
     np.testing.assert_allclose(res.q[:, 0], qs, atol=1e-9, rtol=0)
+
+
+def test_sampled_loop_is_checked_at_the_period(arm):
+    """The regulator as it runs, closed around its drive sampled at its period: a gain that
+    is unstable at that period is refused, naming the stable period range."""
+    reg = synthesize(arm, "turn", "pid", period=1e-3)
+    assert reg.design["sampled_loop"]["spectral_radius"] < 1.0
+    with pytest.raises(ManipcadError, match=r"sampled loop is unstable at the period 0.001 s "
+                       r"\(\|λ\|max = .*periods up to .* s are stable"):
+        synthesize(arm, "turn", "pid", period=1e-3, kp=-1e5, kd=-2000.0)
+    with pytest.raises(ManipcadError, match=r"no period down to .* is stable .*signs"):
+        synthesize(arm, "turn", "pid", period=1e-3, kp=1e3, kd=20.0)  # positive feedback
+
+
+def test_lqr_is_designed_for_its_period(arm):
+    """Continuous-time LQR gains sampled at 1 ms make the turn's loop unstable (|λ| 1.11
+    measured); the discrete-time design at that period is stable."""
+    from manipcad.control.lqr import LQ_TAB, lqr_gains
+    from manipcad.control.sampled import spectral_radius
+
+    reg = synthesize(arm, "turn", "lqr", period=1e-3)
+    d = arm.drives[0]
+    H = reg.design["H_nominal"]
+    lo, hi = reg.design["load_range"]
+    assert max(spectral_radius(reg, d, lo), spectral_radius(reg, d, hi)) < 1.0
+    cont = reg.params.copy()
+    cont[LQ_TAB:LQ_TAB + 3] = lqr_gains(d, H, 0.0, reg.design["weights"])
+    bad = manipcad.Regulator(method="lqr", joints=(0,), period=1e-3, params=cont)
+    assert max(spectral_radius(bad, d, lo), spectral_radius(bad, d, hi)) > 1.0

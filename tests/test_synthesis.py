@@ -294,7 +294,7 @@ def test_lqr_table_equals_direct_gains_at_grid_points(arm, lqr_gs_reg):
     d = arm.drives[0]
     for a, H in enumerate(table.H):
         for b, h in enumerate(table.h):
-            direct = lqr_gains(d, H, h, w)
+            direct = lqr_gains(d, H, h, w, period=lqr_gs_reg.period)
             np.testing.assert_allclose(table.gains[a, b], direct, rtol=1e-12)
             np.testing.assert_allclose(lookup_py(lqr_gs_reg.params, H, h), direct, rtol=1e-10)
             np.testing.assert_allclose(table.at(H, h), direct, rtol=1e-10)
@@ -308,7 +308,10 @@ def test_lqr_table_in_parallel_equals_serial(arm, lqr_gs_reg):
 
 
 def test_lqr_interpolation_between_grid_points(arm, lqr_gs_reg):
-    """Compiled lookup = scipy RegularGridInterpolator; within 3 % of the direct LQR."""
+    """Compiled lookup = scipy's RegularGridInterpolator (independent); within 3 % of the
+    direct LQR."""
+    from scipy.interpolate import RegularGridInterpolator
+
     table = lqr_gs_reg.design["table"]
     w = lqr_gs_reg.design["weights"]
     rng = np.random.default_rng(1)
@@ -317,8 +320,10 @@ def test_lqr_interpolation_between_grid_points(arm, lqr_gs_reg):
         H = rng.uniform(table.H[0], table.H[-1])
         h = rng.uniform(table.h[0], table.h[-1])
         g = lookup_py(lqr_gs_reg.params, H, h)
-        np.testing.assert_allclose(g, table.at(H, h), rtol=1e-10)
-        direct = lqr_gains(arm.drives[0], H, h, w)
+        ref = RegularGridInterpolator((table.H, table.h), table.gains)([[H, h]])[0]
+        np.testing.assert_allclose(g, ref, rtol=1e-10)
+        np.testing.assert_allclose(table.at(H, h), ref, rtol=1e-10)
+        direct = lqr_gains(arm.drives[0], H, h, w, period=lqr_gs_reg.period)
         worst = max(worst, float(np.max(np.abs(g - direct) / np.abs(direct))))
     assert worst < 0.03
 
@@ -469,7 +474,7 @@ def test_lqr_gs_on_the_elastic_model(arm, hold_others):
     assert table.gains.shape == (8, 1, 5)
     assert {"theta_m", "omega_m"} <= set(reg.needs) and "D_θ" in reg.describe()
     for H in table.H:
-        direct = lqr_gains(d, H, 0.0, w, transmission=tr)
+        direct = lqr_gains(d, H, 0.0, w, transmission=tr, period=DT)
         np.testing.assert_allclose(lookup_py(reg.params, H, 0.0), direct, rtol=1e-10)
         assert closed_loop_poles(d, H, 0.0, direct, transmission=tr).real.max() < 0
     errs = {}

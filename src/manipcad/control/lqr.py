@@ -219,7 +219,7 @@ def _state_gains(gains, order: int, elastic: bool) -> np.ndarray:
 
 
 def lqr_gains(drive: Drive, H_ii: float, h_i: float, weights: Weights,
-              order: int = 3, transmission=None) -> np.ndarray:
+              order: int = 3, transmission=None, period: float | None = None) -> np.ndarray:
     """(D_e V/rad, D_v V·s/rad, D_i V/A) of the LQR at a frozen load (D_i = 0 at order 2).
 
     Args:
@@ -230,11 +230,18 @@ def lqr_gains(drive: Drive, H_ii: float, h_i: float, weights: Weights,
         transmission: an elastic transmission (a :class:`Transmission`, k_s or
             (k_s, d_s); backlash is designed for in contact): the LQR of the model
             (q, q̇, θ_m, ω_m[, i]), and the gains are (D_e, D_v, D_i, D_θ V/rad, D_ω V·s/rad).
+        period: the control period T, s: the LQR of the drive discretized with zero-order
+            hold at T (``control.dlqr`` on ``c2d``, weights Q·T, R·T), so the sampled loop
+            is stable at that period; None: the continuous-time LQR.
     """
     tr = as_transmission(transmission)
     lin = _linearize(drive, H_ii, h_i, order, tr)
     Q, R = weights.matrices(order, drive.ratio if tr is not None else None)
-    K, _, _ = ct.lqr(lin.A, lin.B, Q, R)
+    if period is None:
+        K, _, _ = ct.lqr(lin.A, lin.B, Q, R)
+    else:
+        sysd = ct.c2d(ct.ss(lin.A, lin.B, np.eye(lin.A.shape[0]), 0), float(period), "zoh")
+        K, _, _ = ct.dlqr(sysd.A, sysd.B, np.asarray(Q) * period, np.asarray(R) * period)
     K = np.asarray(K).ravel()
     if tr is None:
         return np.array([K[0], K[1], K[2] if order == 3 else 0.0])
@@ -316,12 +323,13 @@ class GainTable:
 
 
 def _gains_at(args) -> np.ndarray:
-    drive, H, h, weights, order, tr = args
-    return lqr_gains(drive, H, h, weights, order, tr)
+    drive, H, h, weights, order, tr, period = args
+    return lqr_gains(drive, H, h, weights, order, tr, period)
 
 
 def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *,
-               progress: bool = False, n_jobs: int = 1, transmission=None) -> GainTable:
+               progress: bool = False, n_jobs: int = 1, transmission=None,
+               period: float | None = None) -> GainTable:
     """Compute the LQR gains at every grid point.
 
     Args:
@@ -330,6 +338,8 @@ def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *
         progress: show a progress bar (rich) while computing.
         n_jobs: worker processes (local; 1 computes in this process).
         transmission: an elastic transmission: the gains of the elastic model (5 each).
+        period: design each point in discrete time at this control period, s
+            (:func:`lqr_gains`); None: continuous time.
 
     Returns:
         :class:`GainTable`.
@@ -341,7 +351,7 @@ def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *
         raise ManipcadError(f"n_jobs must be >= 1, got {n_jobs}")
     idx = [(a, b) for a in range(len(H_grid)) for b in range(len(h_grid))]
     tr = as_transmission(transmission)
-    args = [(drive, H_grid[a], h_grid[b], weights, order, tr) for a, b in idx]
+    args = [(drive, H_grid[a], h_grid[b], weights, order, tr, period) for a, b in idx]
     g = np.empty((len(H_grid), len(h_grid), 3 if tr is None else 5))
 
     def run(results):
@@ -423,7 +433,7 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
         raise ManipcadError(f"H_nominal must be >= 0 kg·m², got {H}")
     w = weights_from_spec(spec, d)
     tr = _transmission(transmission)
-    table = gain_table(d, [H], [0.0], w, order, transmission=tr)
+    table = gain_table(d, [H], [0.0], w, order, transmission=tr, period=period)
     g = table.gains[0, 0]
     p = packed(d, order)
     ulim = u_limit(d)
@@ -437,7 +447,8 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
     el = (f" + {g[3]:.6g}·(θ_m* − θ_m) + {g[4]:.6g}·(ω_m* − ω_m)" if tr is not None else "")
     on = (f"elastic model k_s = {tr.stiffness:g} N·m/rad, d_s = {tr.damping:g} N·m·s/rad, "
           if tr is not None else "")
-    law = (f"lqr ({name}): U = {g[0]:.6g}·e + {g[1]:.6g}·ė − {g[2]:.6g}·i{el}{ff} (LQR {on}at "
+    law = (f"lqr ({name}): U = {g[0]:.6g}·e + {g[1]:.6g}·ė − {g[2]:.6g}·i{el}{ff} "
+           f"(discrete-time LQR at T = {period:g} s, {on}at "
            f"H_ii = {H:.4g} kg·m², h_i = 0; Bryson e_max = {w.e_max:g} rad, "
            f"ė_max = {w.ed_max:g} rad/s, "
            f"i_max = {w.i_max:g} A, U_max = {w.u_max:g} V); |U| <= {ulim:g} V, T = {period:g} s")
@@ -519,7 +530,7 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     h_grid = np.linspace(hl, hh, nV) if hl < hh else np.array([hl])
     w = weights_from_spec(spec, d)
     table = gain_table(d, H_grid, h_grid, w, order, progress=progress, n_jobs=n_jobs,
-                       transmission=tr)
+                       transmission=tr, period=period)
     p = packed(d, order)
     ulim = u_limit(d)
     pack_table(p, table, ulim, tr)
@@ -542,7 +553,8 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
            f"[{hl:.4g}, {hh:.4g}] N·m·s/rad (clamped at the edges): D_e in "
            f"[{g[..., 0].min():.4g}, {g[..., 0].max():.4g}] V/rad, D_v in "
            f"[{g[..., 1].min():.4g}, {g[..., 1].max():.4g}] V·s/rad, D_i in "
-           f"[{g[..., 2].min():.4g}, {g[..., 2].max():.4g}] V/A (LQR, Bryson e_max = "
+           f"[{g[..., 2].min():.4g}, {g[..., 2].max():.4g}] V/A (discrete-time LQR at the "
+           f"period, Bryson e_max = "
            f"{w.e_max:g} rad, ė_max = {w.ed_max:g} rad/s, i_max = {w.i_max:g} A, "
            f"U_max = {w.u_max:g} V); |U| <= {ulim:g} V, T = {period:g} s")
     needs = ["q", "q_dot", "q_ref", "q_dot_ref", "H_ii"] + (["i"] if order == 3 else [])

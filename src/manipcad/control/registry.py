@@ -190,4 +190,12 @@ def _call(m: Method, robot, joint, spec, options):
     reg.spec = dict(spec or {})
     opts = {k: v for k, v in options.items() if k not in ("progress", "n_jobs", "reference")}
     reg.options = {**opts, **reg.options}
+    if not m.spans and robot.drives is not None and robot.drives[idx[0]] is not None:
+        from manipcad.control.design import inertia_range
+        from manipcad.control.sampled import check_sampled
+
+        lo, hi = reg.design.get("load_range") or inertia_range(robot, idx[0])
+        drive = robot.drives[idx[0]]
+        if drive.has_electrics and drive.L > 0:
+            reg.design["sampled_loop"] = check_sampled(reg, drive, (float(lo), float(hi)))
     return reg

@@ -176,6 +176,9 @@ def simulate(
         raise ManipcadError(f"record_every must be >= 1, got {record_every}")
     robot = _with_payload(robot, payload)
     K = int(round(t_end / dt))
+    if int(record_every) > K:
+        raise ManipcadError(f"record_every = {record_every} keeps one sample of the {K} steps "
+                            f"of the run (t_end = {t_end:g} s, dt = {dt:g} s); at most {K}")
     if trajectory is None:
         q_start = np.zeros(n) if q0 is None else _vec(q0, n, "q0")
     else:

@@ -11,7 +11,8 @@ from manipcad.cli.app import app, main
 
 # sub-commands register on import
 from manipcad.cli import (  # noqa: E402,F401  isort: skip
-    demo, robots, simulate, size, identify, coupling, recommend, study, synthesize, warmup)
+    demo, robots, simulate, size, identify, coupling, recommend, study, synthesize, verify,
+    warmup)
 from manipcad.cli import codegen  # noqa: E402,F401  isort: skip
 from manipcad.cli import ws  # noqa: E402,F401  isort: skip
 from manipcad.cli import claims  # noqa: E402,F401  isort: skip

@@ -5,6 +5,7 @@
     manipcad synthesize ROBOT --method M (--joint J [--joint J2 ...] | --all)
                         [--spec KEY=VALUE ...] [--option KEY=VALUE ...] [--period S]
                         [--load-range LO,HI] [--realization observable|controllable]
+                        [-t TRAJECTORY.yaml  (the reference of --spec max_error=...)]
                         --out reg.yaml [--force] [--json]
     manipcad synthesize --list
 
@@ -91,6 +92,9 @@ def synthesize(
     realization: Annotated[str | None, typer.Option(
         "--realization", help="ace_tf: observable (quasi-stationary) or controllable "
         "(filter first).")] = None,
+    trajectory: Annotated[Path | None, typer.Option(
+        "--trajectory", "-t", help="The reference a --spec max_error=... is asked on.")]
+    = None,
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", help="Regulator file to write (YAML).")] = None,
     force: Annotated[bool, typer.Option("--force", help="Replace an existing file.")] = False,
@@ -144,6 +148,10 @@ def synthesize(
             raise InputError("--load-range", "", f"expected LO,HI in kg·m², got "
                              f"{load_range!r}") from None
         options["load_range"] = (lo, hi)
+    if trajectory is not None:
+        from manipcad.trajectories import load_trajectory
+
+        options["reference"] = load_trajectory(trajectory, robot=arm)
     with err_console.status(f"synthesizing {method} for {len(idx)} joint(s)..."):
         regs = run_synthesis(arm, idx, method, spec=_pairs(spec, "--spec") or None, **options)
     regs = regs if isinstance(regs, list) else [regs]

@@ -145,8 +145,12 @@ class SCEDesign:
 
     def law(self) -> str:
         """The SCE's law with its numbers: ``U = k_p·e + k_d·ė + k_fv·q̇* + k_fa·q̈*``."""
-        return (f"U = {self.kp:.6g}·e + {self.kd:.6g}·ė + {self.kfv:.6g}·q̇* + "
-                f"{self.kfa:.6g}·q̈*")
+        law = (f"U = {self.kp:.6g}·e + {self.kd:.6g}·ė + {self.kfv:.6g}·q̇* + "
+               f"{self.kfa:.6g}·q̈*")
+        if self.nominal_max_error is not None:
+            law += (f" [promise: max |e| <= {self.nominal_max_error:.3g} rad on the reference "
+                    f"(asked {self.max_error:.3g}), the nominal loop; check it with verify]")
+        return law
 
     def poles(self) -> list[complex]:
         """Poles of the nominal closed loop."""

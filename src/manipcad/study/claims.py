@@ -169,7 +169,7 @@ def arm_with_load_ratio(arm: Robot, rho: float) -> tuple[Robot, dict[str, float]
         >>> import manipcad
         >>> arm, info = arm_with_load_ratio(manipcad.load_robot("cylindrical"), 1.9)
         >>> round(info["load_ratio"], 9), round(info["payload_kg"], 3)
-        (1.9, 0.392)
+        (1.9, 0.436)
     """
     if not (isinstance(rho, int | float) and math.isfinite(rho) and rho > 1.0):
         raise InputError("load_ratio", "", f"must be a number > 1, got {rho!r}")

@@ -119,6 +119,8 @@ class Frames:
     revolute: list  # bool per joint
     parent: list  # int per joint
     children: list  # list of child indices per joint
+    Rp: list  # per joint: the exact placement rotation (3x3), parent <- joint frame
+    cs: list  # per revolute joint: (cos, sin) of q + offset as expressions; None if prismatic
 
 
 def _exact_rot(R) -> list:
@@ -132,7 +134,7 @@ def frames(robot: Robot) -> Frames:
     q = [se.Symbol(f"q{i}") for i in range(n)]
     qd = [se.Symbol(f"qd{i}") for i in range(n)]
     qdd = [se.Symbol(f"qdd{i}") for i in range(n)]
-    trig, Rs, ps, rev = [], [], [], []
+    trig, Rs, ps, rev, Rps, css = [], [], [], [], [], []
     for i in range(n):
         Rp = _exact_rot(robot.placement_R[i])
         pp = [num(v, LEN_TOL) for v in robot.placement_p[i]]
@@ -155,14 +157,18 @@ def frames(robot: Robot) -> Frames:
                  for r in range(3)]
             Rs.append(R)
             ps.append(pp)
+            Rps.append(Rp)
+            css.append((c, s))
         else:
             rev.append(False)
             th = q[i] + num(off, LEN_TOL)
             Rs.append(Rp)
             ps.append([pp[r] + Rp[r][2] * th for r in range(3)])
+            Rps.append(Rp)
+            css.append(None)
     parent = [int(v) for v in robot.parent]
     children = [[c for c in range(n) if parent[c] == j] for j in range(n)]
-    return Frames(n, q, qd, qdd, trig, Rs, ps, rev, parent, children)
+    return Frames(n, q, qd, qdd, trig, Rs, ps, rev, parent, children, Rps, css)
 
 
 def _shift_inertia(m, ms, p):
@@ -268,20 +274,28 @@ def _rnea(fr: Frames, params, qd, qdd, g):
         else:
             wp, wdp = w[par], wd[par]
             a = v_add(vd[par], mat_vec(U[par], fr.p[j]))
-        wj = mat_t_vec(R, wp)
         wdj = mat_t_vec(R, wdp)
         vdj = mat_t_vec(R, a)
         if fr.revolute[j]:
+            # ω in the joint frame, then about z: |ω_xy|² does not depend on q_j
+            u = mat_t_vec(fr.Rp[j], wp)
+            c, s = fr.cs[j]
+            wj = [c * u[0] + s * u[1], c * u[1] - s * u[0], u[2]]
             wdj = [wdj[0] + wj[1] * qd[j], wdj[1] - wj[0] * qd[j], wdj[2] + qdd[j]]
             wj = [wj[0], wj[1], wj[2] + qd[j]]
+            nxy = u[0] * u[0] + u[1] * u[1]
         else:
+            wj = mat_t_vec(R, wp)
             vdj = [vdj[0] + 2 * wj[1] * qd[j], vdj[1] - 2 * wj[0] * qd[j], vdj[2] + qdd[j]]
+            nxy = None
         x, y, z = wj
         dx, dy, dz = wdj
         xx, yy, zz, xy, xz, yz = x * x, y * y, z * z, x * y, x * z, y * z
+        if nxy is None:
+            nxy = xx + yy
         Uj = [[-(yy + zz), xy - dz, xz + dy],
               [xy + dz, -(xx + zz), yz - dx],
-              [xz - dy, yz + dx, -(xx + yy)]]
+              [xz - dy, yz + dx, -nxy]]
         w[j], wd[j], vd[j], U[j] = wj, wdj, vdj, Uj
         ms = [num(v) for v in MS[j]]
         Jj = [[num(J[j][r, k]) for k in range(3)] for r in range(3)]

@@ -65,6 +65,8 @@ def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm):
     rt = doc["rise_time"][0][0]
     assert rt["vss"] == pytest.approx(fig3["rise_time"]["vss"]["min_load"], rel=1e-12)
     assert rt["asvs"] == pytest.approx(fig3["rise_time"]["asvs"]["min_load"], rel=1e-12)
+    slide = doc["claims"]["asvs_sliding_rate"]["ratio"][0][0]
+    assert slide > 1.0  # the adaptive slope decays faster once sliding (1.25 at this cell)
     assert doc["claims"]["lqr_gs"]["ratio"][0][0] == pytest.approx(
         fig3["max_error"]["lqr"] / fig3["max_error"]["lqr_gs"], rel=1e-12)
     again = run_claims(tmp_path / "c", workers=1, progress=False)

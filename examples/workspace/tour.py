@@ -35,19 +35,19 @@ ws.add(EX / "ur5" / "pick.yaml", name="pick")
 (out / "pick_slow.yaml").write_text((EX / "ur5" / "pick.yaml").read_text()
                                     .replace("move_time: 1.5", "move_time: 2.5"))
 ws.add(out / "pick_slow.yaml")
-ws.add(EX / "ur5" / "pid.yaml", name="pid", robot="ur5")
-(out / "pid_stiff.yaml").write_text((EX / "ur5" / "pid.yaml").read_text()
-                                    .replace("kp: [-850, -850, -850", "kp: [-1200, -1200, -1200"))
-ws.add(out / "pid_stiff.yaml", robot="ur5")
-
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", ManipcadWarning)
     arm = manipcad.load_robot(ws.resolve("robot", "ur5"))
+for method, period in (("pid", 1e-3), ("ace_de", 1e-4)):   # synthesized, saved, added
+    regs = manipcad.synthesize(arm, "all", method, spec={"bandwidth": 40.0}, period=period)
+    manipcad.save_regulators(regs, out / f"{method}.yaml", robot=arm)
+    ws.add(out / f"{method}.yaml", robot="ur5")
+
 dt, t_end = 1e-4, 1.0
 n = 0
 for traj_name in ("pick", "pick_slow"):
     traj = load_trajectory(ws.resolve("trajectory", traj_name), robot=arm)
-    for reg_name in ("pid", "pid_stiff"):
+    for reg_name in ("pid", "ace_de"):
         n += 1
         regs = load_regulators(ws.resolve("regulator", reg_name), arm, dt=dt)
         every = record_every_for(dt, [r.period for r in regs])   # one sample per period

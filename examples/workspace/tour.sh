@@ -3,8 +3,7 @@
 #   bash examples/workspace/tour.sh [FOLDER]   default FOLDER: /tmp/manipcad-tour).
 # A UR5 with catalog drives, a motor of one's own, two trajectories, two regulators, four
 # simulations (1 s each), a filtered listing, a comparison figure, a bit-for-bit re-run and
-# an exported bundle. The second regulator is the first with stiffer gains, written by
-# hand until 'manipcad synthesize --out' stores synthesized regulators.
+# an exported bundle. The regulators are synthesized (a PID baseline and the paper's ace_de).
 set -euo pipefail
 OUT=${1:-/tmp/manipcad-tour}
 EX=$(cd "$(dirname "$0")/.." && pwd)
@@ -20,14 +19,17 @@ manipcad ws add my_re40.yaml                               # a motor of one's ow
 manipcad ws add "$EX/ur5/pick.yaml" --name pick
 sed 's/move_time: 1.5/move_time: 2.5/' "$EX/ur5/pick.yaml" > pick_slow.yaml
 manipcad ws add pick_slow.yaml
-manipcad ws add "$EX/ur5/pid.yaml" --name pid --robot ur5
-sed 's/kp: \[-850, -850, -850/kp: [-1200, -1200, -1200/' "$EX/ur5/pid.yaml" > pid_stiff.yaml
-manipcad ws add pid_stiff.yaml --robot ur5
-
 WS=$MANIPCAD_WORKSPACE
+manipcad synthesize "$WS/robots/ur5.yaml" -m pid --all --spec bandwidth=40 --period 0.001 \
+    --out pid.yaml > /dev/null
+manipcad synthesize "$WS/robots/ur5.yaml" -m ace_de --all --spec bandwidth=40 --period 0.0001 \
+    --out ace_de.yaml > /dev/null
+manipcad ws add pid.yaml --robot ur5                       # checked against the robot
+manipcad ws add ace_de.yaml --robot ur5
+
 n=0
 for traj in pick pick_slow; do
-  for reg in pid pid_stiff; do
+  for reg in pid ace_de; do
     n=$((n + 1))
     manipcad simulate "$WS/robots/ur5.yaml" -t "$WS/trajectories/$traj.yaml" \
         -r "$WS/regulators/$reg.yaml" --t-end 1.0 --every 10 --out "run$n" --json > /dev/null

@@ -121,30 +121,34 @@ _SINGULAR = {"robots": "robot", "motors": "motor", "gears": "gear",
 
 
 def _list_table(items, title: str) -> Table:
-    """The listing: kind, name, created, hash; results add their status and key metrics
-    (largest over the joints). Long names fold onto the next line; nothing is cut."""
+    """The listing: item (kind/name), origin (with --catalog), created (or, when results
+    are listed, their status and key metrics, largest over the joints), hash. Cells
+    wrap; nothing is cut."""
     results = any(i.kind == "results" for i in items)
     origin = any(i.source.startswith("catalog") for i in items)
     table = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False)
-    table.add_column("kind", no_wrap=True)
+    table.add_column("item", overflow="fold", min_width=12, ratio=3)
     if origin:
-        table.add_column("origin", no_wrap=True)
-    table.add_column("name", overflow="fold", min_width=8)
-    table.add_column("created UTC", no_wrap=True)
+        table.add_column("origin", overflow="fold")
     if results:
-        table.add_column("status", no_wrap=True)
+        table.add_column("status", overflow="fold")
         for col in ("max|e|", "RMS e", "peak τ", "peak i"):
-            table.add_column(col, justify="right", no_wrap=True)
-    table.add_column("sha256", no_wrap=True)
+            table.add_column(col, justify="right", overflow="fold", min_width=8)
+    else:  # results show their creation time in 'ws show' (the metrics need the width)
+        table.add_column("created UTC", overflow="fold", min_width=10)
+    table.add_column("sha256", overflow="fold", min_width=8)
     for i in items:
-        row = [_SINGULAR[i.kind], *(["catalog" if i.source.startswith("catalog") else "user"]
-                                    if origin else []), i.name,
-               i.created.replace("+00:00", "")[:16].replace("T", " ")]
+        row = [f"{_SINGULAR[i.kind]}/{i.name}"]
+        if origin:
+            row.append("catalog" if i.source.startswith("catalog") else "user")
         if results:
             m = i.metrics
             row += [i.status or "", _num(m.get("max_error")), _num(m.get("rms_error")),
                     _num(m.get("peak_torque")), _num(m.get("peak_current"))]
-        table.add_row(*row, i.hash[:8])
+        else:
+            row.append(i.created.replace("+00:00", "")[:16].replace("T", " "))
+        row.append(i.hash[:8])
+        table.add_row(*row)
     if results:
         table.caption = ("max|e|, RMS e: rad or m; peak τ: N·m or N; peak i: A "
                          "(largest over the joints)")

@@ -408,8 +408,6 @@ def manipcad_load(path):
 
 
 def test_store_result_then_rerun_is_identical_and_compare_plots(ws, tmp_path):
-    from manipcad.sim.files import load_regulators
-
     import manipcad
     from manipcad.control import load_regulators
     from manipcad.sim import simulate

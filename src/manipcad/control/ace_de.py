@@ -53,7 +53,7 @@ from manipcad.control.regulator import Method, Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_I, S_QD, S_QI
 from manipcad.drives.dc import dry_friction
 from manipcad.drives.laws import law3_voltage, nominal_tf
-from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO
+from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO, P_WEPS
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Drive, Robot
 
@@ -190,7 +190,8 @@ def design_sce(d: Drive, plant: ct.TransferFunction, T: float, J_n: float, order
 def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
                       J_n: float | None = None, load_range=None, order: int = 3,
                       feedforward: bool = True, friction: bool = True,
-                      load_torque: bool = True, reference=None) -> Regulator:
+                      load_torque: bool = True, reference=None,
+                      friction_zone: float | None = None) -> Regulator:
     """Law (3) + SCE for one joint.
 
     Args:
@@ -210,6 +211,13 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         load_torque: compensate the measured load torque (velocity torque less
             Ḣ_ii·q̇, and gravity).
         reference: for ``max_error``: the robot's trajectory or (t, q_ref) of the joint.
+        friction_zone: the motor speed below which the law's dry-friction term
+            M_f·sgn(ω_m) is made linear, M_f·ω_m/ω_ε, rad/s (default
+            2·M_f·T/(J + H*_min): twice the speed one period of friction changes, below
+            which the sampled sign of ω_m says nothing; 0: the pure sign). With the pure
+            sign the law pushes with ±M_f on the sign of a speed chattering about zero after
+            the motion stops and the joint creeps (a standing error of 1e-4..5e-4 rad on a
+            UR5 or Panda wrist); the linear zone removes it (docs/synthesis.md).
 
     Returns:
         A :class:`~manipcad.control.regulator.Regulator` of method ``ace_de``.
@@ -235,6 +243,12 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
                      feedforward=feedforward, what=f"ace_de on {robot.joint_names[j]!r}")
     p = sce.params
     p[AD_JN], p[AD_FRIC], p[AD_TORQUE] = Jn, float(friction), float(load_torque)
+    if friction_zone is None:
+        friction_zone = 2.0 * max(d.M_f) * period / (d.J + Hmin / r2)
+    if not (math.isfinite(friction_zone) and friction_zone >= 0):
+        raise ManipcadError(f"friction_zone must be >= 0 rad/s, got {friction_zone}")
+    # the law's own friction model (the simulated drive keeps its own)
+    p[P_WEPS] = max(p[P_WEPS], friction_zone)
     rho = ((d.J + Hmin / r2) / Jn, (d.J + Hmax / r2) / Jn)
     name = robot.joint_names[j]
     law = (f"ace_de ({name}): {sce.law()} (SCE, "

@@ -35,14 +35,14 @@ runner = CliRunner()
 BASE = {
     "accuracy": 0.02, "overshoot_allowed": True, "fast_action": False, "gripper_speed": 1.0,
     "inductance": "negligible", "transmission": {"backlash": False, "elasticity": False},
-    "coupling": "decoupled", "parameter_variation": "slow",
+    "coupling": "decoupled", "parameter_variation": "slow", "load_variation": 1.0,
 }
 #: the paper's Fig. 3 case, as its text states it (3.1): turning drive of the Fig. 2 arm,
 #: gripper up to 4 m/s, strong inertial coupling, fast variation, no backlash
 FIG3 = {
     "accuracy": 1e-4, "overshoot_allowed": True, "fast_action": False, "gripper_speed": 4.0,
     "inductance": "negligible", "transmission": {"backlash": False, "elasticity": False},
-    "coupling": "inertial", "parameter_variation": "fast",
+    "coupling": "inertial", "parameter_variation": "fast", "load_variation": 1.42,
 }
 
 
@@ -76,6 +76,9 @@ TRIGGERS = {
     "general_form_rules_out_ace": ({"coupling": "full"}, {"coupling": "inertial"}),
     "fixed_gains_under_coupling": ({"coupling": "inertial", "accuracy": 1e-3},
                                    {"coupling": "inertial"}),
+    "fixed_lqr_under_load_variation": (
+        {"coupling": "inertial", "accuracy": 1e-3, "load_variation": 1.3},
+        {"coupling": "inertial", "accuracy": 1e-3, "load_variation": 1.1}),
     "none_needs_loose_accuracy": ({"accuracy": 1e-3}, {}),
     "pid_only_decoupled_loose": ({"coupling": "inertial"}, {}),
     "pid_overshoots": ({"overshoot_allowed": False}, {}),
@@ -491,9 +494,24 @@ def test_cli_derives_the_fields_left_out(tmp_path):
     data = json.loads(cli(p, "--robot", "cylindrical", "--trajectory", FIG3_LAWS,
                           "--json").output)
     assert set(data["derived"]) == {"gripper_speed", "coupling", "inductance",
-                                    "parameter_variation"}
+                                    "parameter_variation", "load_variation"}
     assert data["requirements"]["gripper_speed"] > 2.0
     assert data["recommendations"][0]["method"] == "ace_de"
     res = cli(p)   # without the robot the derivable fields are missing
     assert res.exit_code == 2 and "incomplete requirements" in res.stderr
     assert "no robot to derive it from" in res.stderr
+
+
+@pytest.mark.parametrize("robot, lqr_excluded", [("ur5", False), ("panda", True)])
+def test_fixed_lqr_rule_follows_the_motors_load_variation(robot, lqr_excluded):
+    """The rule that excluded the fixed LQR whenever the drive is coupled was contradicted
+    by the simulation on the UR5 (catalog drives, ρ = 1.04: lqr 4.9e-4 rad on the pick
+    cycle, 1e-3 asked); the Panda (ρ = 1.29) misses it (1.4e-3). The corrected rule looks
+    at ρ = (J·i_r² + H_max)/(J·i_r² + H_min)."""
+    arm = manipcad.load_robot(EXAMPLES / robot / f"{robot}.yaml")
+    traj = manipcad.load_trajectory(EXAMPLES / robot / "pick.yaml", robot=arm)
+    recs = recommend({"accuracy": 1e-3, "overshoot_allowed": True, "fast_action": False,
+                      "transmission": {"backlash": False, "elasticity": False}}, arm, traj)
+    assert ("lqr" in recs.excluded) is lqr_excluded
+    rho = recs.requirements.load_variation
+    assert (rho > 1.2) is lqr_excluded and rho >= 1.0

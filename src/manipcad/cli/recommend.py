@@ -42,9 +42,10 @@ def recommend(
     robot: Annotated[str | None, typer.Option(
         "--robot", help="Catalog robot name or robot file, to derive missing fields.")] = None,
     trajectory: Annotated[str | None, typer.Option(
-        "--trajectory", help="Trajectory YAML file, to derive missing fields.")] = None,
+        "--trajectory", "-t", help="Trajectory YAML file, to derive missing fields.")] = None,
     joint: Annotated[str | None, typer.Option(
-        "--joint", help="The joint whose drive is designed (name or 0-based index).")] = None,
+        "--joint", "-j", help="The joint whose drive is designed (name or number 1..n, as "
+        "every command).")] = None,
     verify: Annotated[bool, typer.Option(
         "--verify", help="Synthesize and simulate the top candidates; re-rank by error.")] = False,
     top: Annotated[int, typer.Option("--top", help="Candidates --verify simulates.")] = 3,
@@ -63,7 +64,9 @@ def recommend(
     req = Requirements.from_yaml(requirements)
     jt: str | int | None = joint
     if joint is not None and joint.isdigit():
-        jt = int(joint)
+        if int(joint) < 1:
+            raise InputError("--joint", "", f"joint numbers run from 1, got {joint}")
+        jt = int(joint) - 1
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
         recs = run(req, robot, trajectory, verify=verify, joint=jt, top=top, rules=rules)

@@ -613,7 +613,7 @@ def recommend(requirements: Requirements | dict | str | Path, robot=None, trajec
             elif top_field == "transmission":
                 why = "not given (the robot model has no transmission: state it)"
             elif top_field not in ("gripper_speed", "coupling", "inductance",
-                                   "parameter_variation"):
+                                   "parameter_variation", "load_variation"):
                 why = "not given (it cannot be derived from a robot)"
             parts.append(f"{f} ({why}; needed by {', '.join(ids)})")
         raise IncompleteRequirements("incomplete requirements: " + "; ".join(parts), missing)

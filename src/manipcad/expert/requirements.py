@@ -24,6 +24,9 @@ coupling             ``decoupled`` | ``inertial`` | ``full`` (the form of P_i, p
 parameter_variation  ``slow`` | ``fast``: do the drive's load parameters change
                      slowly next to its own dynamics (the quasi-stationary hypothesis
                      of 3.1); derived from the rate of change of H_ii
+load_variation       ρ = (J·i_r² + H_ii,max)/(J·i_r² + H_ii,min): how much the inertia
+                     the motor moves varies along the trajectory (>= 1; 1: not at all);
+                     derived from H_ii along the trajectory, the largest over the drives
 joint                the joint whose drive is designed (name or 0-based index); None:
                      the whole robot, each derived field taken at its worst joint
 ==================== ===================================================================
@@ -90,9 +93,10 @@ SAMPLE_DT = 1e-3
 #: the fields in their dotted form (the ones rule conditions may name)
 FIELDS = ("accuracy", "overshoot_allowed", "fast_action", "gripper_speed", "inductance",
           "transmission.backlash", "transmission.elasticity", "coupling",
-          "parameter_variation")
+          "parameter_variation", "load_variation")
 #: fields a robot and a trajectory can determine
-DERIVABLE = ("gripper_speed", "coupling", "inductance", "parameter_variation")
+DERIVABLE = ("gripper_speed", "coupling", "inductance", "parameter_variation",
+             "load_variation")
 
 
 class TransmissionFeatures(BaseModel):
@@ -128,6 +132,7 @@ class Requirements(BaseModel):
     transmission: TransmissionFeatures = TransmissionFeatures()
     coupling: Literal["decoupled", "inertial", "full"] | None = None
     parameter_variation: Literal["slow", "fast"] | None = None
+    load_variation: OptNum = None    # (J·i_r² + H_max)/(J·i_r² + H_min), >= 1
     joint: str | int | None = None
 
     @field_validator("accuracy")
@@ -135,6 +140,13 @@ class Requirements(BaseModel):
     def _positive(cls, v: float | None) -> float | None:
         if v is not None and not (math.isfinite(v) and v > 0):
             raise ValueError(f"must be a finite number > 0 (rad or m), got {v}")
+        return v
+
+    @field_validator("load_variation")
+    @classmethod
+    def _ratio(cls, v: float | None) -> float | None:
+        if v is not None and not (math.isfinite(v) and v >= 1):
+            raise ValueError(f"must be a finite ratio >= 1, got {v}")
         return v
 
     @field_validator("gripper_speed")
@@ -371,6 +383,26 @@ def derive_parameter_variation(robot, trajectory, joints: list[int]) -> Derivati
                       "(quasi-stationary): " + "; ".join(notes))
 
 
+def derive_load_variation(robot, trajectory, joints: list[int]) -> Derivation:
+    """ρ = (J·i_r² + H_ii,max)/(J·i_r² + H_ii,min) along the trajectory, worst over ``joints``."""
+    from manipcad.dynamics import mass_matrix
+
+    driven = _driven(robot, joints)
+    if not driven:
+        return Derivation("load_variation", error="cannot be derived: no drive on the joint(s)")
+    q, _, _ = trajectory.sample(_samples(trajectory))
+    H = mass_matrix(robot, q, drives=False)
+    worst, notes = 1.0, []
+    for j in driven:
+        d = robot.drives[j]
+        rotor = d.J * d.ratio ** 2
+        rho = float((rotor + H[:, j, j].max()) / (rotor + H[:, j, j].min()))
+        notes.append(f"{robot.joint_names[j]}: ρ = {rho:.3g}")
+        worst = max(worst, rho)
+    return Derivation("load_variation", worst, "ρ = (J·i_r² + H_ii,max)/(J·i_r² + H_ii,min) "
+                      "along the trajectory: " + "; ".join(notes))
+
+
 def derive(req: Requirements, robot=None, trajectory=None, *, check: bool = True,
            ) -> tuple[Requirements, dict[str, Derivation], list[str]]:
     """Fill the fields not given that the robot and the trajectory determine.
@@ -427,6 +459,8 @@ def derive(req: Requirements, robot=None, trajectory=None, *, check: bool = True
                 dv = derive_coupling(robot, trajectory, joints)
             elif f == "inductance":
                 dv = derive_inductance(robot, trajectory, joints)
+            elif f == "load_variation":
+                dv = derive_load_variation(robot, trajectory, joints)
             else:
                 dv = derive_parameter_variation(robot, trajectory, joints)
         except ManipcadError as exc:
@@ -436,7 +470,12 @@ def derive(req: Requirements, robot=None, trajectory=None, *, check: bool = True
             if dv.value is not None:
                 values[f] = dv.value
         elif dv.value is not None:
-            if f == "gripper_speed":
+            if f == "load_variation":
+                if abs(dv.value - given) > 0.05 * given:
+                    notes.append(f"load_variation is given as {given:g} but the robot and "
+                                 f"trajectory give {dv.value:.3g} ({dv.how}); the given value "
+                                 "is used")
+            elif f == "gripper_speed":
                 if dv.value > 1.05 * given:
                     notes.append(f"gripper_speed is given as {given:g} m/s but the trajectory "
                                  f"reaches {dv.value:.3g} m/s ({dv.how}); the given value is used")

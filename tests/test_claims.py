@@ -43,7 +43,9 @@ def test_load_ratio_arms(arm):
 @pytest.mark.slow
 def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm):
     """The cell at speed scale 1 on the light arm is the Fig. 3 experiment: the same
-    figures as `study fig3`; the files have issue 13's layout; a rerun computes nothing."""
+    figures as `study fig3` (to 1e-6: the cells run the general kernels, study fig3 may
+    run the robot's generated ones, which agree to about 1e-8); the files have issue 13's
+    layout; a rerun computes nothing."""
     from manipcad.study import run_fig3
 
     monkeypatch.setitem(claims_mod.GRIDS, "quick", {"speed_scale": [1.0], "load_ratio": [None]})
@@ -61,14 +63,14 @@ def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm):
     mx = doc["max_error"][0][0]
     for ours, theirs in (("none_sce", "none_sce"), ("ace_tf_observable", "ace_tf"),
                          ("ace_de", "ace_de"), ("lqr", "lqr"), ("lqr_gs", "lqr_gs")):
-        assert mx[ours] == pytest.approx(fig3["max_error"][theirs], rel=1e-12), ours
+        assert mx[ours] == pytest.approx(fig3["max_error"][theirs], rel=1e-6), ours
     rt = doc["rise_time"][0][0]
-    assert rt["vss"] == pytest.approx(fig3["rise_time"]["vss"]["min_load"], rel=1e-12)
-    assert rt["asvs"] == pytest.approx(fig3["rise_time"]["asvs"]["min_load"], rel=1e-12)
+    assert rt["vss"] == pytest.approx(fig3["rise_time"]["vss"]["min_load"], rel=1e-6)
+    assert rt["asvs"] == pytest.approx(fig3["rise_time"]["asvs"]["min_load"], rel=1e-6)
     slide = doc["claims"]["asvs_sliding_rate"]["ratio"][0][0]
     assert slide > 1.0  # the adaptive slope decays faster once sliding (1.25 at this cell)
     assert doc["claims"]["lqr_gs"]["ratio"][0][0] == pytest.approx(
-        fig3["max_error"]["lqr"] / fig3["max_error"]["lqr_gs"], rel=1e-12)
+        fig3["max_error"]["lqr"] / fig3["max_error"]["lqr_gs"], rel=1e-6)
     again = run_claims(tmp_path / "c", workers=1, progress=False)
     assert again["settings"]["cells_cached"] == 1 and again["settings"]["cells_computed"] == 0
     assert again["claims"] == doc["claims"]

@@ -506,6 +506,8 @@ def identify_payload(robot: Robot, q, qd=None, qdd=None, tau=None, *, t=None, cu
     if method == "stops":
         eq = _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes,
                              R_l @ c_link + p_l, body)
+        if eq.nuisance is None and friction in ("estimate", "symmetric"):
+            friction = "none"  # no times: the approach directions are unknown
     else:
         if QD is None or QDD is None:
             if T is None:

@@ -184,3 +184,14 @@ def test_cli_reads_a_stored_result(tmp_path):
     assert r.exit_code == 0 and "stops" in r.output and "payload mass" in r.output
     r = runner.invoke(app, ["identify", "puma560", "--data", str(csv), "--method", "slow"])
     assert r.exit_code == 2 and "Traceback" not in r.output
+
+
+@pytest.mark.slow
+def test_few_stops_warn():
+    """Three stops leave each drive one or two equations once its held-friction levels are
+    fitted: the estimate comes with a warning that it cannot be trusted."""
+    d = run("puma560")
+    k = int(np.searchsorted(d["t"], 4.0))  # the start rest and three dwells
+    with pytest.warns(ManipcadWarning, match="only 3 stops"):
+        identify_payload(d["robot"], d["q"][:k], d["qd"][:k], None, d["tau"][:k],
+                         t=d["t"][:k], method="stops", com=SETUPS["puma560"]["com"])

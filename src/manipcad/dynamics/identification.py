@@ -76,6 +76,8 @@ FRICTION = ("estimate", "symmetric", "model", "none")
 STOP_SPEED = {REVOLUTE: 1e-2, PRISMATIC: 1e-3}
 #: a joint's approach direction: its last velocity above this fraction of the stop speed
 DIRECTION_FRACTION = 0.02
+#: stops: fewer equations per drive than this, after the held-friction levels, warn
+MIN_STOP_EQUATIONS = 5
 #: rounds of reassigning stops to the nearer held-friction level (friction="estimate")
 REASSIGN_ROUNDS = 20
 #: a stop lasts at least this long, s
@@ -575,6 +577,13 @@ def identify_payload(robot: Robot, q, qd=None, qdd=None, tau=None, *, t=None, cu
             "found, not clipped); the measured torques are below what the unloaded robot "
             "needs: check the torque sign and units, the assumed com, the drive friction "
             "model and the robot's own link masses"), stacklevel=2)
+    left = W[:, sel].sum(axis=0) - eq.lost[sel]
+    if method == "stops" and eq.nuisance is not None and int(left.max()) < MIN_STOP_EQUATIONS:
+        warnings.warn(ManipcadWarning(
+            f"only {len(eq.stops)} stops: after fitting each drive's held-friction levels at "
+            f"most {int(left.max())} equation(s) per drive remain, too few to trust the "
+            f"estimate {m:.4g} ± {std:.2g} kg or its uncertainty; add stops (approached "
+            "from both directions) or use friction='model'"), stacklevel=2)
     if flagged:
         detail = ", ".join(f"{nm} {mj:.4g} ± {sj:.2g} kg ({zz:+.1f} σ)" for nm, mj, sj, zz in zip(
             names, fit["m_j"], fit["std_j"], fit["z"], strict=True) if nm in flagged)

@@ -254,6 +254,7 @@ def test_resolve_input(results_ws, tmp_path, monkeypatch):
 WRITER = r"""
 import sys, yaml
 from pathlib import Path
+from manipcad.errors import InputError
 from manipcad.workspace import Workspace
 ws = Workspace(sys.argv[1]); tag = sys.argv[2]; folder = Path(sys.argv[3])
 for k in range(int(sys.argv[4])):
@@ -261,33 +262,11 @@ for k in range(int(sys.argv[4])):
     p.write_text(yaml.safe_dump({"type": "quintic", "q_start": [0.0], "q_end": [k + 1.0],
                                  "duration": 1.0}))
     ws.add(p)
-    print(k, flush=True)
-"""
-
-
-@pytest.mark.slow
-def test_two_writer_processes_lose_nothing(ws, tmp_path):
-    """Two real processes add 15 items each at the same time: 30 rows, no partial file."""
-    env = {**os.environ, "PYTHONPATH": str(SRC)}
-    procs = [subprocess.Popen([sys.executable, "-c", WRITER, str(ws.root), tag, str(tmp_path),
-                               "15"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                              text=True) for tag in ("a", "b")]
-    outs = [p.communicate(timeout=120) for p in procs]
-    assert [p.returncode for p in procs] == [0, 0], [o[1][-800:] for o in outs]
-    names = sorted(i.name for i in ws.list("trajectories"))
-    assert names == sorted(f"{t}-{k}" for t in "ab" for k in range(15))
-    assert ws.check() == []
-    assert [p.name for p in (ws.root / "trajectories").iterdir()
-            if p.name.startswith(".")] == []
-
-
-SAME_NAME = r"""
-import sys
-from manipcad.workspace import Workspace
-from manipcad.errors import InputError
-ws = Workspace(sys.argv[1])
+p = folder / f"{tag}-shared.yaml"   # then both race for one name
+p.write_text(yaml.safe_dump({"type": "quintic", "q_start": [0.0], "q_end": [len(tag) + 0.5],
+                             "duration": 2.0 if tag == "a" else 3.0}))
 try:
-    ws.add(sys.argv[2], name="shared")
+    ws.add(p, name="shared")
     print("added")
 except InputError as exc:
     print("refused:", exc)
@@ -295,16 +274,25 @@ except InputError as exc:
 
 
 @pytest.mark.slow
-def test_two_processes_same_name_one_wins(ws, tmp_path):
+def test_two_writer_processes_lose_nothing(ws, tmp_path):
+    """Two real processes add 15 items each at the same time: 30 rows, no partial file;
+    then both add an item of one name: one wins, the other is told the name is taken."""
     env = {**os.environ, "PYTHONPATH": str(SRC)}
-    files = [traj_file(tmp_path, f"v{k}", dur=1.0 + k) for k in range(2)]
-    procs = [subprocess.Popen([sys.executable, "-c", SAME_NAME, str(ws.root), str(f)], env=env,
-                              stdout=subprocess.PIPE, text=True) for f in files]
-    outs = sorted(p.communicate(timeout=120)[0].strip() for p in procs)
-    assert outs[0] == "added" and outs[1].startswith("refused:") and "name taken" in outs[1]
-    item = ws.get("shared")
-    assert item.hash in {__import__("hashlib").sha256(f.read_bytes()).hexdigest() for f in files}
+    procs = [subprocess.Popen([sys.executable, "-c", WRITER, str(ws.root), tag, str(tmp_path),
+                               "15"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True) for tag in ("a", "b")]
+    outs = [p.communicate(timeout=180) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], [o[1][-800:] for o in outs]
+    names = sorted(i.name for i in ws.list("trajectories"))
+    assert names == sorted([f"{t}-{k}" for t in "ab" for k in range(15)] + ["shared"])
+    said = sorted(o[0].strip() for o in outs)
+    assert said[0] == "added" and said[1].startswith("refused:") and "name taken" in said[1]
+    winner = "a" if outs[0][0].strip() == "added" else "b"
+    assert ws.get("shared").hash == __import__("hashlib").sha256(
+        (tmp_path / f"{winner}-shared.yaml").read_bytes()).hexdigest()
     assert ws.check() == []
+    assert [p.name for p in (ws.root / "trajectories").iterdir()
+            if p.name.startswith(".")] == []
 
 
 def test_killed_writers_leave_a_consistent_workspace(ws, tmp_path):

@@ -38,20 +38,20 @@ from manipcad.control.design import (
     packed,
     parse_spec,
 )
+from manipcad.control.export import nonlinear_system
 from manipcad.control.kernels import (
     R_KD,
     R_KFA,
     R_KFV,
     R_KP,
     R_ULIM,
-    clip,
     load_rates,
     sce_output,
     torque_rate,
 )
 from manipcad.control.regulator import Method, Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_I, S_QD, S_QI
-from manipcad.drives.dc import dry_friction
+from manipcad.drives.dc import clip, dry_friction
 from manipcad.drives.laws import law3_voltage, nominal_tf
 from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO, P_WEPS
 from manipcad.errors import ManipcadError
@@ -273,15 +273,7 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         design=design, linear=sce.linear(plant))
 
 
-def export_ace_de(reg: Regulator):
-    """Law (3) + SCE as a discrete-time nonlinear python-control system calling
-    :func:`ace_de_update` (see :func:`manipcad.control.export.nonlinear_system`)."""
-    from manipcad.control.export import nonlinear_system
-
-    return nonlinear_system(reg)
-
-
 METHOD = Method(
     name="ace_de", synthesize=synthesize_ace_de, update=ace_de_update, section="3.1 (3)",
     summary="law (3): the drive's differential equation stabilized at the nominal, + SCE",
-    fields=FIELDS, export=export_ace_de)
+    fields=FIELDS, export=nonlinear_system)

@@ -31,6 +31,7 @@ from manipcad.control.design import (
     max_error_of,
     parse_spec,
 )
+from manipcad.control.export import nonlinear_system
 from manipcad.control.kernels import (
     R_KD,
     R_KFA,
@@ -38,12 +39,12 @@ from manipcad.control.kernels import (
     R_KP,
     R_ULIM,
     ST_X,
-    clip,
     load_rates,
     sce_output,
 )
 from manipcad.control.regulator import Method, Regulator
 from manipcad.control.signals import S_HII
+from manipcad.drives.dc import clip
 from manipcad.drives.laws import (
     ace1_filter_step,
     ace1_obs_output,
@@ -172,16 +173,8 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         design=design, linear=linear, options={"realization": realization})
 
 
-def export_ace_tf(reg: Regulator):
-    """ACE (1) + SCE as a discrete-time nonlinear python-control system calling
-    :func:`ace_tf_update` (see :func:`manipcad.control.export.nonlinear_system`)."""
-    from manipcad.control.export import nonlinear_system
-
-    return nonlinear_system(reg)
-
-
 METHOD = Method(
     name="ace_tf", synthesize=synthesize_ace_tf, update=ace_tf_update, section="3.1 (1)",
     summary="ACE (1): moving zero cancels the load pole (realization observable|controllable)"
             ", + SCE",
-    fields=FIELDS, export=export_ace_tf)
+    fields=FIELDS, export=nonlinear_system)

@@ -20,10 +20,11 @@ from manipcad.control.design import (
     packed,
     parse_spec,
 )
-from manipcad.control.kernels import R_KD, R_KFA, R_KFV, R_KP, R_ULIM, clip, sce_output
+from manipcad.control.kernels import R_KD, R_KFA, R_KFV, R_KP, R_ULIM, sce_output
 from manipcad.control.pid import PID_KP, PID_ULIM, pid
 from manipcad.control.regulator import Method, Regulator, u_limit
 from manipcad.control.signals import S_Q, S_QREF
+from manipcad.drives.dc import clip
 from manipcad.drives.linear import linearize
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot

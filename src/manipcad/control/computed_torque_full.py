@@ -16,7 +16,6 @@ import numpy as np
 
 from manipcad.control.computed_torque import joint_torque_to_input, outer_gains
 from manipcad.control.design import DEFAULT_PERIOD, check_period, joint_drive
-from manipcad.control.kernels import clip
 from manipcad.control.regulator import Method, Regulator, u_limit
 from manipcad.control.signals import (
     NPARAM,
@@ -28,7 +27,7 @@ from manipcad.control.signals import (
     S_QI,
     S_QREF,
 )
-from manipcad.drives.dc import dry_friction
+from manipcad.drives.dc import clip, dry_friction
 from manipcad.drives.params import NPAR, P_J, P_KV, P_RATIO, pack_drive
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot

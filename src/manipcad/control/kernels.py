@@ -1,5 +1,4 @@
-"""Compiled pieces several regulators share: output clip, load-rate differences, the SCE,
-the gain-table lookup.
+"""Compiled pieces several regulators share: load-rate differences, the SCE, the gain table.
 
 Every single-joint method's update has the signature ``law(p, s, sig, j, Ts) -> U``:
 ``p`` its parameter vector (float64, :data:`~manipcad.control.signals.NPARAM`), ``s``
@@ -26,16 +25,6 @@ R_KP, R_KD, R_KFV, R_KFA, R_ULIM = 16, 17, 18, 19, 20
 #: state entries shared by the laws that difference the load: history of H_ii and of a
 #: motor-side torque (first-sample flags ST_INIT, ST_MINIT), a filter state, the slope c and S
 ST_INIT, ST_H1, ST_H2, ST_H3, ST_M1, ST_M2, ST_X, ST_C, ST_S, ST_MINIT = range(10)
-
-
-@nb.njit(cache=True)
-def clip(u, lim):
-    """u limited to [-lim, lim] (lim = inf: no limit)."""
-    if u > lim:
-        return lim
-    if u < -lim:
-        return -lim
-    return u
 
 
 @nb.njit(cache=True)

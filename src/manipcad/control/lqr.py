@@ -49,7 +49,8 @@ from manipcad.control.design import (
     joint_drive,
     packed,
 )
-from manipcad.control.kernels import clip, load_rates, table_lookup
+from manipcad.control.export import nonlinear_system
+from manipcad.control.kernels import load_rates, table_lookup
 from manipcad.control.regulator import Method, Regulator, u_limit
 from manipcad.control.signals import (
     NPARAM,
@@ -65,7 +66,7 @@ from manipcad.control.signals import (
     S_THM,
     S_WM,
 )
-from manipcad.drives.dc import static_input
+from manipcad.drives.dc import clip, static_input
 from manipcad.drives.linear import linearize
 from manipcad.drives.params import (
     P_J,
@@ -570,27 +571,12 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
                 "weights": w, "transmission": tr})
 
 
-def export_lqr(reg: Regulator):
-    """The LQR as python-control systems.
-
-    ``lqr`` (fixed gains): a static discrete-time gain from (e, ė, i[, θ_m error, ω_m
-    error], q̇*, q̈*) to U, V (feed-forward included at the design load; the clip left out).
-    ``lqr_gs``: a discrete-time nonlinear system calling :func:`lqr_update` (the gains
-    scheduled on H_ii): see :func:`manipcad.control.export.nonlinear_system`.
-    """
-    from manipcad.control.export import nonlinear_system
-
-    if reg.method == "lqr_gs":
-        return nonlinear_system(reg)
-    return nonlinear_system(reg)
-
-
 LQR = Method(
     name="lqr", synthesize=synthesize_lqr, update=lqr_update, section="3.3 (7), fixed",
     summary="LQR gains at the nominal load (no scheduling), with feed-forward",
-    fields=FIELDS, table=True, export=export_lqr)
+    fields=FIELDS, table=True, export=nonlinear_system)
 
 LQR_GS = Method(
     name="lqr_gs", synthesize=synthesize_lqr_gs, update=lqr_update, section="3.3 (6)-(7)",
     summary="LQR gains scheduled on H_ii (and Ḣ_ii) from a table computed ahead",
-    fields=FIELDS, table=True, export=export_lqr)
+    fields=FIELDS, table=True, export=nonlinear_system)

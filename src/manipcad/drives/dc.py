@@ -70,11 +70,22 @@ def amplifier_voltage(U: float, k_u: float, u_max: float) -> float:
         >>> amplifier_voltage(5.0, 10.0, 24.0)
         24.0
     """
-    u = k_u * U
-    if u > u_max:
-        return u_max
-    if u < -u_max:
-        return -u_max
+    return clip(k_u * U, u_max)
+
+
+@numba.njit(cache=True)
+def clip(u: float, lim: float) -> float:
+    """u limited to [-lim, lim] (lim = inf: no limit); the one saturation of the package.
+
+    Example:
+        >>> from manipcad.drives.dc import clip
+        >>> clip(-7.0, 5.0)
+        -5.0
+    """
+    if u > lim:
+        return lim
+    if u < -lim:
+        return -lim
     return u
 
 

@@ -1,0 +1,54 @@
+"""``manipcad ui``: the main-menu dialogue as a local web application (NiceGUI + Plotly).
+
+::
+
+    manipcad ui [--ws DIR] [--port 8080] [--host 127.0.0.1] [--open] [--token T]
+
+Pages follow the designer's path of the paper's Fig. 1 (main menu, robots,
+trajectories, requirements → method, synthesis, simulation, results); each calls
+the same Python API as the CLI (:mod:`manipcad.ui.logic`). Bound to 127.0.0.1 by
+default; any other address needs a token that every request carries
+(:mod:`manipcad.ui.security`). docs/ui.md has the tour and screenshots.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bool = False,
+          token: str | None = None, announce=print) -> None:
+    """Run the application until interrupted (blocks).
+
+    Args:
+        ws: the workspace folder (made if it is not one yet).
+        host: the address to bind; not loopback needs a token.
+        port: the TCP port.
+        show: open a browser tab.
+        token: the token every request must carry; None: none on loopback, a new
+            one (printed through ``announce``) elsewhere.
+        announce: where the address (with the token) is printed.
+
+    Raises:
+        InputError: a workspace that cannot be opened or made, a bad port.
+    """
+    from nicegui import app, ui
+
+    from manipcad.errors import InputError
+    from manipcad.ui import pages
+    from manipcad.ui.logic import open_workspace
+    from manipcad.ui.security import TokenGate, token_for
+
+    if not 0 < int(port) < 65536:
+        raise InputError("--port", "", f"must be 1..65535, got {port}")
+    root = Path(ws)
+    open_workspace(root).close()
+    pages.STATE["ws"] = str(root)
+    required = token_for(host, token)
+    url = f"http://{host}:{port}/"
+    if required:
+        app.add_middleware(TokenGate, token=required)
+        url += f"?token={required}"
+    announce(f"manipcad ui on {url} (workspace {root.resolve()}); Ctrl-C stops it")
+    ui.run(host=host, port=int(port), title="manipcad", reload=False, show=show,
+           show_welcome_message=False, favicon="🦾", uvicorn_logging_level="warning")

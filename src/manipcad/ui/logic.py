@@ -1,0 +1,454 @@
+"""What the pages of ``manipcad ui`` do, with no web framework in sight.
+
+Every function here is a thin call into the same Python API the CLI uses
+(:func:`manipcad.load_robot`, :func:`manipcad.trajectories.trajectory_from_dict`,
+:func:`manipcad.recommend`, :func:`manipcad.synthesize`, :func:`manipcad.simulate`,
+:class:`manipcad.workspace.Workspace`); the pages (:mod:`manipcad.ui.pages`) only
+lay these out and show their errors. Nothing here computes a formula of its own.
+
+Robot references used by the pages: a catalog name (``puma560``) or a workspace
+robot ``robots/NAME``. Names typed or uploaded by the user are checked by
+:func:`manipcad.workspace.check_name` before anything touches the disk.
+
+Units: joint coordinates rad (revolute) or m (prismatic), times s, positions m,
+torques N·m (N), voltages V, currents A.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from manipcad.errors import InputError, ManipcadWarning
+from manipcad.workspace import Workspace, check_name
+
+#: largest upload accepted, bytes (robot, trajectory, regulator files are far smaller)
+MAX_UPLOAD = 2_000_000
+
+#: upload suffixes accepted, per kind
+UPLOAD_SUFFIXES = {"robots": (".urdf", ".yaml", ".yml", ".xml", ".mjcf"),
+                   "trajectories": (".yaml", ".yml"), "regulators": (".yaml", ".yml")}
+
+
+def open_workspace(root: str | Path) -> Workspace:
+    """Open the workspace at ``root``, making it when the folder is not one yet.
+
+    Args:
+        root: the workspace folder.
+
+    Returns:
+        The opened :class:`~manipcad.workspace.Workspace`.
+
+    Example:
+        >>> import tempfile
+        >>> ws = open_workspace(tempfile.mkdtemp() + "/ws")
+        >>> ws.list().__len__()
+        0
+    """
+    try:
+        return Workspace(root)
+    except InputError:
+        return Workspace.init(root)
+
+
+def robot_choices(ws: Workspace) -> list[str]:
+    """The robots a user can pick: the catalog's names, then the workspace's ``robots/NAME``.
+
+    Example:
+        >>> import tempfile
+        >>> "puma560" in robot_choices(open_workspace(tempfile.mkdtemp()))
+        True
+    """
+    from manipcad.model import catalog_names
+
+    return list(catalog_names()) + [i.ref for i in ws.list("robots")]
+
+
+def load_robot_ref(ws: Workspace, ref: str):
+    """Load a robot by its reference (catalog name or ``robots/NAME``), data notes kept.
+
+    Args:
+        ws: the workspace.
+        ref: a catalog name or a workspace robot reference.
+
+    Returns:
+        ``(robot, notes)``: the :class:`~manipcad.model.Robot` and the loader's
+        warnings as strings.
+
+    Raises:
+        InputError: an unknown or unsafe reference; the loader's errors.
+
+    Example:
+        >>> import tempfile
+        >>> arm, notes = load_robot_ref(open_workspace(tempfile.mkdtemp()), "cylindrical")
+        >>> arm.n
+        3
+    """
+    from manipcad.model import catalog_names, load_robot
+
+    if ref in catalog_names():
+        source = ref
+    else:
+        kind, _, name = ref.partition("/")
+        if kind != "robots":
+            raise InputError("robot", "", f"{ref!r}: pick a catalog robot or robots/NAME")
+        check_name(name, "robot")
+        source = str(ws.resolve("robots", name))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ManipcadWarning)
+        robot = load_robot(source)
+    return robot, [str(w.message) for w in caught if issubclass(w.category, ManipcadWarning)]
+
+
+def _unit(joint_type: str) -> str:
+    return "m" if joint_type == "prismatic" else "rad"
+
+
+def joint_rows(robot) -> list[dict[str, Any]]:
+    """One row per joint for the joints table: limits, link mass, drive, in SI units.
+
+    Keys: ``joint``, ``type``, ``unit`` (rad or m), ``lower``, ``upper`` (rad or m),
+    ``mass`` (kg), ``motor``, ``gear``, ``ratio`` (i_r), ``R`` (Ω), ``L`` (H),
+    ``k_m`` (N·m/A), ``J`` (kg·m²), ``u_max`` (V). Values are rounded for display
+    (4 significant digits) and strings (``-`` for no value), so they show as given.
+
+    Example:
+        >>> import manipcad
+        >>> joint_rows(manipcad.load_robot("cylindrical"))[0]["unit"]
+        'rad'
+    """
+    def num(v: float) -> str:
+        v = float(v)
+        return "-" if not np.isfinite(v) else f"{v:.4g}"
+
+    rows = []
+    for i, name in enumerate(robot.joint_names):
+        d = robot.drives[i]
+        lo, hi = robot.limits[i]
+        rows.append({
+            "joint": name, "type": robot.joint_types[i], "unit": _unit(robot.joint_types[i]),
+            "lower": num(lo), "upper": num(hi), "mass": num(robot.mass[i]),
+            "motor": (d.name or "yes") if d else "-", "gear": (d.gear or "-") if d else "-",
+            "ratio": num(d.ratio) if d else "-", "R": num(d.R) if d else "-",
+            "L": num(d.L) if d else "-", "k_m": num(d.k_m) if d else "-",
+            "J": num(d.J) if d else "-", "u_max": num(d.u_max) if d else "-"})
+    return rows
+
+
+def robot_totals(robot) -> dict[str, Any]:
+    """Totals shown under the joints table: joints, driven joints, moving mass (kg).
+
+    Example:
+        >>> import manipcad
+        >>> robot_totals(manipcad.load_robot("cylindrical"))["joints"]
+        3
+    """
+    return {"joints": robot.n, "driven": sum(d is not None for d in robot.drives),
+            "mass_kg": float(np.sum(robot.mass))}
+
+
+def slider_range(robot, j: int) -> tuple[float, float]:
+    """The pose slider's range of joint ``j``: its limits, or ±π rad / ±1 m when unlimited."""
+    lo, hi = (float(x) for x in robot.limits[j])
+    wide = 1.0 if robot.joint_types[j] == "prismatic" else float(np.pi)
+    return (lo if np.isfinite(lo) else -wide, hi if np.isfinite(hi) else wide)
+
+
+def stick_points(robot, q: Sequence[float]) -> np.ndarray:
+    """The arm as a stick figure at pose ``q``: line segments joint to joint, then the tool.
+
+    Args:
+        robot: the robot.
+        q: (n,) joint coordinates, rad or m.
+
+    Returns:
+        (S, 2, 3) segment end points in the base frame, m: for each joint, from its
+        parent's frame origin (the base origin for a root joint) to its own, and
+        from the last body's origin to the tool point.
+
+    Example:
+        >>> import manipcad
+        >>> stick_points(manipcad.load_robot("puma560"), [0.0] * 6).shape
+        (7, 2, 3)
+    """
+    from manipcad.kinematics.forward import frames, tool_pose
+
+    qa = np.asarray(q, dtype=float).reshape(1, -1)
+    _, p = frames(robot, qa)
+    p = p[0]
+    segs = []
+    for i in range(robot.n):
+        par = int(robot.parent[i])
+        segs.append((np.zeros(3) if par < 0 else p[par], p[i]))
+    segs.append((p[-1], tool_pose(robot, qa)[0, :3, 3]))
+    return np.asarray(segs)
+
+
+def stick_figure(robot, q: Sequence[float]):
+    """A Plotly 3-D figure of :func:`stick_points` (axes in m, equal scale)."""
+    import plotly.graph_objects as go
+
+    segs = stick_points(robot, q)
+    xs, ys, zs = [], [], []
+    for a, b in segs:
+        xs += [a[0], b[0], None]
+        ys += [a[1], b[1], None]
+        zs += [a[2], b[2], None]
+    fig = go.Figure(go.Scatter3d(x=xs, y=ys, z=zs, mode="lines+markers",
+                                 line={"width": 8}, marker={"size": 4}, name=robot.name))
+    fig.update_layout(scene={"aspectmode": "data", "xaxis_title": "x [m]",
+                             "yaxis_title": "y [m]", "zaxis_title": "z [m]"},
+                      margin={"l": 0, "r": 0, "t": 30, "b": 0}, height=420,
+                      title=f"{robot.name} at q = [{', '.join(f'{v:.2f}' for v in q)}]")
+    return fig
+
+
+def add_upload(ws: Workspace, filename: str, data: bytes, *, kind: str, name: str | None = None,
+               robot=None):
+    """Store an uploaded file in the workspace, validated by the loaders everything uses.
+
+    Args:
+        ws: the workspace.
+        filename: the name the browser sent (only its suffix is used).
+        data: the file's bytes (at most :data:`MAX_UPLOAD`).
+        kind: robots, trajectories or regulators.
+        name: the item's name; None: the file name's stem.
+        robot: for a regulator, the robot to check it against.
+
+    Returns:
+        The new :class:`~manipcad.workspace.Item`.
+
+    Raises:
+        InputError: too big, a suffix not accepted, an unsafe name, or the
+            loader's error (file, field, reason) naming the uploaded file.
+    """
+    base = Path(filename or "").name
+    if len(data) > MAX_UPLOAD:
+        raise InputError(base or "upload", "", f"{len(data)} bytes: larger than the "
+                         f"{MAX_UPLOAD} bytes accepted")
+    suffix = Path(base).suffix.lower()
+    if suffix not in UPLOAD_SUFFIXES[kind]:
+        raise InputError(base or "upload", "", f"a {kind[:-1]} file ends in "
+                         f"{', '.join(UPLOAD_SUFFIXES[kind])}, not {suffix or 'nothing'!r}")
+    item_name = check_name(name or Path(base).stem, "name")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"{item_name}{suffix}"
+        path.write_bytes(data)
+        try:
+            return ws.add(path, kind=kind, name=item_name, robot=robot)
+        except InputError as exc:
+            # name the file as the user knows it, not the temporary copy
+            raise InputError(base, exc.field, exc.reason.replace(str(path), base)) from None
+
+
+def make_trajectory(form: Mapping[str, Any], robot):
+    """Build a trajectory from the page's form through the trajectory file schema.
+
+    Args:
+        form: the fields of a trajectory file (``type`` and the law's fields).
+        robot: the robot (its joint count is checked; line/circle paths use it).
+
+    Returns:
+        The :class:`~manipcad.trajectories.Trajectory`.
+
+    Raises:
+        InputError: naming ``trajectory form``, the field and the reason.
+
+    Example:
+        >>> import manipcad
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> make_trajectory({"type": "quintic", "q_start": [0, 0, 0],
+        ...                  "q_end": [1.0, 0.1, 0.2], "duration": 1.0}, arm).duration
+        1.0
+    """
+    from manipcad.trajectories import trajectory_from_dict
+
+    traj = trajectory_from_dict(dict(form), "trajectory form", robot=robot)
+    if traj.n != robot.n:
+        raise InputError("trajectory form", "", f"has {traj.n} joints, robot {robot.name!r} "
+                         f"has {robot.n}")
+    return traj
+
+
+def trajectory_preview(traj, robot, samples: int = 201) -> dict[str, Any]:
+    """Joint positions and the gripper speed along a trajectory, for the preview plot.
+
+    Returns:
+        ``{"t": (K,) s, "q": (K, n) rad|m, "qd": (K, n), "speed": (K,) m/s}``.
+    """
+    from manipcad.trajectories import gripper_speed
+
+    duration = float(traj.duration) if np.isfinite(traj.duration) else 1.0
+    t = np.linspace(0.0, duration, samples)
+    q, qd, _ = traj.sample(t)
+    return {"t": t, "q": q, "qd": qd, "speed": gripper_speed(robot, traj, t)}
+
+
+def save_trajectory_to(ws: Workspace, traj, name: str, *, force: bool = False):
+    """Save a trajectory into the workspace as ``trajectories/NAME`` (the file schema)."""
+    from manipcad.trajectories import save_trajectory
+
+    check_name(name, "name")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = save_trajectory(traj, Path(tmp) / f"{name}.yaml")
+        return ws.add(path, kind="trajectories", name=name, force=force)
+
+
+def load_trajectory_ref(ws: Workspace, name: str, robot):
+    """Load ``trajectories/NAME`` from the workspace (name checked)."""
+    from manipcad.trajectories import load_trajectory
+
+    check_name(name, "trajectory")
+    return load_trajectory(ws.resolve("trajectories", name), robot=robot)
+
+
+def recommend_for(form: Mapping[str, Any], robot=None, trajectory=None):
+    """The recommended methods for the requirement form (the expert system's ranking).
+
+    Args:
+        form: requirement fields (:class:`manipcad.expert.Requirements`); empty
+            values are left out (derived from the robot and trajectory when they can be).
+        robot, trajectory: to derive the fields left out.
+
+    Returns:
+        :class:`manipcad.expert.Recommendations`.
+
+    Raises:
+        InputError: a bad field (naming ``requirements form``, the field and why);
+            the expert system's incomplete/contradictory errors.
+    """
+    from manipcad.expert import Requirements, recommend
+
+    data = {k: v for k, v in form.items() if v not in (None, "")}
+    if "transmission" in data:
+        data["transmission"] = {k: v for k, v in data["transmission"].items()
+                                if v not in (None, "")}
+    req = Requirements.from_dict(data, "requirements form")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        return recommend(req, robot, trajectory)
+
+
+def synthesize_to(ws: Workspace, robot, method: str, *, joints: str | Sequence = "all",
+                  spec: Mapping[str, float] | None = None, period: float | None = None,
+                  name: str, force: bool = False):
+    """Synthesize regulators and save them as ``regulators/NAME`` in the workspace.
+
+    Args:
+        ws: the workspace.
+        robot: the robot (with drives).
+        method: a registry method name (``manipcad synthesize --list``).
+        joints: ``"all"`` or joint names/indices.
+        spec: the method's spec (e.g. ``{"bandwidth": 30.0}`` rad/s).
+        period: the regulators' sampling period, s (None: the method's default).
+        name: the workspace name of the regulator file.
+        force: replace a regulator of that name.
+
+    Returns:
+        ``(regulators, item)``: the list of :class:`~manipcad.control.Regulator` and
+        the workspace item.
+    """
+    from manipcad.control import save_regulators, synthesize
+
+    check_name(name, "name")
+    options = {} if period is None else {"period": float(period)}
+    regs = synthesize(robot, list(joints) if joints != "all" else "all", method,
+                      spec=dict(spec) if spec else None, **options)
+    regs = regs if isinstance(regs, list) else [regs]
+    with tempfile.TemporaryDirectory() as tmp:
+        path = save_regulators(regs, Path(tmp) / f"{name}.yaml")
+        item = ws.add(path, kind="regulators", name=name, force=force, robot=robot)
+    return regs, item
+
+
+def methods() -> list[str]:
+    """The registry's synthesis method names."""
+    from manipcad.control.registry import METHODS
+
+    return list(METHODS)
+
+
+def result_rows(ws: Workspace, where: str | None = None) -> list[dict[str, Any]]:
+    """Stored results with their key metrics (largest over the joints), for the table.
+
+    Args:
+        ws: the workspace.
+        where: a ``ws list --where`` filter (e.g. ``max_error<1e-3``), or None.
+
+    Returns:
+        One dict per result: name, status, created and the metrics (SI units).
+
+    Raises:
+        InputError: a bad filter (naming ``where``).
+    """
+    from manipcad.workspace.runs import COMPARE_METRICS
+
+    rows = []
+    for item in ws.list("results", where=where or None):
+        row = {"name": item.name, "status": item.status or "", "created": item.created}
+        for m, _ in COMPARE_METRICS:
+            v = item.metrics.get(m)
+            row[m] = None if v is None else float(f"{v:.4g}")
+        rows.append(row)
+    return rows
+
+
+def overlay_figure(ws: Workspace, names: Sequence[str], quantity: str = "error"):
+    """One Plotly figure of a quantity of several stored results, a panel per joint.
+
+    Args:
+        ws: the workspace.
+        names: result names (checked).
+        quantity: a stored series: error, q, u, current, tau.
+
+    Returns:
+        A ``plotly.graph_objects.Figure``.
+    """
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    from manipcad.store.results import load_result
+
+    loaded = []
+    for name in names:
+        check_name(name, "result")
+        item = ws.get(f"results/{name}")
+        res, doc = load_result(ws.path(item))
+        loaded.append((name, res, doc))
+    if not loaded:
+        return go.Figure()
+    joints = list(loaded[0][1].joint_names)
+    fig = make_subplots(rows=len(joints), cols=1, shared_xaxes=True, subplot_titles=joints,
+                        vertical_spacing=0.03)
+    palette = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
+               "#7f7f7f", "#bcbd22", "#17becf")
+    for r, (name, res, _doc) in enumerate(loaded):
+        y = getattr(res, quantity)
+        for k, jn in enumerate(joints):
+            if jn not in res.joint_names:
+                continue
+            col = list(res.joint_names).index(jn)
+            fig.add_trace(go.Scatter(x=res.t, y=y[:, col], mode="lines", name=name,
+                                     line={"color": palette[r % len(palette)]},
+                                     legendgroup=name, showlegend=k == 0), row=k + 1, col=1)
+    fig.update_layout(height=160 * len(joints) + 80, margin={"l": 40, "r": 10, "t": 40,
+                                                             "b": 30},
+                      title=f"{quantity} of {', '.join(names)} (SI units: rad|m, V, A, N·m)")
+    fig.update_xaxes(title_text="t [s]", row=len(joints), col=1)
+    return fig
+
+
+def series_figure(t, y, labels: Sequence[str], title: str, yunit: str):
+    """A Plotly figure of columns of ``y`` (K, m) against ``t`` (K,) s."""
+    import plotly.graph_objects as go
+
+    fig = go.Figure([go.Scatter(x=np.asarray(t), y=np.asarray(y)[:, k], mode="lines",
+                                name=lab) for k, lab in enumerate(labels)])
+    fig.update_layout(title=title, xaxis_title="t [s]", yaxis_title=yunit, height=320,
+                      margin={"l": 40, "r": 10, "t": 40, "b": 30})
+    return fig

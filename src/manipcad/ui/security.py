@@ -1,0 +1,104 @@
+"""Who may talk to ``manipcad ui``: loopback by default, a token for anything else.
+
+:class:`TokenGate` is an ASGI middleware around the whole application (pages,
+static files, uploads and the websocket): every request must carry the token,
+as ``?token=T`` (the link printed at start; the gate then sets a cookie so the
+page's own requests carry it), a ``manipcad_token`` cookie, or an
+``X-Manipcad-Token`` header. Without it: HTTP 401, or the websocket is closed.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import secrets
+from http.cookies import SimpleCookie
+from urllib.parse import parse_qs
+
+COOKIE = "manipcad_token"
+HEADER = b"x-manipcad-token"
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` only accepts connections from this machine.
+
+    Example:
+        >>> is_loopback("127.0.0.1"), is_loopback("localhost"), is_loopback("0.0.0.0")
+        (True, True, False)
+    """
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def token_for(host: str, token: str | None) -> str | None:
+    """The token the server requires: the one given; else a new one when ``host`` is
+    not loopback; else None (no token on 127.0.0.1).
+
+    Example:
+        >>> token_for("127.0.0.1", None) is None, token_for("127.0.0.1", "abc")
+        (True, 'abc')
+        >>> len(token_for("0.0.0.0", None)) >= 32
+        True
+    """
+    if token:
+        return token
+    return None if is_loopback(host) else secrets.token_urlsafe(24)
+
+
+class TokenGate:
+    """ASGI middleware refusing every request without the token (see the module docstring).
+
+    Args:
+        app: the ASGI application.
+        token: the token required.
+    """
+
+    def __init__(self, app, token: str) -> None:
+        self.app = app
+        self.token = token
+
+    def _given(self, scope) -> tuple[str, bool]:
+        qs = parse_qs(scope.get("query_string", b"").decode("latin-1"))
+        if qs.get("token"):
+            return qs["token"][0], True
+        for key, value in scope.get("headers", ()):
+            if key == HEADER:
+                return value.decode("latin-1"), False
+            if key == b"cookie":
+                jar = SimpleCookie()
+                try:
+                    jar.load(value.decode("latin-1"))
+                except Exception:  # noqa: BLE001  a malformed cookie is no token
+                    continue
+                if COOKIE in jar:
+                    return jar[COOKIE].value, False
+        return "", False
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] not in ("http", "websocket"):
+            return await self.app(scope, receive, send)
+        given, in_query = self._given(scope)
+        if not secrets.compare_digest(given.encode(), self.token.encode()):
+            if scope["type"] == "websocket":
+                await send({"type": "websocket.close", "code": 1008})
+                return None
+            body = b"manipcad ui: a token is required (open the link printed at start)\n"
+            await send({"type": "http.response.start", "status": 401,
+                        "headers": [(b"content-type", b"text/plain; charset=utf-8"),
+                                    (b"content-length", str(len(body)).encode())]})
+            await send({"type": "http.response.body", "body": body})
+            return None
+        if not (in_query and scope["type"] == "http"):
+            return await self.app(scope, receive, send)
+
+        async def send_with_cookie(message):
+            if message["type"] == "http.response.start":
+                cookie = f"{COOKIE}={self.token}; Path=/; HttpOnly; SameSite=Strict"
+                message = {**message, "headers": [*message.get("headers", ()),
+                                                  (b"set-cookie", cookie.encode())]}
+            await send(message)
+
+        return await self.app(scope, receive, send_with_cookie)

@@ -1,0 +1,188 @@
+"""Simulations of ``manipcad ui`` in a background worker process.
+
+The page starts a :class:`SimulationJob`; the run happens in a separate process
+(``spawn``), so the web server keeps answering other pages while it goes. The
+worker calls :func:`manipcad.simulate` with a ``progress=`` callback that reports
+the fraction done and raises ``KeyboardInterrupt`` once cancel is asked, then
+stores the result with :meth:`manipcad.workspace.Workspace.store_result` (a
+cancelled or failed run stores nothing; a diverged one only when asked).
+
+Messages from the worker (a queue): ``("progress", fraction)``,
+``("done", result name, metrics)``, ``("error", message)``, ``("cancelled", "")``.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import queue
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass
+class SimSpec:
+    """What to run (all references are workspace or catalog names, checked in the worker).
+
+    Attributes:
+        workspace: the workspace folder.
+        robot: a catalog robot name or ``robots/NAME``.
+        trajectory: a workspace trajectory name.
+        regulators: workspace regulator names (joints in none get U = 0).
+        t_end: simulated time, s (None: the trajectory's duration).
+        dt: integration step, s.
+        name: the result's name (None: generated).
+        save_diverged: keep the partial result of a diverged run.
+    """
+
+    workspace: str
+    robot: str
+    trajectory: str
+    regulators: list[str] = field(default_factory=list)
+    t_end: float | None = None
+    dt: float = 1e-4
+    name: str | None = None
+    save_diverged: bool = False
+
+
+def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
+    """Run one simulation and store it in the workspace (what the worker does).
+
+    Args:
+        spec: the run.
+        progress: called with the fraction done (0..1); may raise to cancel.
+
+    Returns:
+        ``(name, metrics)``: the stored result's name and its indexed metrics.
+
+    Raises:
+        InputError: a bad reference or value; ManipcadError: the run failed
+            (diverged at t, joint).
+    """
+    import math
+    import warnings
+
+    from manipcad.control.files import load_regulators
+    from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+    from manipcad.sim import SimulationDiverged, simulate
+    from manipcad.ui.logic import load_robot_ref, load_trajectory_ref, open_workspace
+    from manipcad.workspace import check_name
+
+    ws = open_workspace(spec.workspace)
+    arm, _ = load_robot_ref(ws, spec.robot)
+    traj = load_trajectory_ref(ws, spec.trajectory, arm)
+    if traj.n != arm.n:
+        raise InputError(spec.trajectory, "", f"has {traj.n} joints, robot {arm.name!r} "
+                         f"has {arm.n}")
+    regs = []
+    for name in spec.regulators:
+        check_name(name, "regulator")
+        regs += load_regulators(ws.resolve("regulators", name), arm, dt=spec.dt)
+    t_end = spec.t_end if spec.t_end is not None else float(traj.duration)
+    if not (math.isfinite(t_end) and t_end > 0):
+        raise InputError("t_end", "", f"must be > 0 s, got {t_end}")
+    if not (math.isfinite(spec.dt) and 0 < spec.dt <= t_end):
+        raise InputError("dt", "", f"must be > 0 s and <= t_end, got {spec.dt}")
+    if spec.name:
+        check_name(spec.name, "result name")
+    run = {"robot": spec.robot, "trajectory": spec.trajectory, "regulators": spec.regulators,
+           "t_end": t_end, "dt": spec.dt, "every": 1, "drives": True, "payload": None}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        try:
+            res = simulate(arm, t_end=t_end, dt=spec.dt, trajectory=traj, regulators=regs,
+                           progress=progress)
+        except SimulationDiverged as exc:
+            if spec.save_diverged:
+                item = ws.store_result(exc.result, name=spec.name, robot=arm,
+                                       trajectory=spec.trajectory,
+                                       regulators=spec.regulators, run=run,
+                                       status="diverged", message=str(exc))
+                raise ManipcadError(f"{exc}; the partial result is {item.name}") from None
+            raise ManipcadError(f"{exc}; nothing was stored") from None
+        item = ws.store_result(res, name=spec.name, robot=arm, trajectory=spec.trajectory,
+                               regulators=spec.regulators, run=run)
+    return item.name, item.metrics
+
+
+def _work(spec: SimSpec, out, cancel) -> None:
+    """The worker process's body: run, reporting progress; cancel through ``cancel``."""
+    from manipcad.errors import ManipcadError
+
+    def progress(frac: float) -> None:
+        out.put(("progress", float(frac)))
+        if cancel.is_set():
+            raise KeyboardInterrupt
+
+    try:
+        name, metrics = run_spec(spec, progress)
+    except KeyboardInterrupt:
+        out.put(("cancelled", ""))
+    except ManipcadError as exc:
+        out.put(("error", str(exc)))
+    except Exception as exc:  # noqa: BLE001  the page shows any failure, with its type
+        out.put(("error", f"{type(exc).__name__}: {exc}"))
+    else:
+        out.put(("done", name, metrics))
+
+
+class SimulationJob:
+    """A simulation running in a worker process.
+
+    Example (not run here: it starts a process)::
+
+        job = SimulationJob(SimSpec("ws", "puma560", "move", ["asvs-all"], t_end=2.0))
+        while job.poll() in ("starting", "running"):
+            time.sleep(0.1)
+        job.state, job.result
+    """
+
+    def __init__(self, spec: SimSpec) -> None:
+        ctx = mp.get_context("spawn")
+        self.spec = spec
+        self.queue = ctx.Queue()
+        self.cancel_event = ctx.Event()
+        self.process = ctx.Process(target=_work, args=(spec, self.queue, self.cancel_event),
+                                   daemon=True)
+        self.state = "starting"
+        self.fraction = 0.0
+        self.result: str | None = None
+        self.metrics: dict[str, Any] = {}
+        self.message = ""
+        self.started = time.perf_counter()
+        self.wall = float("nan")
+        self.process.start()
+
+    def poll(self) -> str:
+        """Read what the worker said; returns the state: starting, running, done,
+        error, cancelled."""
+        while True:
+            try:
+                msg = self.queue.get_nowait()
+            except queue.Empty:
+                break
+            if msg[0] == "progress":
+                self.state, self.fraction = "running", msg[1]
+            elif msg[0] == "done":
+                self.state, self.result, self.metrics = "done", msg[1], msg[2]
+                self.fraction = 1.0
+            else:
+                self.state, self.message = msg[0], msg[1]
+            if self.state in ("done", "error", "cancelled"):
+                self.wall = time.perf_counter() - self.started
+                self.process.join(timeout=5)
+        if self.state in ("starting", "running") and not self.process.is_alive():
+            self.process.join(timeout=1)
+            if self.queue.empty():
+                self.state = "error"
+                self.message = f"the worker process ended (exit code {self.process.exitcode})"
+        return self.state
+
+    def cancel(self) -> None:
+        """Ask the worker to stop at its next progress report (nothing is stored)."""
+        self.cancel_event.set()
+
+    @property
+    def finished(self) -> bool:
+        """Whether the run is over (done, error or cancelled)."""
+        return self.state in ("done", "error", "cancelled")

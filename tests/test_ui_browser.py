@@ -1,0 +1,247 @@
+"""``manipcad ui`` end to end in a real headless Chromium (Debian's ``chromium``,
+driven by Playwright from PyPI; never a browser Playwright downloads).
+
+The designer's flow: open the app, pick the PUMA 560, make a trajectory, get a
+recommendation, synthesize the recommended method and a PID, simulate both, see
+both in the results overlay; a bad URDF upload shows its error in the page; a
+traversal name gets 400; with a token, a request without it gets 401.
+Screenshots of every page go to docs/ui/.
+
+A missing browser or Playwright FAILS these tests (``.ci/run`` installs chromium);
+they are never skipped.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.slow
+
+ROOT = Path(__file__).resolve().parents[1]
+SHOTS = ROOT / "docs" / "ui"
+CHROMIUM = os.environ.get("MANIPCAD_CHROMIUM", "/usr/bin/chromium")
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+         "--disable-component-update", "--disable-sync", "--no-first-run"]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _start(ws: Path, *extra: str):
+    port = _free_port()
+    # NiceGUI takes a PYTEST_CURRENT_TEST in its environment for its own test mode
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
+    env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")
+    proc = subprocess.Popen([sys.executable, "-m", "manipcad", "ui", "--ws", str(ws),
+                             "--port", str(port), *extra], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    base = f"http://127.0.0.1:{port}"
+    deadline = time.time() + 60
+    while time.time() < deadline:
+        try:
+            urllib.request.urlopen(base + "/api/items/robots/none", timeout=2)
+        except urllib.error.HTTPError:
+            return proc, base           # the server answers (404 or 401)
+        except OSError:
+            if proc.poll() is not None:
+                raise AssertionError(f"manipcad ui exited: {proc.stdout.read()}") from None
+            time.sleep(0.2)
+    proc.kill()
+    raise AssertionError("manipcad ui did not answer within 60 s")
+
+
+def _stop(proc) -> None:
+    proc.terminate()
+    try:
+        proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+
+
+@pytest.fixture(scope="module")
+def browser():
+    assert Path(CHROMIUM).is_file(), (
+        f"{CHROMIUM} missing: install Debian's chromium (apt-get install -y chromium); "
+        ".ci/run does it")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as pw:
+        b = pw.chromium.launch(executable_path=CHROMIUM, args=FLAGS, headless=True)
+        yield b
+        b.close()
+
+
+@pytest.fixture()
+def server(tmp_path):
+    proc, base = _start(tmp_path / "ws")
+    yield base
+    _stop(proc)
+
+
+def _pick(page, testid: str, option: str) -> None:
+    """Choose ``option`` in the q-select marked ``testid``."""
+    from playwright.sync_api import expect
+
+    sel = page.get_by_test_id(testid)
+    sel.click()
+    item = page.locator(".q-menu .q-item", has_text=option).first
+    item.wait_for()
+    item.click()
+    page.locator(".q-menu").wait_for(state="detached")
+    expect(sel).to_contain_text(option)
+
+
+def _open(page, url: str) -> None:
+    """Go to a page and wait until its websocket is up (events before that are lost)."""
+    resp = page.goto(url)
+    assert resp.status == 200, (url, resp.status)
+    page.wait_for_function("() => window.socket && window.socket.connected")
+
+
+def _fill(page, testid: str, value: str) -> None:
+    # ui.input puts the test id on the <input> itself
+    page.locator(f"input[data-testid={testid}], [data-testid={testid}] input").first.fill(value)
+
+
+def _shot(page, name: str) -> None:
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(SHOTS / f"{name}.png"), full_page=True)
+
+
+def _simulate(page, regulator: str, name: str) -> None:
+    _pick(page, "sim-reg", regulator)
+    _fill(page, "sim-tend", "0.3")
+    _fill(page, "sim-dt", "1e-4")
+    _fill(page, "sim-name", name)
+    page.get_by_test_id("sim-run").click()
+    status = page.get_by_test_id("sim-status")
+    deadline = time.time() + 240   # the worker's first run may load compiled kernels
+    while time.time() < deadline:
+        text = status.inner_text()
+        if f"results/{name}" in text or text.startswith(("error", "cancelled")):
+            break
+        time.sleep(0.25)
+    assert text.startswith("done"), (text, page.get_by_test_id("error").inner_text())
+    assert f"results/{name}" in text
+
+
+def test_designer_flow(browser, server):
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    _open(page, server + "/")
+    page.get_by_text("Requirements → method").first.wait_for()
+    _shot(page, "main-menu")
+
+    # robots: pick the PUMA 560; its joints table and the stick view
+    _open(page, server + "/robots")
+    _pick(page, "robot-select", "cylindrical")
+    page.get_by_text("3 joints, 3 driven").wait_for()
+    _pick(page, "robot-select", "puma560")
+    page.get_by_text("6 joints, 6 driven").wait_for()
+    table = page.get_by_test_id("joints-table")
+    for joint in ("waist", "shoulder", "elbow", "flange"):
+        assert joint in table.inner_text()
+    page.locator(".js-plotly-plot").first.wait_for()
+    _shot(page, "robots")
+
+    # a bad URDF upload: its error (file, reason) in the page, nothing added
+    page.get_by_test_id("robot-upload").locator("input[type=file]").set_input_files(
+        files=[{"name": "broken.urdf", "mimeType": "application/xml",
+                "buffer": b"<robot name='x'><link name='a'/><joint name='j' type='revolute'>"}])
+    err = page.get_by_test_id("error")
+    err.wait_for(state="visible")
+    assert "broken.urdf" in err.inner_text()
+    _shot(page, "robots-bad-upload")
+
+    # trajectory: laws (2) for every joint, preview, save
+    _open(page, server + "/trajectories")
+    _fill(page, "traj-amplitude", "0.2")
+    _fill(page, "traj-omega", "3")
+    _fill(page, "traj-duration", "1.0")
+    page.get_by_test_id("traj-preview").click()
+    page.locator(".js-plotly-plot").first.wait_for()
+    _fill(page, "traj-name", "move")
+    page.get_by_test_id("traj-save").click()
+    page.get_by_text("saved trajectories/move").wait_for()
+    _shot(page, "trajectories")
+
+    # requirements -> recommended method with the rules that fired
+    _open(page, server + "/requirements")
+    page.get_by_test_id("req-run").click()
+    methods = page.get_by_test_id("rec-methods")
+    methods.wait_for()
+    best = methods.inner_text().split(":", 1)[1].split(",")[0].strip()
+    assert best == "asvs", methods.inner_text()
+    page.get_by_text("Rules that fired").wait_for()
+    _shot(page, "requirements")
+
+    # synthesis: the recommended method (preselected) and a PID
+    _open(page, server + "/synthesis")
+    _fill(page, "syn-name", "best")
+    page.get_by_test_id("syn-run").click()
+    page.get_by_test_id("syn-saved").wait_for()
+    assert "U_k" in page.locator(".font-mono").first.inner_text()   # the law with numbers
+    _shot(page, "synthesis")
+    _pick(page, "syn-method", "pid")
+    _fill(page, "syn-name", "pid")
+    page.get_by_test_id("syn-run").click()
+    page.get_by_test_id("syn-saved").get_by_text("saved regulators/pid").wait_for()
+
+    # simulate both, in the worker process
+    _open(page, server + "/simulation")
+    _simulate(page, "best", "run-best")
+    page.locator(".js-plotly-plot").first.wait_for()
+    _shot(page, "simulation")
+    _simulate(page, "pid", "run-pid")
+
+    # results: both listed and overlaid
+    _open(page, server + "/results")
+    table = page.get_by_test_id("res-table")
+    table.get_by_text("run-best").wait_for()
+    assert "run-pid" in table.inner_text()
+    page.get_by_test_id("res-overlay-run").click()
+    overlay = page.get_by_test_id("res-overlay")
+    overlay.locator(".legend").first.wait_for()
+    legend = overlay.locator(".legend").first.text_content()
+    assert "run-best" in legend and "run-pid" in legend
+    _shot(page, "results")
+    _fill(page, "res-where", "max_error<0")
+    page.get_by_test_id("res-filter").click()
+    table.get_by_text("No data available").wait_for()
+
+    # a traversal name gets 400, an unknown item 404
+    assert page.goto(server + "/api/items/robots/..%2F..%2Fetc%2Fpasswd").status == 400
+    assert page.goto(server + "/api/items/robots/%2Fetc%2Fpasswd").status == 400
+    got = page.request.get(server + "/api/items/trajectories/move")
+    assert got.status == 200 and b"cosine" in got.body()
+    assert page.request.get(server + "/api/items/trajectories/nothing").status == 404
+    assert page.request.get(server + "/api/items/secrets/move").status == 400
+    page.close()
+
+
+def test_token_required_off_loopback(browser, tmp_path):
+    proc, base = _start(tmp_path / "ws", "--token", "s3cret-token")
+    try:
+        page = browser.new_page()
+        assert page.goto(base + "/").status == 401
+        assert page.goto(base + "/api/items/robots/x").status == 401
+        assert page.goto(base + "/?token=wrong").status == 401
+        assert page.goto(base + "/?token=s3cret-token").status == 200
+        # the page's own requests carry the cookie: the page comes alive over its websocket
+        page.get_by_text("Requirements → method").first.wait_for()
+        assert page.goto(base + "/robots").status == 200
+        page.get_by_text("6 joints, 6 driven").wait_for()
+        page.close()
+    finally:
+        _stop(proc)

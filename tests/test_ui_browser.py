@@ -110,6 +110,18 @@ def _open(page, url: str) -> None:
     page.wait_for_function("() => window.socket && window.socket.connected")
 
 
+def _see(page, locator, timeout: float = 30_000) -> None:
+    """Wait for ``locator``; on a timeout, say what the page's error line shows."""
+    from playwright.sync_api import TimeoutError as Timeout
+
+    try:
+        locator.wait_for(timeout=timeout)
+    except Timeout:
+        err = page.get_by_test_id("error")
+        shown = err.inner_text() if err.count() and err.is_visible() else "(no error shown)"
+        raise AssertionError(f"{locator} did not appear; the page's error: {shown}") from None
+
+
 def _fill(page, testid: str, value: str) -> None:
     # ui.input puts the test id on the <input> itself
     page.locator(f"input[data-testid={testid}], [data-testid={testid}] input").first.fill(value)
@@ -173,14 +185,14 @@ def test_designer_flow(browser, server):
     page.locator(".js-plotly-plot").first.wait_for()
     _fill(page, "traj-name", "move")
     page.get_by_test_id("traj-save").click()
-    page.get_by_text("saved trajectories/move").wait_for()
+    _see(page, page.get_by_text("saved trajectories/move"))
     _shot(page, "trajectories")
 
     # requirements -> recommended method with the rules that fired
     _open(page, server + "/requirements")
     page.get_by_test_id("req-run").click()
     methods = page.get_by_test_id("rec-methods")
-    methods.wait_for()
+    _see(page, methods)
     best = methods.inner_text().split(":", 1)[1].split(",")[0].strip()
     assert best == "asvs", methods.inner_text()
     page.get_by_text("Rules that fired").wait_for()
@@ -190,7 +202,7 @@ def test_designer_flow(browser, server):
     _open(page, server + "/synthesis")
     _fill(page, "syn-name", "best")
     page.get_by_test_id("syn-run").click()
-    page.get_by_test_id("syn-saved").wait_for()
+    _see(page, page.get_by_test_id("syn-saved"))
     assert "U_k" in page.locator(".font-mono").first.inner_text()   # the law with numbers
     _shot(page, "synthesis")
     _pick(page, "syn-method", "pid")

@@ -1,0 +1,218 @@
+"""Page logic of ``manipcad ui`` without a browser: what each page calls, its errors,
+and the security checks (token gate, names, uploads). The browser flow is in
+tests/test_ui_browser.py."""
+
+from __future__ import annotations
+
+import asyncio
+import warnings
+
+import numpy as np
+import pytest
+
+import manipcad
+from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.ui import logic
+from manipcad.ui.security import TokenGate, is_loopback, token_for
+
+GOOD_URDF = b"""<robot name="one">
+  <link name="base"/>
+  <link name="arm"><inertial><mass value="1.0"/><origin xyz="0.1 0 0"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="10" velocity="1"/></joint>
+</robot>"""
+
+ENTITY_URDF = b"""<?xml version="1.0"?>
+<!DOCTYPE robot [<!ENTITY x SYSTEM "file:///etc/passwd">]>
+<robot name="&x;"><link name="base"/></robot>"""
+
+
+@pytest.fixture()
+def ws(tmp_path):
+    return logic.open_workspace(tmp_path / "ws")
+
+
+@pytest.fixture(scope="module")
+def puma():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        return manipcad.load_robot("puma560")
+
+
+def test_robot_choices_and_joint_rows_carry_units(ws, puma):
+    assert {"puma560", "cylindrical"} <= set(logic.robot_choices(ws))
+    arm, notes = logic.load_robot_ref(ws, "puma560")
+    assert arm.n == 6 and notes                      # the catalog's data notes are shown
+    rows = logic.joint_rows(manipcad.load_robot("cylindrical"))
+    assert [r["unit"] for r in rows] == ["rad", "m", "m"]
+    assert rows[0]["motor"] == "maxon_re40_148877" and float(rows[0]["ratio"]) == -100.0
+    assert logic.robot_totals(arm)["mass_kg"] == pytest.approx(float(np.sum(arm.mass)))
+
+
+def test_stick_points_follow_the_kinematics(puma):
+    from manipcad.kinematics.forward import frames, tool_pose
+
+    q = np.array([0.3, -0.5, 0.7, 0.1, 0.4, -0.2])
+    segs = logic.stick_points(puma, q)
+    _, p = frames(puma, q[None])
+    np.testing.assert_allclose(segs[0, 0], 0.0)
+    np.testing.assert_allclose(segs[:-1, 1], p[0])
+    np.testing.assert_allclose(segs[-1, 1], tool_pose(puma, q)[:3, 3])
+    # a pose changes the figure: the tool moves by the kinematics, not by a redraw rule
+    assert not np.allclose(logic.stick_points(puma, np.zeros(6))[-1, 1], segs[-1, 1])
+
+
+def test_upload_adds_a_valid_urdf_and_names_the_file_of_a_bad_one(ws):
+    item = logic.add_upload(ws, "one.urdf", GOOD_URDF, kind="robots")
+    assert item.ref == "robots/one" and "robots/one" in logic.robot_choices(ws)
+    assert logic.load_robot_ref(ws, "robots/one")[0].n == 1
+    with pytest.raises(InputError, match=r"^broken\.urdf"):
+        logic.add_upload(ws, "broken.urdf", b"<robot name='x'><link", kind="robots")
+    with pytest.raises(ManipcadError, match="entit"):
+        logic.add_upload(ws, "evil.urdf", ENTITY_URDF, kind="robots")
+    with pytest.raises(InputError, match="larger than"):
+        logic.add_upload(ws, "big.urdf", b" " * (logic.MAX_UPLOAD + 1), kind="robots")
+    with pytest.raises(InputError, match="ends in"):
+        logic.add_upload(ws, "x.exe", GOOD_URDF, kind="robots")
+    for bad in ("../x", "/etc/passwd", ".hidden", "a/b"):
+        with pytest.raises(InputError, match="name"):
+            logic.add_upload(ws, "one.urdf", GOOD_URDF, kind="robots", name=bad)
+    # the browser's file name is never a path: only its suffix and stem are used
+    item = logic.add_upload(ws, "../../etc/two.urdf", GOOD_URDF, kind="robots")
+    assert item.name == "two" and (ws.root / "robots" / "two.urdf").is_file()
+    assert [i.name for i in ws.list("robots")] == ["one", "two"]   # nothing else added
+
+
+def test_robot_refs_outside_the_workspace_are_refused(ws):
+    for ref in ("robots/../../etc/passwd", "/etc/passwd", "trajectories/x", "robots/.x"):
+        with pytest.raises(InputError):
+            logic.load_robot_ref(ws, ref)
+
+
+def test_trajectory_form_errors_name_the_field_then_save(ws, puma):
+    with pytest.raises(InputError, match=r"trajectory form.*duration"):
+        logic.make_trajectory({"type": "quintic", "q_start": [0.0] * 6, "q_end": [0.1] * 6,
+                               "duration": "long"}, puma)
+    with pytest.raises(InputError, match=r"trajectory form.*3 joints"):
+        logic.make_trajectory({"type": "quintic", "q_start": [0.0] * 3, "q_end": [0.1] * 3,
+                               "duration": 1.0}, puma)
+    traj = logic.make_trajectory({"type": "cosine", "amplitude": [0.2] * 6,
+                                  "omega": [3.0] * 6, "duration": 1.0}, puma)
+    pv = logic.trajectory_preview(traj, puma, samples=11)
+    q, _, _ = traj.sample(pv["t"])
+    np.testing.assert_array_equal(pv["q"], q)
+    assert pv["speed"].shape == (11,) and pv["speed"][5] > 0
+    item = logic.save_trajectory_to(ws, traj, "move")
+    back = logic.load_trajectory_ref(ws, item.name, puma)
+    np.testing.assert_allclose(back.sample(pv["t"])[0], q, rtol=1e-12)
+    with pytest.raises(InputError, match="taken|exists"):
+        logic.save_trajectory_to(ws, traj, "move")
+    with pytest.raises(InputError):
+        logic.save_trajectory_to(ws, traj, "../move")
+
+
+def test_recommendation_and_synthesis_are_the_apis(ws, puma):
+    form = {"accuracy": 1e-3, "overshoot_allowed": False, "fast_action": True,
+            "gripper_speed": "", "inductance": "negligible", "coupling": None,
+            "parameter_variation": "slow",
+            "transmission": {"backlash": False, "elasticity": False}}
+    recs = logic.recommend_for(form, puma, None)
+    direct = manipcad.recommend({k: v for k, v in form.items() if v not in (None, "")},
+                                puma)
+    assert recs.methods == direct.methods and recs.best.method == "asvs"
+    assert recs.rule_texts                             # the rules that fired, in words
+    with pytest.raises(InputError, match=r"requirements form.*accuracy"):
+        logic.recommend_for({**form, "accuracy": -1.0}, puma)
+    regs, item = logic.synthesize_to(ws, puma, "pid", spec={"bandwidth": 20.0}, name="pid")
+    assert len(regs) == 6 and item.ref == "regulators/pid"
+    ref = manipcad.synthesize(puma, "all", "pid", spec={"bandwidth": 20.0})
+    np.testing.assert_array_equal(regs[0].params, ref[0].params)
+    loaded = manipcad.load_regulators(ws.resolve("regulators", "pid"), puma)
+    np.testing.assert_array_equal(loaded[3].params, ref[3].params)
+    with pytest.raises(ManipcadError, match="unknown synthesis method"):
+        logic.synthesize_to(ws, puma, "magic", name="m")
+
+
+def test_token_rules():
+    assert is_loopback("127.0.0.1") and is_loopback("::1") and not is_loopback("0.0.0.0")
+    assert token_for("127.0.0.1", None) is None
+    assert token_for("0.0.0.0", None) != token_for("0.0.0.0", None)   # generated each start
+    assert token_for("0.0.0.0", "t") == "t"
+
+
+def _call(gate, path: str, query: str = "", headers=()):
+    sent = []
+
+    async def send(msg):
+        sent.append(msg)
+
+    async def receive():
+        return {"type": "http.request", "body": b""}
+
+    scope = {"type": "http", "path": path, "query_string": query.encode(),
+             "headers": list(headers)}
+    asyncio.run(gate(scope, receive, send))
+    return sent
+
+
+def test_token_gate_refuses_requests_without_the_token():
+    async def inner(scope, receive, send):
+        await send({"type": "http.response.start", "status": 200, "headers": []})
+        await send({"type": "http.response.body", "body": b"ok"})
+
+    gate = TokenGate(inner, "tok")
+    assert _call(gate, "/")[0]["status"] == 401
+    assert _call(gate, "/", "token=bad")[0]["status"] == 401
+    ok = _call(gate, "/", "token=tok")
+    assert ok[0]["status"] == 200
+    assert (b"set-cookie", b"manipcad_token=tok; Path=/; HttpOnly; SameSite=Strict") \
+        in ok[0]["headers"]
+    assert _call(gate, "/x", headers=[(b"cookie", b"a=b; manipcad_token=tok")])[0]["status"] \
+        == 200
+    assert _call(gate, "/x", headers=[(b"x-manipcad-token", b"tok")])[0]["status"] == 200
+    assert _call(gate, "/x", headers=[(b"cookie", b"manipcad_token=nope")])[0]["status"] == 401
+
+    closed = []
+
+    async def send(msg):
+        closed.append(msg)
+
+    asyncio.run(gate({"type": "websocket", "path": "/_nicegui_ws", "query_string": b"",
+                      "headers": []}, None, send))
+    assert closed == [{"type": "websocket.close", "code": 1008}]
+
+
+@pytest.mark.slow
+def test_worker_runs_stores_and_cancels(ws):
+    """The worker's run equals manipcad.simulate's; a cancel stores nothing."""
+    from manipcad.ui.worker import SimSpec, SimulationJob, run_spec
+
+    arm = manipcad.load_robot("cylindrical")
+    traj = logic.make_trajectory({"type": "quintic", "q_start": [0.0, 0.1, 0.1],
+                                  "q_end": [0.3, 0.2, 0.2], "duration": 0.1}, arm)
+    logic.save_trajectory_to(ws, traj, "move")
+    regs, _ = logic.synthesize_to(ws, arm, "pid", name="pid")
+    seen = []
+    spec = SimSpec(str(ws.root), "cylindrical", "move", ["pid"], t_end=0.1, dt=1e-4,
+                   name="r1")
+    name, metrics = run_spec(spec, progress=seen.append)
+    assert name == "r1" and seen and seen[-1] == pytest.approx(1.0)
+    direct = manipcad.simulate(arm, t_end=0.1, dt=1e-4, trajectory=traj, regulators=regs)
+    assert metrics["max_error"] == pytest.approx(
+        max(m["max_error"] for m in direct.metrics.values()), rel=1e-12)
+
+    job = SimulationJob(SimSpec(str(ws.root), "cylindrical", "move", ["pid"], t_end=0.1,
+                                dt=1e-4, name="r2"))
+    job.cancel()
+    import time
+
+    deadline = time.time() + 120
+    while not job.finished and time.time() < deadline:
+        job.poll()
+        time.sleep(0.05)
+    assert job.state == "cancelled", (job.state, job.message)
+    assert [i.name for i in ws.list("results")] == ["r1"]
+
+    with pytest.raises(InputError, match="may not contain"):
+        run_spec(SimSpec(str(ws.root), "cylindrical", "../move", ["pid"]))

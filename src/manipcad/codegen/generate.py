@@ -27,10 +27,9 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 import symengine as se
-from numba import carray
-from numba.core.extending import intrinsic
 
 from manipcad.codegen import emit
+from manipcad.codegen.cabi import CFUNC_SIGNATURES
 from manipcad.codegen.emit import AddTo, Check, Friction, IfDrives, Let, Store
 from manipcad.codegen.symbolic import Dynamics, dynamics, num
 from manipcad.dynamics._inputs import as_states
@@ -54,7 +53,7 @@ def cache_root() -> Path:
 
 def _generator_digest() -> str:
     h = hashlib.sha256()
-    for name in ("symbolic.py", "emit.py", "generate.py"):
+    for name in ("symbolic.py", "emit.py", "generate.py", "cabi.py"):
         h.update((Path(__file__).parent / name).read_bytes())
     h.update(se.__version__.encode())
     return h.hexdigest()
@@ -309,11 +308,16 @@ def python_source(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> str
         "",
         "Do not edit: the file is regenerated when the robot or the generator changes.",
         "SI units: q rad or m, qd rad/s or m/s, qdd rad/s² or m/s², tau N·m or N.",
-        "Plain Python: manipcad.codegen compiles each function with numba on first use,",
-        "with the signature in SIGNATURES.",
+        "numba compiles each function on its first call (and caches it on disk); the",
+        "cfunc_* wrappers are made C-ABI kernels by GeneratedDynamics.cfunc.",
         '"""',
         "",
         "import math",
+        "",
+        "import numba as nb",
+        "from numba import carray",
+        "",
+        "from manipcad.codegen.cabi import f64_ptr",
         "",
         f"N = {n}",
         f'ROBOT_HASH = "{digest}"',
@@ -324,9 +328,33 @@ def python_source(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> str
     for func in FUNCTIONS:
         for batch in (False, True):
             lines, sig = _py_function(func, n, d, stmts[func], batch=batch)
-            body += lines
+            body += ['@nb.njit(cache=True, nogil=True, error_model="numpy")'] + lines
             sigs.append(f'    "{func}{"_batch" if batch else ""}": "{sig}",')
+    body += _cfunc_wrappers(n)
     return "\n".join(head + body + ["SIGNATURES = {"] + sigs + ["}"]) + "\n"
+
+
+def _cfunc_wrappers(n: int) -> list[str]:
+    """Module-level wrappers on raw addresses (see GeneratedDynamics.cfunc)."""
+    def arr(x, shape=None):
+        return f"carray(f64_ptr({x}), {shape or 'N'})"
+
+    out = []
+    for dr in (0, 1):
+        flag = "True" if dr else "False"
+        out += [f"def cfunc_inverse_dynamics_{dr}(a, b, c, d):",
+                f"    inverse_dynamics({arr('a')}, {arr('b')}, {arr('c')}, {flag}, {arr('d')})",
+                "    return 0", "", "",
+                f"def cfunc_mass_matrix_{dr}(a, b):",
+                f"    mass_matrix({arr('a')}, {flag}, {arr('b', '(N, N)')})",
+                "    return 0", "", "",
+                f"def cfunc_forward_dynamics_{dr}(a, b, c, d):",
+                f"    return forward_dynamics({arr('a')}, {arr('b')}, {arr('c')}, {flag}, "
+                f"{arr('d')})", "", ""]
+    out += ["def cfunc_moment_components(a, b, c, d, e):",
+            f"    moment_components({arr('a')}, {arr('b')}, {arr('c')}, {arr('d')}, {arr('e')})",
+            "    return 0", "", ""]
+    return out
 
 
 _C_SIGNATURES = {
@@ -510,49 +538,10 @@ def _extension(path: Path, digest: str, n: int):
     return mod
 
 
-_ADDR = nb.types.uintp
-#: signatures of :meth:`GeneratedDynamics.cfunc` (arguments: buffer addresses)
-CFUNC_SIGNATURES = {
-    "inverse_dynamics": nb.types.int64(_ADDR, _ADDR, _ADDR, _ADDR),
-    "mass_matrix": nb.types.int64(_ADDR, _ADDR),
-    "moment_components": nb.types.int64(_ADDR, _ADDR, _ADDR, _ADDR, _ADDR),
-    "forward_dynamics": nb.types.int64(_ADDR, _ADDR, _ADDR, _ADDR),
-}
-
-
-@intrinsic
-def _f64_ptr(typingctx, addr):
-    """The address (an integer) as a ``double *``."""
-    sig = nb.types.CPointer(nb.types.float64)(addr)
-
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-
-    return sig, codegen
-
-
-def _make_cfunc(name: str, kern, n: int, drives: bool):
-    """The C-ABI wrapper of one generated kernel (see GeneratedDynamics.cfunc)."""
-    sig = CFUNC_SIGNATURES[name]
-    if name == "inverse_dynamics":
-        def f(a, b, c, d):
-            kern(carray(_f64_ptr(a), n), carray(_f64_ptr(b), n), carray(_f64_ptr(c), n),
-                 drives, carray(_f64_ptr(d), n))
-            return 0
-    elif name == "mass_matrix":
-        def f(a, b):
-            kern(carray(_f64_ptr(a), n), drives, carray(_f64_ptr(b), (n, n)))
-            return 0
-    elif name == "moment_components":
-        def f(a, b, c, d, e):
-            kern(carray(_f64_ptr(a), n), carray(_f64_ptr(b), n), carray(_f64_ptr(c), n),
-                 carray(_f64_ptr(d), n), carray(_f64_ptr(e), n))
-            return 0
-    else:
-        def f(a, b, c, d):
-            return kern(carray(_f64_ptr(a), n), carray(_f64_ptr(b), n), carray(_f64_ptr(c), n),
-                        drives, carray(_f64_ptr(d), n))
-    return nb.cfunc(sig, nogil=True, error_model="numpy")(f)
+def _vectors(*arrays) -> bool:
+    """True when every argument is a C-contiguous float64 ndarray of one dimension."""
+    return all(type(a) is np.ndarray and a.ndim == 1 and a.dtype == np.float64
+               and a.flags.c_contiguous for a in arrays)
 
 
 class _NoExtension:
@@ -640,8 +629,7 @@ class GeneratedDynamics:
             if self._m is None or name not in self._m.SIGNATURES:
                 raise ManipcadError(f"no generated kernel {name!r} for {self.robot.name!r}"
                                     + (f": {self.reason}" if self.reason else ""))
-            f = nb.njit(self._m.SIGNATURES[name], cache=True, nogil=True,
-                        error_model="numpy")(getattr(self._m, name))
+            f = getattr(self._m, name)
             self._c[name] = f
         return f
 
@@ -689,7 +677,9 @@ class GeneratedDynamics:
             if name not in CFUNC_SIGNATURES:
                 raise ManipcadError(f"no C-ABI kernel {name!r}: one of "
                                     f"{', '.join(CFUNC_SIGNATURES)}")
-            f = _make_cfunc(name, self.kernel(name), self.n, bool(drives))
+            tail = "" if name == "moment_components" else f"_{int(bool(drives))}"
+            f = nb.cfunc(CFUNC_SIGNATURES[name], cache=True, nogil=True)(
+                getattr(self._m, f"cfunc_{name}{tail}"))
             self._cf[key] = f
         return f
 
@@ -719,7 +709,7 @@ class GeneratedDynamics:
         if m is None:
             from manipcad.dynamics.api import inverse_dynamics
             return inverse_dynamics(self.robot, q, qd, qdd, drives=drives, use_generated=False)
-        if type(q) is np.ndarray and q.ndim == 1:
+        if _vectors(q, qd, qdd):
             tau = np.empty(self.n)
             try:  # the dict lookup inline: this is the call a control loop makes
                 (self._c.get("inverse_dynamics") or self.kernel("inverse_dynamics"))(
@@ -756,7 +746,7 @@ class GeneratedDynamics:
         if m is None:
             from manipcad.dynamics.api import mass_matrix
             return mass_matrix(self.robot, q, drives=drives, use_generated=False)
-        if type(q) is np.ndarray and q.ndim == 1:
+        if _vectors(q):
             H = np.empty((self.n, self.n))
             try:
                 self.kernel("mass_matrix")(q, drives, H)
@@ -833,7 +823,7 @@ class GeneratedDynamics:
             from manipcad.dynamics.api import forward_dynamics
             return forward_dynamics(self.robot, q, qd, tau, drives=drives, method="crba",
                                     use_generated=False)
-        if type(q) is np.ndarray and q.ndim == 1:
+        if _vectors(q, qd, tau):
             qdd = np.empty(self.n)
             try:
                 bad = self.kernel("forward_dynamics")(q, qd, tau, drives, qdd)

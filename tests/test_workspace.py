@@ -459,3 +459,20 @@ def test_jupyter_html(results_ws):
     df = results_dataframe(res, doc["joint_types"])
     assert df.shape == (50, 3 * 8) and "lift.tau [N]" in df.columns
     assert np.array_equal(df["reach.q [m]"].to_numpy(), res.q[:, 2])
+
+
+def test_unreadable_index_is_rebuilt_from_the_files(results_ws):
+    root = results_ws.root
+    before = sorted(i.ref for i in results_ws.list())
+    results_ws.close()
+    for suffix in ("-wal", "-shm"):
+        (root / f"index.sqlite{suffix}").unlink(missing_ok=True)
+    (root / "index.sqlite").write_bytes(b"this is not a database" * 100)
+    with pytest.raises(InputError, match="not a usable index.*reindex"):
+        Workspace(root)
+    r = cli("ws", "reindex", "--ws", root)
+    assert r.exit_code == 0, r.output
+    w = Workspace(root)
+    assert sorted(i.ref for i in w.list()) == before and w.check() == []
+    assert w.get("small").metrics["max_error"] == pytest.approx(1e-4)
+    assert any(p.name.startswith("index.sqlite.unreadable-") for p in root.iterdir())

@@ -344,7 +344,9 @@ def export(name: Annotated[str, typer.Argument(help="NAME or KIND/NAME.",
 @guarded
 def reindex(ws: WsOpt = None, as_json: JsonOpt = False) -> None:
     """Rebuild the index from the files (the files are the truth)."""
-    done = _open(ws).reindex()
+    from manipcad.workspace import Workspace
+
+    done = Workspace(ws, rebuild_index=True).reindex()
     if as_json:
         _echo_json(done)
         return

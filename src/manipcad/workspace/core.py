@@ -164,9 +164,12 @@ class Workspace:
 
     Args:
         root: the workspace folder (made by :meth:`init`); None: :func:`default_root`.
+        rebuild_index: if the index cannot be read, move it aside
+            (``index.sqlite.unreadable-TIME``) and rebuild it from the files.
 
     Raises:
-        InputError: not a workspace folder (the message says how to make one).
+        InputError: not a workspace folder (the message says how to make one), or an
+            unreadable index (without ``rebuild_index``).
 
     Example:
         >>> import tempfile
@@ -175,7 +178,7 @@ class Workspace:
         []
     """
 
-    def __init__(self, root: str | Path | None = None) -> None:
+    def __init__(self, root: str | Path | None = None, *, rebuild_index: bool = False) -> None:
         self.root = default_root(root)
         if not (self.root / MARKER).is_file():
             raise InputError(str(self.root), "", "not a manipcad workspace (no "
@@ -184,7 +187,19 @@ class Workspace:
             folder = self.root / kind
             if folder.is_symlink() and not inside(folder, self.root):
                 raise InputError(str(folder), "", "links outside the workspace; refused")
-        self.index = Index(self.root / INDEX)
+        try:
+            self.index = Index(self.root / INDEX)
+        except InputError:
+            if not rebuild_index:
+                raise
+            # files are the truth: set the unreadable index aside and rebuild it from them
+            stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S")
+            for suffix in ("", "-wal", "-shm"):
+                old = self.root / f"{INDEX}{suffix}"
+                if old.exists():
+                    os.replace(old, self.root / f"{INDEX}{suffix}.unreadable-{stamp}")
+            self.index = Index(self.root / INDEX)
+            self.reindex()
 
     # ------------------------------------------------------------------ making
     @classmethod

@@ -476,3 +476,25 @@ def test_unreadable_index_is_rebuilt_from_the_files(results_ws):
     assert sorted(i.ref for i in w.list()) == before and w.check() == []
     assert w.get("small").metrics["max_error"] == pytest.approx(1e-4)
     assert any(p.name.startswith("index.sqlite.unreadable-") for p in root.iterdir())
+
+
+def test_where_fuzz_never_reaches_sql_as_text(results_ws):
+    """Any filter text either parses (and runs as bound parameters) or is an InputError;
+    the index is never changed by a listing."""
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    alphabet = st.sampled_from(list("max_error[]<>=!; '\"-+.e0123456789 andORDROPTABLE*()/\\"))
+    before = sorted(i.ref for i in results_ws.list())
+
+    @settings(max_examples=120, deadline=None, derandomize=True,
+              suppress_health_check=[HealthCheck.function_scoped_fixture])
+    @given(st.text(alphabet, max_size=40))
+    def check(text):
+        try:
+            results_ws.list(where=text)
+        except InputError as exc:
+            assert "--where" in str(exc)
+
+    check()
+    assert sorted(i.ref for i in results_ws.list()) == before

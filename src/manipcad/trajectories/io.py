@@ -36,6 +36,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+import numpy as np
 import yaml
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
 
@@ -203,11 +204,12 @@ def trajectory_from_dict(data: Any, source: str = "<dict>", *, robot: Robot | No
         if kind in ("line", "circle"):
             fields["robot"] = _resolve_robot(source, fields.pop("robot"), robot, base_dir)
             make = line if kind == "line" else circle
-            return make(**fields)
-        if kind == "waypoints":
-            return waypoints(fields.pop("points"), **fields)
-        return {"cosine": cosine, "quintic": quintic, "trapezoidal": trapezoidal,
-                "spline": spline}[kind](**fields)
+            traj = make(**fields)
+        elif kind == "waypoints":
+            traj = waypoints(fields.pop("points"), **fields)
+        else:
+            traj = {"cosine": cosine, "quintic": quintic, "trapezoidal": trapezoidal,
+                    "spline": spline}[kind](**fields)
     except InputError as exc:
         if exc.source == source:
             raise
@@ -216,6 +218,31 @@ def trajectory_from_dict(data: Any, source: str = "<dict>", *, robot: Robot | No
         raise InputError(source, "", str(exc)) from None
     except ManipcadError as exc:
         raise InputError(source, "", f"the {kind} path cannot be followed: {exc}") from None
+    except (ValueError, ArithmeticError) as exc:  # a numerical failure inside the law
+        raise InputError(source, "", f"the {kind} trajectory cannot be built from these "
+                         f"values: {exc}") from None
+    _check_finite_samples(traj, source, kind)
+    return traj
+
+
+#: samples taken at load to check that a law's values stay finite
+CHECK_SAMPLES = 33
+
+
+def _check_finite_samples(traj: Trajectory, source: str, kind: str) -> None:
+    """Refuse a law whose duration, positions, speeds or accelerations are not finite
+    at :data:`CHECK_SAMPLES` evenly spread times (values that overflow, e.g. an
+    amplitude of 1e300 rad), instead of giving NaN torques later."""
+    T = traj.duration
+    if not (math.isfinite(T) and T >= 0):
+        raise InputError(source, "", f"the {kind} trajectory lasts {T} s; expected a finite "
+                         "duration (check the speeds, accelerations and times)")
+    with np.errstate(all="ignore"):
+        q, qd, qdd = traj.sample(np.linspace(0.0, T, CHECK_SAMPLES))
+    for name, a in (("positions", q), ("speeds", qd), ("accelerations", qdd)):
+        if not np.isfinite(a).all():
+            raise InputError(source, "", f"the {kind} trajectory's {name} are not finite "
+                             "(the values overflow: check the amplitudes, speeds and times)")
 
 
 def _resolve_robot(source: str, ref: str | None, robot: Robot | None,

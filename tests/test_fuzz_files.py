@@ -219,7 +219,7 @@ def cylindrical():
 @FUZZ
 @given(text=mutated([REG_TEXT]))
 def test_fuzz_regulator_files(cylindrical, text):
-    from manipcad.sim.files import load_regulators
+    from manipcad.control.files import load_regulators
 
     regs = loads_or_own_error(lambda p: load_regulators(p, cylindrical, dt=1e-4), text)
     if regs is not None:

@@ -228,8 +228,9 @@ def bench_generation() -> dict:
         t = time.perf_counter()
         gen = generate(robot, cache_dir=tmp, attach=False)
         t_gen = time.perf_counter() - t
+        z = np.zeros(robot.n)
         t = time.perf_counter()
-        gen.kernel("inverse_dynamics")
+        gen.kernel("inverse_dynamics")(z, z, z, True, np.empty(robot.n))  # compiles
         t_compile = time.perf_counter() - t
         t = time.perf_counter()
         generate(robot, cache_dir=tmp, attach=False)

@@ -329,6 +329,8 @@ def test_cli_stats_json_and_c_files(tmp_path):
     assert res.exit_code == 0, res.output
     data = json.loads(res.output)
     assert data["inverse_dynamics"]["mul"] <= 210 and data["inverse_dynamics"]["add"] <= 165
+    assert set(data) == {"inverse_dynamics", "mass_matrix", "moment_components",
+                         "forward_dynamics"}
     assert set(data["mass_matrix"]) == {"mul", "add", "trig", "sqrt"}
     res = runner.invoke(app, ["codegen", "puma560", "--out", str(tmp_path), "--lang", "c"])
     assert res.exit_code == 0, res.output

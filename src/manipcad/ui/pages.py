@@ -182,7 +182,8 @@ def robots_page() -> None:
                         ui.plotly(logic.stick_figure(arm, q)).style("width: 640px; "
                                                                     "height: 440px")
 
-                redraw()
+                # drawn once the page is live: the WebGL scene is the slow part of a load
+                ui.timer(0.05, redraw, once=True)
 
         def picked(e) -> None:
             clear()

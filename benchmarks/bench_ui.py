@@ -1,0 +1,153 @@
+"""Benchmark: ``manipcad ui`` page loads and a simulation started from the page vs the CLI.
+
+Usage::
+
+    python benchmarks/bench_ui.py [--t-end 2.0] [--loads 3] [--json out.json]
+
+What is timed (wall clock, ``time.perf_counter``), in one run on one machine:
+
+* **page load**: each page of the application in headless Chromium (Debian's
+  ``/usr/bin/chromium`` driven by Playwright), from ``page.goto`` to the page's
+  websocket being connected (the page is live), median of ``--loads`` loads.
+* **simulation from the page**: a PUMA 560 run of ``--t-end`` s (dt = 1e-4 s,
+  a PID on every joint, the laws (2) on every joint), from the click on
+  "Simulate" to the page showing "done" (worker process start, imports, run,
+  storing into the workspace, the page's poll every 0.25 s).
+* **the same ``manipcad simulate``**: the CLI as a subprocess on the same
+  robot, trajectory and regulator files (process start, imports, run, writing
+  the result folder), after one warm-up run of each.
+* **other pages while a run goes**: the load time of /robots while the page's
+  run is in progress (the worker is a separate process).
+
+Targets (issue 12): pages < 1 s; page run <= 1.5x the CLI's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+         "--disable-component-update", "--disable-sync", "--no-first-run"]
+PAGES = ("/", "/robots", "/trajectories", "/requirements", "/synthesis", "/simulation",
+         "/results")
+
+
+def prepare(ws_dir: Path, t_end: float) -> tuple[Path, Path]:
+    """A workspace with the trajectory and the PID regulators (through the UI's API)."""
+    import manipcad
+    from manipcad.errors import ManipcadWarning
+    from manipcad.ui import logic
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        arm = manipcad.load_robot("puma560")
+    ws = logic.open_workspace(ws_dir)
+    traj = logic.make_trajectory({"type": "cosine", "amplitude": [0.2] * 6,
+                                  "omega": [3.0] * 6, "duration": t_end}, arm)
+    logic.save_trajectory_to(ws, traj, "move")
+    logic.synthesize_to(ws, arm, "pid", name="pid")
+    return ws.resolve("trajectories", "move"), ws.resolve("regulators", "pid")
+
+
+def cli_run(traj: Path, reg: Path, out: Path, t_end: float) -> float:
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "manipcad", "simulate", "puma560", "-t", str(traj),
+                    "-r", str(reg), "--out", str(out), "--t-end", str(t_end), "--force"],
+                   check=True, env=env, capture_output=True)
+    return time.perf_counter() - t0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--t-end", type=float, default=2.0)
+    ap.add_argument("--loads", type=int, default=3)
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args()
+
+    from playwright.sync_api import sync_playwright
+    from test_ui_browser import _fill, _open, _pick, _start, _stop
+
+    tmp = Path(tempfile.mkdtemp())
+    traj, reg = prepare(tmp / "ws", args.t_end)
+    cli_run(traj, reg, tmp / "warm", args.t_end)          # compile / load the kernels
+    proc, base = _start(tmp / "ws")
+    out: dict = {"t_end_s": args.t_end}
+    try:
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path="/usr/bin/chromium", args=FLAGS)
+            page = browser.new_page(viewport={"width": 1400, "height": 900})
+            loads = {}
+            for path in PAGES:
+                times = []
+                for _ in range(args.loads):
+                    t0 = time.perf_counter()
+                    _open(page, base + path)
+                    times.append(time.perf_counter() - t0)
+                loads[path] = statistics.median(times)
+            out["page_load_s"] = loads
+            t0 = time.perf_counter()
+            _open(page, base + "/robots")
+            page.locator(".js-plotly-plot").first.wait_for()
+            page.locator(".js-plotly-plot .gl-container canvas").first.wait_for()
+            out["robots_3d_view_s"] = time.perf_counter() - t0
+
+            def page_run(name: str) -> tuple[float, float]:
+                _open(page, base + "/simulation")
+                _pick(page, "sim-reg", "pid")
+                _fill(page, "sim-dt", "1e-4")
+                _fill(page, "sim-name", name)
+                status = page.get_by_test_id("sim-status")
+                t0 = time.perf_counter()
+                page.get_by_test_id("sim-run").click()
+                other = float("nan")
+                while True:
+                    text = status.inner_text()
+                    if f"results/{name}" in text or text.startswith(("error", "cancelled")):
+                        break
+                    if text.startswith("running") and other != other:
+                        p2 = browser.new_page()
+                        t1 = time.perf_counter()
+                        _open(p2, base + "/robots")
+                        other = time.perf_counter() - t1
+                        p2.close()
+                    time.sleep(0.05)
+                wall = time.perf_counter() - t0
+                assert text.startswith("done"), text
+                return wall, other
+
+            page_run("warm")                                    # the worker's first run
+            ui_wall, other = page_run("bench")
+            browser.close()
+    finally:
+        _stop(proc)
+    cli_wall = cli_run(traj, reg, tmp / "cli", args.t_end)
+    out.update(ui_run_s=ui_wall, cli_run_s=cli_wall, ratio=ui_wall / cli_wall,
+               robots_page_during_run_s=other)
+    print(f"page load (median of {args.loads}, to websocket connected):")
+    for path, t in out["page_load_s"].items():
+        print(f"  {path:15s} {1e3 * t:7.0f} ms")
+    print(f"  /robots with its 3-D view drawn {1e3 * out['robots_3d_view_s']:7.0f} ms")
+    print(f"PUMA 560, {args.t_end:g} s at dt = 1e-4 s, PID on 6 joints:")
+    print(f"  from the page (click -> 'done')      {ui_wall:6.2f} s")
+    print(f"  manipcad simulate (process, wall)     {cli_wall:6.2f} s")
+    print(f"  ratio page / CLI                      {ui_wall / cli_wall:6.2f}  (target <= 1.5)")
+    print(f"  /robots loaded during the run in      {1e3 * other:6.0f} ms")
+    if args.json:
+        args.json.write_text(json.dumps(out, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -291,10 +291,12 @@ class Workspace:
         return self._item_path(rows[0]["kind"], rows[0]["path"]) if rows else None
 
     # ------------------------------------------------------------------ reading
-    def _item(self, row) -> Item:
+    def _item(self, row, metrics_rows=None) -> Item:
         metrics = {}
-        for m in self.index.query("SELECT joint, metric, value FROM metrics WHERE item_id = ?",
-                                  (row["id"],)):
+        if metrics_rows is None:
+            metrics_rows = self.index.query(
+                "SELECT joint, metric, value FROM metrics WHERE item_id = ?", (row["id"],))
+        for m in metrics_rows:
             key = m["metric"] if m["joint"] == "*" else f"{m['joint']}.{m['metric']}"
             metrics[key] = m["value"]
         return Item(kind=row["kind"], name=row["name"], path=row["path"], hash=row["hash"],
@@ -328,7 +330,13 @@ class Workspace:
         if conds:
             sql += " WHERE " + " AND ".join(conds)
         sql += " ORDER BY kind, name"
-        return ItemList(self._item(r) for r in self.index.query(sql, params))
+        rows = self.index.query(sql, params)
+        by_item: dict[int, list] = {r["id"]: [] for r in rows}
+        if any(r["kind"] == "results" for r in rows):  # one query for all the metrics
+            for m in self.index.query("SELECT item_id, joint, metric, value FROM metrics"):
+                if m["item_id"] in by_item:
+                    by_item[m["item_id"]].append(m)
+        return ItemList(self._item(r, by_item[r["id"]]) for r in rows)
 
     def library(self, kind: str | None = None, where: str | None = None) -> ItemList:
         """The workspace's items and, for robots, motors and gears, the built-in

@@ -297,6 +297,17 @@ def test_api_uses_attached_kernels_and_can_opt_out():
     # a changed copy is a new object: the general kernels, not the stale ones
     heavier = robot.with_payload(2.0)
     assert "_generated" not in heavier.__dict__
+    # a robot with kernels attached pickles (process pools); the copy finds them again
+    import pickle
+
+    from manipcad.codegen import find
+
+    copy = pickle.loads(pickle.dumps(robot))
+    assert copy.__dict__.get("_generated") is None
+    assert np.array_equal(manipcad.inverse_dynamics(copy, Q, QD, QDD, use_generated=False),
+                          general)
+    again = find(copy)
+    assert again is not None and again.hash == gen.hash
 
 
 def test_too_many_joints_falls_back_with_a_message():

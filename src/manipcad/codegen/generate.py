@@ -538,6 +538,11 @@ def _extension(path: Path, digest: str, n: int):
     return mod
 
 
+def _detached() -> None:
+    """What an attached :class:`GeneratedDynamics` unpickles to (see its ``__reduce__``)."""
+    return None
+
+
 def _vectors(*arrays) -> bool:
     """True when every argument is a C-contiguous float64 ndarray of one dimension."""
     return all(type(a) is np.ndarray and a.ndim == 1 and a.dtype == np.float64
@@ -632,6 +637,11 @@ class GeneratedDynamics:
             f = getattr(self._m, name)
             self._c[name] = f
         return f
+
+    def __reduce__(self):
+        # compiled modules do not pickle: a pickled robot (a process pool, a parallel
+        # sweep) arrives without its attachment, and find() reloads it from the cache
+        return (_detached, ())
 
     def __repr__(self) -> str:
         kind = "generated" if self.generated else "general fallback"

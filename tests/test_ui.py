@@ -216,3 +216,55 @@ def test_worker_runs_stores_and_cancels(ws):
 
     with pytest.raises(InputError, match="may not contain"):
         run_spec(SimSpec(str(ws.root), "cylindrical", "../move", ["pid"]))
+
+
+# ----------------------------------------------------------------- NiceGUI's simulated user
+def _simulate_user(ws_dir, script) -> None:
+    """Run ``script(user)`` against the pages in NiceGUI's user simulation (no browser)."""
+    from nicegui.testing.user_simulation import user_simulation
+
+    from manipcad.ui import pages
+
+    async def main():
+        pages.STATE.update(ws=str(ws_dir), robot="puma560", trajectory=None, method=None)
+        async with user_simulation(root=lambda: None) as user:
+            pages.register()
+            await script(user)
+
+    asyncio.run(main())
+
+
+def _error(user) -> str:
+    """The page's error line (visible), as the designer reads it."""
+    (lab,) = user.find(marker="error").elements
+    assert lab.visible
+    return lab.text
+
+
+def test_pages_in_the_simulated_user(tmp_path):
+    from nicegui import ui
+
+    async def script(user):
+        await user.open("/")
+        await user.should_see("Requirements → method")
+        await user.open("/trajectories")
+        user.find(kind=ui.input, content="duration").clear().type("abc")
+        user.find("Preview").click()
+        assert _error(user).startswith("trajectory form: duration")   # field and reason
+        user.find(kind=ui.input, content="duration").clear().type("1.0")
+        user.find("Save to workspace").click()
+        await user.should_see("saved trajectories/move")
+        await user.open("/requirements")
+        user.find("Recommend").click()
+        await user.should_see("Recommended, best first: asvs")
+        await user.should_see("Rules that fired")
+        await user.open("/synthesis")
+        user.find(kind=ui.input, content="spec").type("bandwidth=-3")
+        user.find("Synthesize and save").click()
+        assert _error(user).startswith("unknown spec keys ['bandwidth']")  # ASVS preselected
+        await user.open("/results")
+        user.find(kind=ui.input, content="filter").type("max_errr<1")
+        user.find("Filter").click()
+        assert "unknown metric 'max_errr'" in _error(user)
+
+    _simulate_user(tmp_path / "ws", script)

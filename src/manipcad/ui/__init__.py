@@ -44,6 +44,7 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
     root = Path(ws)
     open_workspace(root).close()
     pages.STATE["ws"] = str(root)
+    pages.register()
     required = token_for(host, token)
     url = f"http://{host}:{port}/"
     if required:

@@ -66,7 +66,8 @@ def frame(title: str):
 
 def error_label():
     """A hidden error line; ``show(exc)`` fills it, ``clear()`` hides it."""
-    lab = ui.label("").classes("text-negative text-body1").props("data-testid=error")
+    lab = ui.label("").classes("text-negative text-body1").props("data-testid=error") \
+        .mark("error")
     lab.set_visibility(False)
 
     def show(exc: Exception) -> None:
@@ -92,479 +93,483 @@ def numbers(text: str, field: str, source: str) -> list[float]:
 
 
 # ---------------------------------------------------------------------------- pages
-@ui.page("/")
-def main_menu() -> None:
-    with frame("Main menu"):
-        ui.markdown("The designer's path (paper Fig. 1): pick a **robot**, make a "
-                    "**trajectory**, state **requirements** and get the recommended synthesis "
-                    "**method**, **synthesize** the regulators, **simulate** and compare the "
-                    "**results**. Everything is kept in the workspace.")
-        w = ws()
-        with ui.row():
-            for path, text in MENU[1:]:
-                kind = {"/robots": "robots", "/trajectories": "trajectories",
-                        "/synthesis": "regulators", "/results": "results"}.get(path)
-                count = f" ({len(w.list(kind))} in the workspace)" if kind else ""
-                with ui.card().classes("w-64"):
-                    ui.link(text, path).classes("text-h6")
-                    ui.label(count)
+def register() -> None:
+    """Register the pages and the file route on NiceGUI's application (once per app;
+    the user simulation of the tests resets NiceGUI and registers them again)."""
+
+    @ui.page("/")
+    def main_menu() -> None:
+        with frame("Main menu"):
+            ui.markdown("The designer's path (paper Fig. 1): pick a **robot**, make a "
+                        "**trajectory**, state **requirements** and get the recommended synthesis "
+                        "**method**, **synthesize** the regulators, **simulate** and compare the "
+                        "**results**. Everything is kept in the workspace.")
+            w = ws()
+            with ui.row():
+                for path, text in MENU[1:]:
+                    kind = {"/robots": "robots", "/trajectories": "trajectories",
+                            "/synthesis": "regulators", "/results": "results"}.get(path)
+                    count = f" ({len(w.list(kind))} in the workspace)" if kind else ""
+                    with ui.card().classes("w-64"):
+                        ui.link(text, path).classes("text-h6")
+                        ui.label(count)
 
 
-@ui.page("/robots")
-def robots_page() -> None:
-    with frame("Robots"):
-        show, clear = error_label()
-        w = ws()
-        pick = ui.select(logic.robot_choices(w), value=STATE["robot"], label="Robot") \
-            .classes("w-64").props("data-testid=robot-select")
-        with ui.row().classes("items-center"):
-            name_in = ui.input("Name for an upload (optional)").props("data-testid=upload-name")
+    @ui.page("/robots")
+    def robots_page() -> None:
+        with frame("Robots"):
+            show, clear = error_label()
+            w = ws()
+            pick = ui.select(logic.robot_choices(w), value=STATE["robot"], label="Robot") \
+                .classes("w-64").props("data-testid=robot-select")
+            with ui.row().classes("items-center"):
+                name_in = ui.input("Name for an upload (optional)").props("data-testid=upload-name")
 
-            async def uploaded(e) -> None:
-                clear()
+                async def uploaded(e) -> None:
+                    clear()
+                    try:
+                        data = await e.file.read()
+                        item = logic.add_upload(ws(), e.file.name, data, kind="robots",
+                                                name=name_in.value or None)
+                    except (ManipcadError, OSError) as exc:
+                        show(exc)
+                        return
+                    ui.notify(f"added {item.ref}")
+                    pick.options = logic.robot_choices(ws())
+                    pick.value = item.ref
+
+                ui.upload(label="Upload URDF / YAML / MJCF", auto_upload=True,
+                          max_file_size=logic.MAX_UPLOAD, on_upload=uploaded,
+                          on_rejected=lambda: show(InputError(
+                              "upload", "", f"larger than {logic.MAX_UPLOAD} bytes"))) \
+                    .props("accept=.urdf,.yaml,.yml,.xml,.mjcf data-testid=robot-upload")
+            body = ui.column().classes("w-full")
+
+            def render() -> None:
+                body.clear()
                 try:
-                    data = await e.file.read()
-                    item = logic.add_upload(ws(), e.file.name, data, kind="robots",
-                                            name=name_in.value or None)
-                except (ManipcadError, OSError) as exc:
+                    arm, notes = logic.load_robot_ref(ws(), STATE["robot"])
+                except ManipcadError as exc:
                     show(exc)
                     return
-                ui.notify(f"added {item.ref}")
-                pick.options = logic.robot_choices(ws())
-                pick.value = item.ref
+                with body:
+                    tot = logic.robot_totals(arm)
+                    ui.label(f"{arm.name}: {tot['joints']} joints, {tot['driven']} driven, "
+                             f"moving mass {tot['mass_kg']:.4g} kg").classes("text-subtitle1")
+                    cols = [("joint", ""), ("type", ""), ("unit", ""), ("lower", "rad|m"),
+                            ("upper", "rad|m"), ("mass", "kg"), ("motor", ""), ("gear", ""),
+                            ("ratio", "i_r"), ("R", "Ω"), ("L", "H"), ("k_m", "N·m/A"),
+                            ("J", "kg·m²"), ("u_max", "V")]
+                    ui.table(columns=[{"name": c, "label": f"{c} [{u}]" if u else c, "field": c}
+                                      for c, u in cols], rows=logic.joint_rows(arm),
+                             row_key="joint").props("dense flat data-testid=joints-table")
+                    for note in notes:
+                        ui.label(f"note: {note}").classes("text-caption text-warning")
+                    q = [0.0] * arm.n
+                    with ui.row().classes("w-full no-wrap items-start"):
+                        plot_box = ui.element("div").style("width: 640px; height: 440px")
+                        with ui.column().style("width: 320px"):
+                            ui.label("Pose (sliders)").classes("text-subtitle2")
+                            for j, jn in enumerate(arm.joint_names):
+                                lo, hi = logic.slider_range(arm, j)
+                                ui.label(f"{jn} [{logic._unit(arm.joint_types[j])}]")
 
-            ui.upload(label="Upload URDF / YAML / MJCF", auto_upload=True,
-                      max_file_size=logic.MAX_UPLOAD, on_upload=uploaded,
-                      on_rejected=lambda: show(InputError(
-                          "upload", "", f"larger than {logic.MAX_UPLOAD} bytes"))) \
-                .props("accept=.urdf,.yaml,.yml,.xml,.mjcf data-testid=robot-upload")
-        body = ui.column().classes("w-full")
+                                def moved(e, j=j) -> None:
+                                    q[j] = float(e.value)
+                                    redraw()
 
-        def render() -> None:
-            body.clear()
-            try:
-                arm, notes = logic.load_robot_ref(ws(), STATE["robot"])
-            except ManipcadError as exc:
-                show(exc)
-                return
-            with body:
-                tot = logic.robot_totals(arm)
-                ui.label(f"{arm.name}: {tot['joints']} joints, {tot['driven']} driven, "
-                         f"moving mass {tot['mass_kg']:.4g} kg").classes("text-subtitle1")
-                cols = [("joint", ""), ("type", ""), ("unit", ""), ("lower", "rad|m"),
-                        ("upper", "rad|m"), ("mass", "kg"), ("motor", ""), ("gear", ""),
-                        ("ratio", "i_r"), ("R", "Ω"), ("L", "H"), ("k_m", "N·m/A"),
-                        ("J", "kg·m²"), ("u_max", "V")]
-                ui.table(columns=[{"name": c, "label": f"{c} [{u}]" if u else c, "field": c}
-                                  for c, u in cols], rows=logic.joint_rows(arm),
-                         row_key="joint").props("dense flat data-testid=joints-table")
-                for note in notes:
-                    ui.label(f"note: {note}").classes("text-caption text-warning")
-                q = [0.0] * arm.n
-                with ui.row().classes("w-full no-wrap items-start"):
-                    plot_box = ui.element("div").style("width: 640px; height: 440px")
-                    with ui.column().style("width: 320px"):
-                        ui.label("Pose (sliders)").classes("text-subtitle2")
-                        for j, jn in enumerate(arm.joint_names):
-                            lo, hi = logic.slider_range(arm, j)
-                            ui.label(f"{jn} [{logic._unit(arm.joint_types[j])}]")
+                                ui.slider(min=lo, max=hi, step=(hi - lo) / 200, value=0.0,
+                                          on_change=moved).props("label")
 
-                            def moved(e, j=j) -> None:
-                                q[j] = float(e.value)
-                                redraw()
+                    def redraw() -> None:
+                        plot_box.clear()
+                        with plot_box:
+                            ui.plotly(logic.stick_figure(arm, q)).style("width: 640px; "
+                                                                        "height: 440px")
 
-                            ui.slider(min=lo, max=hi, step=(hi - lo) / 200, value=0.0,
-                                      on_change=moved).props("label")
+                    # drawn once the page is live: the WebGL scene is the slow part of a load
+                    ui.timer(0.05, redraw, once=True)
 
-                def redraw() -> None:
-                    plot_box.clear()
-                    with plot_box:
-                        ui.plotly(logic.stick_figure(arm, q)).style("width: 640px; "
-                                                                    "height: 440px")
+            def picked(e) -> None:
+                clear()
+                STATE["robot"] = e.value
+                render()
 
-                # drawn once the page is live: the WebGL scene is the slow part of a load
-                ui.timer(0.05, redraw, once=True)
-
-        def picked(e) -> None:
-            clear()
-            STATE["robot"] = e.value
+            pick.on_value_change(picked)
             render()
 
-        pick.on_value_change(picked)
-        render()
 
+    @ui.page("/trajectories")
+    def trajectories_page() -> None:
+        with frame("Trajectories"):
+            show, clear = error_label()
+            law = ui.select({"cosine": "laws (2): q = q0 + A(1 − cos ωt)",
+                             "quintic": "quintic point to point",
+                             "trapezoidal": "trapezoidal velocity"}, value="cosine",
+                            label="Law").classes("w-96").props("data-testid=law")
+            fields: dict[str, Any] = {}
+            form = ui.column()
 
-@ui.page("/trajectories")
-def trajectories_page() -> None:
-    with frame("Trajectories"):
-        show, clear = error_label()
-        law = ui.select({"cosine": "laws (2): q = q0 + A(1 − cos ωt)",
-                         "quintic": "quintic point to point",
-                         "trapezoidal": "trapezoidal velocity"}, value="cosine",
-                        label="Law").classes("w-96").props("data-testid=law")
-        fields: dict[str, Any] = {}
-        form = ui.column()
-
-        def fill() -> None:
-            form.clear()
-            fields.clear()
-            specs = {"cosine": (("amplitude", "A per joint [rad|m]", "0.3"),
-                                ("omega", "ω per joint [rad/s]", "4"),
-                                ("duration", "duration [s]", "1.6")),
-                     "quintic": (("q_start", "start per joint [rad|m]", "0"),
-                                 ("q_end", "end per joint [rad|m]", "0.5"),
-                                 ("duration", "duration [s]", "2")),
-                     "trapezoidal": (("q_start", "start per joint [rad|m]", "0"),
+            def fill() -> None:
+                form.clear()
+                fields.clear()
+                specs = {"cosine": (("amplitude", "A per joint [rad|m]", "0.3"),
+                                    ("omega", "ω per joint [rad/s]", "4"),
+                                    ("duration", "duration [s]", "1.6")),
+                         "quintic": (("q_start", "start per joint [rad|m]", "0"),
                                      ("q_end", "end per joint [rad|m]", "0.5"),
-                                     ("v_max", "max speed [rad/s|m/s]", "1"),
-                                     ("a_max", "max acceleration [rad/s²|m/s²]", "4"))}
-            with form:
-                ui.label("Lists: one value per joint, or one value for every joint.") \
-                    .classes("text-caption")
-                for key, label, default in specs[law.value]:
-                    fields[key] = ui.input(label, value=default).classes("w-96") \
-                        .props(f"data-testid=traj-{key}")
+                                     ("duration", "duration [s]", "2")),
+                         "trapezoidal": (("q_start", "start per joint [rad|m]", "0"),
+                                         ("q_end", "end per joint [rad|m]", "0.5"),
+                                         ("v_max", "max speed [rad/s|m/s]", "1"),
+                                         ("a_max", "max acceleration [rad/s²|m/s²]", "4"))}
+                with form:
+                    ui.label("Lists: one value per joint, or one value for every joint.") \
+                        .classes("text-caption")
+                    for key, label, default in specs[law.value]:
+                        fields[key] = ui.input(label, value=default).classes("w-96") \
+                            .props(f"data-testid=traj-{key}")
 
-        def build():
-            arm = robot()
-            data: dict[str, Any] = {"type": law.value}
-            for key, inp in fields.items():
-                vals = numbers(inp.value, key, "trajectory form")
-                if key == "duration":
-                    data[key] = vals[0]
-                elif key in ("q_start", "q_end") and len(vals) == 1:
-                    data[key] = vals * arm.n
-                elif key in ("amplitude", "omega") and len(vals) == 1:
-                    data[key] = vals * arm.n
-                else:
-                    data[key] = vals
-            return arm, logic.make_trajectory(data, arm)
-
-        def do_preview() -> None:
-            clear()
-            try:
-                arm, traj = build()
-                pv = logic.trajectory_preview(traj, arm)
-            except ManipcadError as exc:
-                show(exc)
-                return
-            preview.clear()
-            with preview, ui.row().classes("w-full no-wrap"):
-                ui.plotly(logic.series_figure(pv["t"], pv["q"], arm.joint_names,
-                                              "joint positions", "q [rad|m]")).classes("w-1/2")
-                ui.plotly(logic.series_figure(pv["t"], pv["speed"][:, None], ["gripper"],
-                                              "gripper speed", "[m/s]")).classes("w-1/2")
-
-        def do_save() -> None:
-            clear()
-            try:
-                _, traj = build()
-                item = logic.save_trajectory_to(ws(), traj, name.value, force=force.value)
-            except ManipcadError as exc:
-                show(exc)
-                return
-            STATE["trajectory"] = item.name
-            ui.notify(f"saved {item.ref}")
-            listing.refresh()
-
-        law.on_value_change(lambda _: fill())
-        fill()
-        with ui.row().classes("items-center"):
-            ui.button("Preview", on_click=do_preview).props("data-testid=traj-preview")
-            name = ui.input("Name", value="move").props("data-testid=traj-name")
-            force = ui.checkbox("replace")
-            ui.button("Save to workspace", on_click=do_save).props("data-testid=traj-save")
-
-        @ui.refreshable
-        def listing() -> None:
-            names = [i.name for i in ws().list("trajectories")]
-            ui.label("In the workspace (pick the current one):")
-
-            def chosen(e) -> None:
-                STATE["trajectory"] = e.value
-
-            ui.select(names, value=STATE["trajectory"] if STATE["trajectory"] in names
-                      else None, on_change=chosen, label="Current trajectory").classes("w-64")
-
-        listing()
-        preview = ui.column().classes("w-full")
-
-
-@ui.page("/requirements")
-def requirements_page() -> None:
-    with frame("Requirements → method"):
-        show, clear = error_label()
-        yes_no = {None: "—", True: "yes", False: "no"}
-        with ui.grid(columns=3).classes("gap-2"):
-            acc = ui.input("accuracy: largest error [rad|m]", value="1e-3") \
-                .props("data-testid=req-accuracy")
-            over = ui.select(yes_no, value=False, label="overshoot allowed")
-            fast = ui.select(yes_no, value=True, label="fastest action")
-            speed = ui.input("gripper speed [m/s] (empty: derived)", value="")
-            ind = ui.select({None: "—", "negligible": "negligible", "significant":
-                             "significant"}, value="negligible", label="inductance")
-            coup = ui.select({None: "— (derived)", "decoupled": "decoupled",
-                              "inertial": "inertial", "full": "full"}, value=None,
-                             label="coupling")
-            var = ui.select({None: "—", "slow": "slow", "fast": "fast"}, value="slow",
-                            label="parameter variation")
-            back = ui.select(yes_no, value=False, label="backlash")
-            elas = ui.select(yes_no, value=False, label="elasticity")
-        out = ui.column().classes("w-full")
-
-        def run() -> None:
-            clear()
-            out.clear()
-            try:
-                form: dict[str, Any] = {
-                    "accuracy": numbers(acc.value, "accuracy", "requirements form")[0]
-                    if str(acc.value).strip() else None,
-                    "overshoot_allowed": over.value, "fast_action": fast.value,
-                    "gripper_speed": numbers(speed.value, "gripper_speed",
-                                             "requirements form")[0]
-                    if str(speed.value).strip() else None,
-                    "inductance": ind.value, "coupling": coup.value,
-                    "parameter_variation": var.value,
-                    "transmission": {"backlash": back.value, "elasticity": elas.value}}
+            def build():
                 arm = robot()
-                traj = logic.load_trajectory_ref(ws(), STATE["trajectory"], arm) \
-                    if STATE["trajectory"] else None
-                recs = logic.recommend_for(form, arm, traj)
-            except ManipcadError as exc:
-                show(exc)
-                return
-            STATE["recommendation"] = recs
-            STATE["method"] = recs.best.method
-            with out:
-                ui.label(f"Recommended, best first: {', '.join(recs.methods)}") \
-                    .classes("text-subtitle1").props("data-testid=rec-methods")
-                rows = [{"rank": k, "method": r.method, "score": r.score,
-                         "ops": r.complexity.get("ops_per_period"),
-                         "gains": r.complexity.get("gains_stored"),
-                         "rules": ", ".join(x.split(" ", 1)[0] for x in r.reasons)}
-                        for k, r in enumerate(recs, 1)]
-                ui.table(columns=[{"name": c, "label": lab, "field": c} for c, lab in (
-                    ("rank", "#"), ("method", "method"), ("score", "score"),
-                    ("ops", "ops/period"), ("gains", "gains stored"),
-                    ("rules", "rules"))], rows=rows, row_key="method").props("dense flat")
-                ui.label("Rules that fired").classes("text-subtitle2")
-                for text in recs.rule_texts.values():
-                    ui.label(f"• {text}").classes("text-body2")
-                if recs.excluded_by:
-                    ui.label("Excluded: " + "; ".join(
-                        f"{m} ({', '.join(ids)})" for m, ids in recs.excluded_by.items()))
-                ui.link(f"Synthesize {recs.best.method} →", "/synthesis")
+                data: dict[str, Any] = {"type": law.value}
+                for key, inp in fields.items():
+                    vals = numbers(inp.value, key, "trajectory form")
+                    if key == "duration":
+                        data[key] = vals[0]
+                    elif key in ("q_start", "q_end") and len(vals) == 1:
+                        data[key] = vals * arm.n
+                    elif key in ("amplitude", "omega") and len(vals) == 1:
+                        data[key] = vals * arm.n
+                    else:
+                        data[key] = vals
+                return arm, logic.make_trajectory(data, arm)
 
-        ui.button("Recommend", on_click=run).props("data-testid=req-run")
+            def do_preview() -> None:
+                clear()
+                try:
+                    arm, traj = build()
+                    pv = logic.trajectory_preview(traj, arm)
+                except ManipcadError as exc:
+                    show(exc)
+                    return
+                preview.clear()
+                with preview, ui.row().classes("w-full no-wrap"):
+                    ui.plotly(logic.series_figure(pv["t"], pv["q"], arm.joint_names,
+                                                  "joint positions", "q [rad|m]")).classes("w-1/2")
+                    ui.plotly(logic.series_figure(pv["t"], pv["speed"][:, None], ["gripper"],
+                                                  "gripper speed", "[m/s]")).classes("w-1/2")
 
+            def do_save() -> None:
+                clear()
+                try:
+                    _, traj = build()
+                    item = logic.save_trajectory_to(ws(), traj, name.value, force=force.value)
+                except ManipcadError as exc:
+                    show(exc)
+                    return
+                STATE["trajectory"] = item.name
+                ui.notify(f"saved {item.ref}")
+                listing.refresh()
 
-@ui.page("/synthesis")
-def synthesis_page() -> None:
-    with frame("Synthesis"):
-        show, clear = error_label()
-        ms = logic.methods()
-        with ui.row().classes("items-end"):
-            method = ui.select(ms, value=STATE["method"] or "pid", label="Method") \
-                .classes("w-64").props("data-testid=syn-method")
-            spec = ui.input("spec KEY=VALUE, ... (e.g. bandwidth=30)", value="") \
-                .classes("w-80")
-            period = ui.input("period [s] (empty: the method's)", value="") \
-                .props("data-testid=syn-period")
-            name = ui.input("Name", value="").props("data-testid=syn-name")
-            force = ui.checkbox("replace")
+            law.on_value_change(lambda _: fill())
+            fill()
+            with ui.row().classes("items-center"):
+                ui.button("Preview", on_click=do_preview).props("data-testid=traj-preview")
+                name = ui.input("Name", value="move").props("data-testid=traj-name")
+                force = ui.checkbox("replace")
+                ui.button("Save to workspace", on_click=do_save).props("data-testid=traj-save")
 
-        def run() -> None:
-            clear()
-            try:
-                pairs = {}
-                for part in filter(None, (p.strip() for p in spec.value.split(","))):
-                    key, sep, val = part.partition("=")
-                    if not sep:
-                        raise InputError("synthesis form", "spec",
-                                         f"expected KEY=VALUE, got {part!r}")
-                    pairs[key.strip()] = numbers(val, f"spec.{key.strip()}",
-                                                 "synthesis form")[0]
-                per = numbers(period.value, "period", "synthesis form")[0] \
-                    if str(period.value).strip() else None
-                nm = name.value or f"{method.value}-{STATE['robot'].split('/')[-1]}"
-                regs, item = logic.synthesize_to(ws(), robot(), method.value, spec=pairs,
-                                                 period=per, name=nm, force=force.value)
-            except ManipcadError as exc:
-                show(exc)
-                return
-            ui.notify(f"saved {item.ref}")
-            out.clear()
-            with out:
-                ui.label(f"saved regulators/{item.name}").props("data-testid=syn-saved")
-                for reg in regs:
-                    c = reg.realization_complexity()
-                    with ui.card().classes("w-full"):
-                        ui.label(reg.describe()).classes("font-mono text-body2")
-                        ui.label(f"complexity: {c['ops_per_period']} operations per period "
-                                 f"({c['mul']} ×, {c['add']} +), {c['gains_stored']} numbers "
-                                 f"stored, reads {', '.join(c['signals'])}") \
-                            .classes("text-caption")
-            listing.refresh()
+            @ui.refreshable
+            def listing() -> None:
+                names = [i.name for i in ws().list("trajectories")]
+                ui.label("In the workspace (pick the current one):")
 
-        ui.button("Synthesize and save", on_click=run).props("data-testid=syn-run")
+                def chosen(e) -> None:
+                    STATE["trajectory"] = e.value
 
-        @ui.refreshable
-        def listing() -> None:
-            ui.label("Regulators in the workspace: " + (", ".join(
-                i.name for i in ws().list("regulators")) or "none"))
+                ui.select(names, value=STATE["trajectory"] if STATE["trajectory"] in names
+                          else None, on_change=chosen, label="Current trajectory").classes("w-64")
 
-        listing()
-        out = ui.column().classes("w-full")
+            listing()
+            preview = ui.column().classes("w-full")
 
 
-@ui.page("/simulation")
-def simulation_page() -> None:
-    with frame("Simulation"):
-        show, clear = error_label()
-        w = ws()
-        trajs = [i.name for i in w.list("trajectories")]
-        regs = [i.name for i in w.list("regulators")]
-        with ui.row().classes("items-end"):
-            traj = ui.select(trajs, value=STATE["trajectory"] if STATE["trajectory"] in trajs
-                             else (trajs[0] if trajs else None), label="Trajectory") \
-                .classes("w-48").props("data-testid=sim-traj")
-            reg = ui.select(regs, value=regs[-1] if regs else None, label="Regulator") \
-                .classes("w-64").props("data-testid=sim-reg")
-            t_end = ui.input("t_end [s] (empty: the trajectory's)", value="") \
-                .props("data-testid=sim-tend")
-            dt = ui.input("dt [s]", value="1e-4").props("data-testid=sim-dt")
-            name = ui.input("Result name (optional)", value="").props("data-testid=sim-name")
-        bar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
-        status = ui.label("").props("data-testid=sim-status")
-        figs = ui.column().classes("w-full")
-        shown: dict[str, Any] = {"job": None, "state": None}
+    @ui.page("/requirements")
+    def requirements_page() -> None:
+        with frame("Requirements → method"):
+            show, clear = error_label()
+            yes_no = {None: "—", True: "yes", False: "no"}
+            with ui.grid(columns=3).classes("gap-2"):
+                acc = ui.input("accuracy: largest error [rad|m]", value="1e-3") \
+                    .props("data-testid=req-accuracy")
+                over = ui.select(yes_no, value=False, label="overshoot allowed")
+                fast = ui.select(yes_no, value=True, label="fastest action")
+                speed = ui.input("gripper speed [m/s] (empty: derived)", value="")
+                ind = ui.select({None: "—", "negligible": "negligible", "significant":
+                                 "significant"}, value="negligible", label="inductance")
+                coup = ui.select({None: "— (derived)", "decoupled": "decoupled",
+                                  "inertial": "inertial", "full": "full"}, value=None,
+                                 label="coupling")
+                var = ui.select({None: "—", "slow": "slow", "fast": "fast"}, value="slow",
+                                label="parameter variation")
+                back = ui.select(yes_no, value=False, label="backlash")
+                elas = ui.select(yes_no, value=False, label="elasticity")
+            out = ui.column().classes("w-full")
 
-        def start() -> None:
-            clear()
-            try:
-                if not traj.value:
-                    raise InputError("simulation form", "trajectory", "pick a trajectory "
-                                     "(make one on the Trajectories page)")
-                spec = SimSpec(workspace=str(STATE["ws"]), robot=STATE["robot"],
-                               trajectory=traj.value,
-                               regulators=[reg.value] if reg.value else [],
-                               t_end=numbers(t_end.value, "t_end", "simulation form")[0]
-                               if str(t_end.value).strip() else None,
-                               dt=numbers(dt.value, "dt", "simulation form")[0],
-                               name=name.value or None)
-            except ManipcadError as exc:
-                show(exc)
-                return
-            STATE["jobs"].append(SimulationJob(spec))
-            status.text = "starting the worker..."
+            def run() -> None:
+                clear()
+                out.clear()
+                try:
+                    form: dict[str, Any] = {
+                        "accuracy": numbers(acc.value, "accuracy", "requirements form")[0]
+                        if str(acc.value).strip() else None,
+                        "overshoot_allowed": over.value, "fast_action": fast.value,
+                        "gripper_speed": numbers(speed.value, "gripper_speed",
+                                                 "requirements form")[0]
+                        if str(speed.value).strip() else None,
+                        "inductance": ind.value, "coupling": coup.value,
+                        "parameter_variation": var.value,
+                        "transmission": {"backlash": back.value, "elasticity": elas.value}}
+                    arm = robot()
+                    traj = logic.load_trajectory_ref(ws(), STATE["trajectory"], arm) \
+                        if STATE["trajectory"] else None
+                    recs = logic.recommend_for(form, arm, traj)
+                except ManipcadError as exc:
+                    show(exc)
+                    return
+                STATE["recommendation"] = recs
+                STATE["method"] = recs.best.method
+                with out:
+                    ui.label(f"Recommended, best first: {', '.join(recs.methods)}") \
+                        .classes("text-subtitle1").props("data-testid=rec-methods")
+                    rows = [{"rank": k, "method": r.method, "score": r.score,
+                             "ops": r.complexity.get("ops_per_period"),
+                             "gains": r.complexity.get("gains_stored"),
+                             "rules": ", ".join(x.split(" ", 1)[0] for x in r.reasons)}
+                            for k, r in enumerate(recs, 1)]
+                    ui.table(columns=[{"name": c, "label": lab, "field": c} for c, lab in (
+                        ("rank", "#"), ("method", "method"), ("score", "score"),
+                        ("ops", "ops/period"), ("gains", "gains stored"),
+                        ("rules", "rules"))], rows=rows, row_key="method").props("dense flat")
+                    ui.label("Rules that fired").classes("text-subtitle2")
+                    for text in recs.rule_texts.values():
+                        ui.label(f"• {text}").classes("text-body2")
+                    if recs.excluded_by:
+                        ui.label("Excluded: " + "; ".join(
+                            f"{m} ({', '.join(ids)})" for m, ids in recs.excluded_by.items()))
+                    ui.link(f"Synthesize {recs.best.method} →", "/synthesis")
 
-        def cancel() -> None:
-            for job in STATE["jobs"]:
-                if not job.finished:
-                    job.cancel()
+            ui.button("Recommend", on_click=run).props("data-testid=req-run")
 
-        def tick() -> None:
-            if not STATE["jobs"]:
-                return
-            job = STATE["jobs"][-1]
-            state = job.poll()
-            bar.value = job.fraction
-            if state in ("starting", "running"):
-                status.text = f"{state}: {100 * job.fraction:.0f} %"
-                return
-            if shown["job"] is job and shown["state"] == state:
-                return
-            shown["job"], shown["state"] = job, state
-            if state == "done":
-                status.text = (f"done: stored results/{job.result} in {job.wall:.3g} s; "
-                               f"max |e| = {job.metrics.get('max_error', float('nan')):.3g}")
+
+    @ui.page("/synthesis")
+    def synthesis_page() -> None:
+        with frame("Synthesis"):
+            show, clear = error_label()
+            ms = logic.methods()
+            with ui.row().classes("items-end"):
+                method = ui.select(ms, value=STATE["method"] or "pid", label="Method") \
+                    .classes("w-64").props("data-testid=syn-method")
+                spec = ui.input("spec KEY=VALUE, ... (e.g. bandwidth=30)", value="") \
+                    .classes("w-80")
+                period = ui.input("period [s] (empty: the method's)", value="") \
+                    .props("data-testid=syn-period")
+                name = ui.input("Name", value="").props("data-testid=syn-name")
+                force = ui.checkbox("replace")
+
+            def run() -> None:
+                clear()
+                try:
+                    pairs = {}
+                    for part in filter(None, (p.strip() for p in spec.value.split(","))):
+                        key, sep, val = part.partition("=")
+                        if not sep:
+                            raise InputError("synthesis form", "spec",
+                                             f"expected KEY=VALUE, got {part!r}")
+                        pairs[key.strip()] = numbers(val, f"spec.{key.strip()}",
+                                                     "synthesis form")[0]
+                    per = numbers(period.value, "period", "synthesis form")[0] \
+                        if str(period.value).strip() else None
+                    nm = name.value or f"{method.value}-{STATE['robot'].split('/')[-1]}"
+                    regs, item = logic.synthesize_to(ws(), robot(), method.value, spec=pairs,
+                                                     period=per, name=nm, force=force.value)
+                except ManipcadError as exc:
+                    show(exc)
+                    return
+                ui.notify(f"saved {item.ref}")
+                out.clear()
+                with out:
+                    ui.label(f"saved regulators/{item.name}").props("data-testid=syn-saved")
+                    for reg in regs:
+                        c = reg.realization_complexity()
+                        with ui.card().classes("w-full"):
+                            ui.label(reg.describe()).classes("font-mono text-body2")
+                            ui.label(f"complexity: {c['ops_per_period']} operations per period "
+                                     f"({c['mul']} ×, {c['add']} +), {c['gains_stored']} numbers "
+                                     f"stored, reads {', '.join(c['signals'])}") \
+                                .classes("text-caption")
+                listing.refresh()
+
+            ui.button("Synthesize and save", on_click=run).props("data-testid=syn-run")
+
+            @ui.refreshable
+            def listing() -> None:
+                ui.label("Regulators in the workspace: " + (", ".join(
+                    i.name for i in ws().list("regulators")) or "none"))
+
+            listing()
+            out = ui.column().classes("w-full")
+
+
+    @ui.page("/simulation")
+    def simulation_page() -> None:
+        with frame("Simulation"):
+            show, clear = error_label()
+            w = ws()
+            trajs = [i.name for i in w.list("trajectories")]
+            regs = [i.name for i in w.list("regulators")]
+            with ui.row().classes("items-end"):
+                traj = ui.select(trajs, value=STATE["trajectory"] if STATE["trajectory"] in trajs
+                                 else (trajs[0] if trajs else None), label="Trajectory") \
+                    .classes("w-48").props("data-testid=sim-traj")
+                reg = ui.select(regs, value=regs[-1] if regs else None, label="Regulator") \
+                    .classes("w-64").props("data-testid=sim-reg")
+                t_end = ui.input("t_end [s] (empty: the trajectory's)", value="") \
+                    .props("data-testid=sim-tend")
+                dt = ui.input("dt [s]", value="1e-4").props("data-testid=sim-dt")
+                name = ui.input("Result name (optional)", value="").props("data-testid=sim-name")
+            bar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
+            status = ui.label("").props("data-testid=sim-status")
+            figs = ui.column().classes("w-full")
+            shown: dict[str, Any] = {"job": None, "state": None}
+
+            def start() -> None:
+                clear()
+                try:
+                    if not traj.value:
+                        raise InputError("simulation form", "trajectory", "pick a trajectory "
+                                         "(make one on the Trajectories page)")
+                    spec = SimSpec(workspace=str(STATE["ws"]), robot=STATE["robot"],
+                                   trajectory=traj.value,
+                                   regulators=[reg.value] if reg.value else [],
+                                   t_end=numbers(t_end.value, "t_end", "simulation form")[0]
+                                   if str(t_end.value).strip() else None,
+                                   dt=numbers(dt.value, "dt", "simulation form")[0],
+                                   name=name.value or None)
+                except ManipcadError as exc:
+                    show(exc)
+                    return
+                STATE["jobs"].append(SimulationJob(spec))
+                status.text = "starting the worker..."
+
+            def cancel() -> None:
+                for job in STATE["jobs"]:
+                    if not job.finished:
+                        job.cancel()
+
+            def tick() -> None:
+                if not STATE["jobs"]:
+                    return
+                job = STATE["jobs"][-1]
+                state = job.poll()
+                bar.value = job.fraction
+                if state in ("starting", "running"):
+                    status.text = f"{state}: {100 * job.fraction:.0f} %"
+                    return
+                if shown["job"] is job and shown["state"] == state:
+                    return
+                shown["job"], shown["state"] = job, state
+                if state == "done":
+                    status.text = (f"done: stored results/{job.result} in {job.wall:.3g} s; "
+                                   f"max |e| = {job.metrics.get('max_error', float('nan')):.3g}")
+                    figs.clear()
+                    with figs:
+                        box = ui.column().classes("w-full")
+
+                        def draw(q: str, name: str = job.result) -> None:
+                            box.clear()
+                            with box:
+                                ui.plotly(logic.overlay_figure(ws(), [name], q)).classes("w-full")
+
+                        ui.toggle(QUANTITIES, value="error", on_change=lambda e: draw(e.value)) \
+                            .move(target_index=0)
+                        draw("error")
+                else:
+                    status.text = state
+                    if state == "error":
+                        show(ManipcadError(job.message))
+
+            with ui.row():
+                ui.button("Simulate", on_click=start).props("data-testid=sim-run")
+                ui.button("Cancel", on_click=cancel, color="negative") \
+                    .props("data-testid=sim-cancel")
+            ui.timer(0.25, tick)
+
+
+    @ui.page("/results")
+    def results_page() -> None:
+        with frame("Results"):
+            show, clear = error_label()
+            with ui.row().classes("items-end"):
+                where = ui.input("filter, e.g. max_error<1e-3 and status=ok", value="") \
+                    .classes("w-96").props("data-testid=res-where")
+                quantity = ui.select(QUANTITIES, value="error", label="Quantity")
+            cols = ["name", "status", "max_error", "rms_error", "peak_torque", "peak_current",
+                    "peak_power", "energy", "created"]
+            table = ui.table(columns=[{"name": c, "label": c, "field": c, "sortable": True}
+                                      for c in cols], rows=[], row_key="name",
+                             selection="multiple").props("dense flat data-testid=res-table")
+
+            def load() -> None:
+                clear()
+                try:
+                    table.rows = logic.result_rows(ws(), where.value.strip() or None)
+                except ManipcadError as exc:
+                    show(exc)
+                    table.rows = []
+                table.update()
+
+            def overlay() -> None:
+                clear()
+                names = [r["name"] for r in table.selected] or [r["name"] for r in table.rows]
                 figs.clear()
+                try:
+                    fig = logic.overlay_figure(ws(), names, quantity.value)
+                except ManipcadError as exc:
+                    show(exc)
+                    return
                 with figs:
-                    box = ui.column().classes("w-full")
+                    ui.plotly(fig).classes("w-full").props("data-testid=res-overlay")
 
-                    def draw(q: str, name: str = job.result) -> None:
-                        box.clear()
-                        with box:
-                            ui.plotly(logic.overlay_figure(ws(), [name], q)).classes("w-full")
-
-                    ui.toggle(QUANTITIES, value="error", on_change=lambda e: draw(e.value)) \
-                        .move(target_index=0)
-                    draw("error")
-            else:
-                status.text = state
-                if state == "error":
-                    show(ManipcadError(job.message))
-
-        with ui.row():
-            ui.button("Simulate", on_click=start).props("data-testid=sim-run")
-            ui.button("Cancel", on_click=cancel, color="negative") \
-                .props("data-testid=sim-cancel")
-        ui.timer(0.25, tick)
+            with ui.row():
+                ui.button("Filter", on_click=load).props("data-testid=res-filter")
+                ui.button("Overlay selected (all when none)", on_click=overlay) \
+                    .props("data-testid=res-overlay-run")
+            figs = ui.column().classes("w-full")
+            load()
 
 
-@ui.page("/results")
-def results_page() -> None:
-    with frame("Results"):
-        show, clear = error_label()
-        with ui.row().classes("items-end"):
-            where = ui.input("filter, e.g. max_error<1e-3 and status=ok", value="") \
-                .classes("w-96").props("data-testid=res-where")
-            quantity = ui.select(QUANTITIES, value="error", label="Quantity")
-        cols = ["name", "status", "max_error", "rms_error", "peak_torque", "peak_current",
-                "peak_power", "energy", "created"]
-        table = ui.table(columns=[{"name": c, "label": c, "field": c, "sortable": True}
-                                  for c in cols], rows=[], row_key="name",
-                         selection="multiple").props("dense flat data-testid=res-table")
+    # ---------------------------------------------------------------------------- files
+    @app.get("/api/items/{kind}/{name:path}")
+    def item_file(kind: str, name: str):
+        """A workspace item's file (robots, trajectories, regulators); names checked: a
+        traversal (``../``), an absolute path or an unknown kind gets 400, a missing item 404."""
+        from fastapi import HTTPException
+        from fastapi.responses import FileResponse
 
-        def load() -> None:
-            clear()
-            try:
-                table.rows = logic.result_rows(ws(), where.value.strip() or None)
-            except ManipcadError as exc:
-                show(exc)
-                table.rows = []
-            table.update()
+        from manipcad.workspace import check_name
 
-        def overlay() -> None:
-            clear()
-            names = [r["name"] for r in table.selected] or [r["name"] for r in table.rows]
-            figs.clear()
-            try:
-                fig = logic.overlay_figure(ws(), names, quantity.value)
-            except ManipcadError as exc:
-                show(exc)
-                return
-            with figs:
-                ui.plotly(fig).classes("w-full").props("data-testid=res-overlay")
-
-        with ui.row():
-            ui.button("Filter", on_click=load).props("data-testid=res-filter")
-            ui.button("Overlay selected (all when none)", on_click=overlay) \
-                .props("data-testid=res-overlay-run")
-        figs = ui.column().classes("w-full")
-        load()
-
-
-# ---------------------------------------------------------------------------- files
-@app.get("/api/items/{kind}/{name:path}")
-def item_file(kind: str, name: str):
-    """A workspace item's file (robots, trajectories, regulators); names checked: a
-    traversal (``../``), an absolute path or an unknown kind gets 400, a missing item 404."""
-    from fastapi import HTTPException
-    from fastapi.responses import FileResponse
-
-    from manipcad.workspace import check_name
-
-    if kind not in ("robots", "trajectories", "regulators", "motors", "gears"):
-        raise HTTPException(400, f"{kind!r}: not a file kind")
-    try:
-        check_name(name, "name")
-    except InputError as exc:
-        raise HTTPException(400, str(exc)) from None
-    w = ws()
-    try:
-        w.get(f"{kind}/{name}")
-        path = w.resolve(kind, name)
-    except InputError as exc:
-        raise HTTPException(404, str(exc)) from None
-    return FileResponse(path)
+        if kind not in ("robots", "trajectories", "regulators", "motors", "gears"):
+            raise HTTPException(400, f"{kind!r}: not a file kind")
+        try:
+            check_name(name, "name")
+        except InputError as exc:
+            raise HTTPException(400, str(exc)) from None
+        w = ws()
+        try:
+            w.get(f"{kind}/{name}")
+            path = w.resolve(kind, name)
+        except InputError as exc:
+            raise HTTPException(404, str(exc)) from None
+        return FileResponse(path)

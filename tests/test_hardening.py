@@ -152,6 +152,18 @@ def test_csv_directory_fifo(tmp_path):
         load_torque_data(fifo, robot)
 
 
+@pytest.mark.parametrize("text,match", [
+    ("type: spline\ntimes: [0, 1, 2]\npoints: [[1.0e308], [0], [1]]\n", "cannot be built"),
+    ("type: cosine\namplitude: [1e300]\nomega: [1e10]\nduration: 1\n", "not finite"),
+    ("type: trapezoidal\nq_start: [0]\nq_end: [1e308]\nv_max: 1e-308\na_max: 1\n",
+     "cannot be built|finite"),  # a ZeroDivisionError inside the law, before
+], ids=["spline_1e308", "cosine_overflow", "trapezoidal_endless"])
+def test_trajectory_values_that_overflow(tmp_path, text, match):
+    with pytest.raises(InputError, match=match) as err:
+        load_trajectory(write(tmp_path, text))
+    assert err.value.source.endswith("f.yaml")
+
+
 def test_urdf_mimic_warns(tmp_path):
     from manipcad.model.urdf import robot_from_urdf_string
 

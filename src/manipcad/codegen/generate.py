@@ -300,7 +300,7 @@ def _py_function(func: str, n: int, d: Dynamics, stmts: list, batch: bool) -> li
     return lines + ["", ""], sig
 
 
-def python_source(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> str:
+def _python_source(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> str:
     """The numba module's source (single-state and batch functions of each kind)."""
     n = d.frames.n
     head = [
@@ -379,7 +379,7 @@ _C_DOCS = {
 }
 
 
-def c_sources(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> tuple[str, str]:
+def _c_sources(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> tuple[str, str]:
     """(header, source) templates with the prefix as ``@PREFIX@``: portable C99."""
     n = d.frames.n
     P = _PREFIX_TOKEN
@@ -900,13 +900,28 @@ def _load_module(path: Path, digest: str):
 
 
 def build(robot: Robot) -> tuple[str, str, str, dict]:
-    """Generate the sources of one robot: (python, C header, C source, ops); no files."""
+    """Generate the sources of one robot, writing no file.
+
+    Args:
+        robot: the manipulator.
+
+    Returns:
+        (numba module source, C header template, C source template, ops): the C
+        texts hold ``@PREFIX@`` for the function prefix; ops as :attr:`GeneratedDynamics.ops`.
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.codegen.generate import build
+        >>> py, h, c, ops = build(manipcad.load_robot("cylindrical"))
+        >>> "def inverse_dynamics(" in py and "@PREFIX@_inverse_dynamics(" in h
+        True
+    """
     digest = robot_hash(robot)
     d = dynamics(robot)
     stmts = {"inverse_dynamics": _id_stmts(d), "mass_matrix": _mass_stmts(d),
              "moment_components": _components_stmts(d), "forward_dynamics": _fd_stmts(d)}
-    py = python_source(d, stmts, robot.name, digest)
-    hdr, src = c_sources(d, stmts, robot.name, digest)
+    py = _python_source(d, stmts, robot.name, digest)
+    hdr, src = _c_sources(d, stmts, robot.name, digest)
     ops = {f: emit.count_ops(py, f) for f in FUNCTIONS}
     return py, hdr, src, ops
 
@@ -1055,6 +1070,14 @@ def simulation_kernels(robot: Robot, table: np.ndarray, *, use_generated: bool =
         the robot's generated ones — forward dynamics with or without the drive
         terms as ``table`` says, mass matrix and moment components of the links;
         otherwise placeholders of the same types (returning -2) and ``use`` False.
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.codegen import generate, simulation_kernels
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> _ = generate(arm)
+        >>> simulation_kernels(arm, arm.table)[0]
+        True
     """
     from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR
 

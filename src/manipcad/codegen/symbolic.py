@@ -128,7 +128,21 @@ def _exact_rot(R) -> list:
 
 
 def frames(robot: Robot) -> Frames:
-    """Joint symbols and the exact, joint-dependent placements of every body."""
+    """Joint symbols and the exact, joint-dependent placements of every body.
+
+    Args:
+        robot: the manipulator.
+
+    Returns:
+        :class:`Frames` (rotations dimensionless, translations in m).
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.codegen.symbolic import frames
+        >>> fr = frames(manipcad.load_robot("puma560"))
+        >>> fr.R[1]  # modified DH α = π/2, then q: exact 0 and ±1, no 6e-17
+        [[c1, -s1, 0], [0, 0, -1], [s1, c1, 0]]
+    """
     n = robot.n
     table = robot.table
     q = [se.Symbol(f"q{i}") for i in range(n)]
@@ -372,6 +386,13 @@ def dynamics(robot: Robot) -> Dynamics:
 
     Returns:
         :class:`Dynamics`.
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.codegen.symbolic import dynamics
+        >>> d = dynamics(manipcad.load_robot("cylindrical"))
+        >>> len(d.tau), len(d.H)
+        (3, 3)
     """
     fr = frames(robot)
     params = _snap_params(*grouped_parameters(robot))

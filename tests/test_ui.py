@@ -203,7 +203,7 @@ def test_worker_runs_stores_and_cancels(ws):
         max(m["max_error"] for m in direct.metrics.values()), rel=1e-12)
 
     job = SimulationJob(SimSpec(str(ws.root), "cylindrical", "move", ["pid"], t_end=0.1,
-                                dt=1e-4, name="r2"))
+                                dt=1e-4, name="r2"), spare=False)
     job.cancel()
     import time
 
@@ -241,6 +241,7 @@ def _error(user) -> str:
     return lab.text
 
 
+@pytest.mark.slow
 def test_pages_in_the_simulated_user(tmp_path):
     from nicegui import ui
 

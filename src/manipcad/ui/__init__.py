@@ -50,6 +50,10 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
     if required:
         app.add_middleware(TokenGate, token=required)
         url += f"?token={required}"
+    from manipcad.ui.worker import prestart, stop_spare
+
+    prestart()
+    app.on_shutdown(stop_spare)
     announce(f"manipcad ui on {url} (workspace {root.resolve()}); Ctrl-C stops it")
     ui.run(host=host, port=int(port), title="manipcad", reload=False, show=show,
            show_welcome_message=False, favicon="🦾", uvicorn_logging_level="warning")

@@ -1,7 +1,9 @@
 """Simulations of ``manipcad ui`` in a background worker process.
 
 The page starts a :class:`SimulationJob`; the run happens in a separate process
-(``spawn``), so the web server keeps answering other pages while it goes. The
+(``spawn``), so the web server keeps answering other pages while it goes. A spare
+worker is started ahead (:func:`prestart`) and does its imports while it waits,
+so a run does not wait for a new interpreter. The
 worker calls :func:`manipcad.simulate` with a ``progress=`` callback that reports
 the fraction done and raises ``KeyboardInterrupt`` once cancel is asked, then
 stores the result with :meth:`manipcad.workspace.Workspace.store_result` (a
@@ -105,9 +107,16 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
     return item.name, item.metrics
 
 
-def _work(spec: SimSpec, out, cancel) -> None:
-    """The worker process's body: run, reporting progress; cancel through ``cancel``."""
+def _work(inbox, out, cancel) -> None:
+    """The worker process's body: import what a run needs, wait for the spec on
+    ``inbox``, run it, reporting progress on ``out``; cancel through ``cancel``."""
     from manipcad.errors import ManipcadError
+    from manipcad.sim import simulate  # noqa: F401  imported ahead: the spare is warm
+    from manipcad.ui import logic  # noqa: F401
+
+    spec = inbox.recv()
+    if spec is None:               # the spare was not needed
+        return
 
     def progress(frac: float) -> None:
         out.put(("progress", float(frac)))
@@ -126,6 +135,45 @@ def _work(spec: SimSpec, out, cancel) -> None:
         out.put(("done", name, metrics))
 
 
+class _Worker:
+    """A started worker process waiting for its spec (its imports done meanwhile)."""
+
+    def __init__(self) -> None:
+        ctx = mp.get_context("spawn")
+        self.queue = ctx.Queue()
+        self.cancel_event = ctx.Event()
+        self.inbox, send = ctx.Pipe(duplex=False)
+        self.send = send
+        self.process = ctx.Process(target=_work, args=(self.inbox, self.queue,
+                                                       self.cancel_event), daemon=True)
+        self.process.start()
+
+
+_SPARE: list[_Worker] = []
+
+
+def prestart() -> None:
+    """Start a spare worker now, so the next run does not wait for a new interpreter
+    to import manipcad (``manipcad ui`` calls it at start and after each run starts)."""
+    if not _SPARE:
+        _SPARE.append(_Worker())
+
+
+def stop_spare() -> None:
+    """End the spare worker (it was started by :func:`prestart`)."""
+    while _SPARE:
+        w = _SPARE.pop()
+        w.send.send(None)
+        w.process.join(timeout=5)
+
+
+def _take() -> _Worker:
+    w = _SPARE.pop() if _SPARE else None
+    if w is None or not w.process.is_alive():
+        w = _Worker()
+    return w
+
+
 class SimulationJob:
     """A simulation running in a worker process.
 
@@ -137,13 +185,10 @@ class SimulationJob:
         job.state, job.result
     """
 
-    def __init__(self, spec: SimSpec) -> None:
-        ctx = mp.get_context("spawn")
+    def __init__(self, spec: SimSpec, *, spare: bool = True) -> None:
+        w = _take()
         self.spec = spec
-        self.queue = ctx.Queue()
-        self.cancel_event = ctx.Event()
-        self.process = ctx.Process(target=_work, args=(spec, self.queue, self.cancel_event),
-                                   daemon=True)
+        self.queue, self.cancel_event, self.process = w.queue, w.cancel_event, w.process
         self.state = "starting"
         self.fraction = 0.0
         self.result: str | None = None
@@ -151,7 +196,9 @@ class SimulationJob:
         self.message = ""
         self.started = time.perf_counter()
         self.wall = float("nan")
-        self.process.start()
+        w.send.send(spec)
+        if spare:
+            prestart()
 
     def poll(self) -> str:
         """Read what the worker said; returns the state: starting, running, done,

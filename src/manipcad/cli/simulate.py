@@ -128,6 +128,18 @@ def simulate(
     joint_limits: Annotated[str, typer.Option(
         "--joint-limits", help="A joint beyond its limits: warn (the run goes on), stop (the "
         "run stops there, exit 2), ignore.")] = "warn",
+    integrator: Annotated[str, typer.Option(
+        "--integrator", help="rk4 (fixed step --dt, the reference), adaptive "
+        "(error-controlled Dormand-Prince 5(4); steps never cross a regulator sample; --dt "
+        "is then the sample/record grid and the smallest step) or adaptive-exact (the "
+        "same with the armature currents solved exactly: faster with drives, error of "
+        "the back-EMF coupling not controlled).")] = "rk4",
+    rtol: Annotated[float | None, typer.Option(
+        "--rtol", help="Adaptive integrator: relative tolerance of the local error "
+        "(default 1e-6).")] = None,
+    atol: Annotated[float | None, typer.Option(
+        "--atol", help="Adaptive integrator: absolute tolerance, rad, m, rad/s, m/s "
+        "(default 1e-8).")] = None,
 ) -> None:
     """Simulate the closed loop (multibody + DC drives + sampled regulators) and save it."""
     from manipcad.control.files import load_regulators
@@ -199,20 +211,23 @@ def simulate(
     run = {"robot": robot, "trajectory": str(trajectory),
            "regulators": [str(p) for p in regulator or ()], "t_end": t_end, "dt": dt,
            "every": every, "drives": not no_drives, "payload": payload,
-           "robot_notes": notes}
+           "robot_notes": notes, "integrator": integrator, "rtol": rtol, "atol": atol}
 
     from manipcad.cli.warmup import ensure_warm
 
     ensure_warm("simulator")
     wall = time.perf_counter()
+    steps = (f"{int(round(t_end / dt))} RK4 steps" if integrator == "rk4"
+             else "adaptive steps")
     with err_console.status(f"simulating {arm.name}: {t_end:g} s at dt = {dt:g} s "
-                            f"({int(round(t_end / dt))} RK4 steps)..."), \
+                            f"({steps})..."), \
             warnings.catch_warnings(record=True) as run_notes:
         warnings.simplefilter("always", ManipcadWarning)
         try:
             res = run_simulation(arm, t_end=t_end, dt=dt, trajectory=traj, regulators=regs,
                                  payload=payload, drives=not no_drives, record_every=every,
-                                 joint_limits=joint_limits)
+                                 joint_limits=joint_limits, integrator=integrator,
+                                 rtol=rtol, atol=atol)
         except SimulationDiverged as exc:
             if save_diverged:
                 save_result(exc.result, out, inputs=inputs, joint_types=arm.joint_types,

@@ -31,6 +31,8 @@ Elastic and backlash gears are in :mod:`manipcad.drives.transmission`.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -170,6 +172,51 @@ def static_current(U: float, omega_m: float, p: np.ndarray) -> float:
     """
     u_a = amplifier_voltage(U, p[P_KU], p[P_UMAX])
     return (u_a - p[P_KW] * omega_m) / p[P_R]
+
+
+@numba.njit(cache=True)
+def armature_current_step(i0: float, U: float, omega0: float, omega1: float, t: float,
+                          p: np.ndarray) -> float:
+    """Armature current t s later, U held and the motor speed linear from ω0 to ω1.
+
+    The exact solution of the armature equation L·di/dt + R·i + k_w·ω_m(t) = u_a(U)
+    with ω_m going linearly from ``omega0`` to ``omega1`` over [0, t]: with
+    x = t·R/L, a0 = :func:`static_current` (U, ω0), a1 = static_current(U, ω1)
+    and φ(x) = (1 - e^(-x))/x,
+
+        i(t) = a0 + (i0 - a0)·e^(-x) + (a1 - a0)·(1 - φ(x)),
+
+    which holds the lag of the current behind a changing back-EMF. The adaptive
+    integrator (:mod:`manipcad.sim.adaptive`) advances the stiff current (L/R well
+    below the regulators' period) this way, whatever the step.
+
+    Args:
+        i0: current at the start, A.
+        U: amplifier input held over the step, V.
+        omega0, omega1: motor speed at the start and at the end, rad/s.
+        t: step length, s (>= 0; 0 returns i0).
+        p: packed drive parameters (L > 0).
+
+    Returns:
+        i(t), A.
+
+    Example:
+        >>> import math
+        >>> from manipcad.drives.dc import armature_current_step
+        >>> from manipcad.drives.params import pack_drive
+        >>> from manipcad.model.robot import Drive
+        >>> p = pack_drive(Drive(R=2.0, L=1e-3, k_m=.1, k_w=.1, k_u=1.0))
+        >>> i = armature_current_step(0.0, 1.0, 0.0, 0.0, 5e-4, p)   # one L/R
+        >>> abs(i - 0.5 * (1 - math.exp(-1.0))) < 1e-15
+        True
+    """
+    if t <= 0.0:
+        return i0
+    x = t * p[P_R] / p[P_L]
+    phi = -math.expm1(-x) / x
+    a0 = static_current(U, omega0, p)
+    a1 = static_current(U, omega1, p)
+    return a0 + (i0 - a0) * math.exp(-x) + (a1 - a0) * (1.0 - phi)
 
 
 @numba.njit(cache=True)

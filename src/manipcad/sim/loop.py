@@ -83,8 +83,9 @@ Work = namedtuple("Work", "x U wait rec excess")
 
 
 @nb.njit(cache=True, inline="always")
-def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work, tmp):
-    """Right-hand side at state xs into row ``st`` of K4; joint torques into tau."""
+def _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st):
+    """Joint torques (drives + disturbance) at state xs into tau; q, q̇ of xs into q, qd;
+    the drive states' rates into row ``st`` of K4 (from column 2n)."""
     m = 2 * n
     dtable = plant.dtable
     off = plant.off
@@ -111,6 +112,18 @@ def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work, 
                     tau[j] = tj
     for j in range(n):
         tau[j] = tau[j] + dist[j]
+
+
+@nb.njit(cache=True, inline="always")
+def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work, tmp):
+    """Right-hand side at state xs into row ``st`` of K4; joint torques into tau.
+
+    The one place the simulator evaluates the closed loop's right-hand side (RK4 and
+    the adaptive integrator both call it): drives (:func:`_torques`) then the
+    multibody forward dynamics.
+    """
+    _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st)
+    for j in range(n):
         K4[st, j] = qd[j]
     if plant.gen:
         if plant.gen_fd(q.ctypes.data, qd.ctypes.data, tau.ctypes.data, qdd.ctypes.data) >= 0:
@@ -182,6 +195,48 @@ def _signals(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp):
 
 
 @nb.njit(cache=True)
+def write_record(plant, rec, row, t, x, U, tau):
+    """Kept sample ``row``: time t s, q, q̇, U, armature currents (A) and torques tau."""
+    n = plant.rtable.shape[0]
+    rec.t[row] = t
+    for j in range(n):
+        rec.q[row, j] = x[j]
+        rec.qd[row, j] = x[n + j]
+        rec.u[row, j] = U[j]
+        rec.i[row, j] = (_current(plant.dtable, plant.off, x, 2 * n, U[j], x[n + j], j)
+                         if plant.use_drives else math.nan)
+        rec.tau[row, j] = tau[j]
+
+
+@nb.njit(cache=True)
+def check_state(plant, work, x, xdot, t, stop_at_limits):
+    """Divergence and joint limits at state x (rate xdot), time t s: (status, joint).
+
+    status 0 fine, 1 NaN (joint, or -1 for a drive state), 2 a speed above
+    :data:`MAX_SPEED`, 3 a joint left its limits with ``stop_at_limits``; each joint's
+    largest excursion beyond its limits and the time it first left them go into
+    ``work.excess``.
+    """
+    n = plant.rtable.shape[0]
+    m = 2 * n
+    for j in range(x.shape[0]):
+        if not math.isfinite(x[j]) or not math.isfinite(xdot[j]):
+            return 1, j % n if j < m else -1
+    for j in range(n):
+        if abs(x[n + j]) > MAX_SPEED:
+            return 2, j
+    for j in range(n):
+        ex = max(plant.limits[j, 0] - x[j], x[j] - plant.limits[j, 1])
+        if ex > work.excess[j, 0]:
+            if work.excess[j, 0] == 0.0:
+                work.excess[j, 1] = t
+            work.excess[j, 0] = ex
+            if stop_at_limits:
+                return 3, j
+    return 0, -1
+
+
+@nb.njit(cache=True)
 def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
     """Integrate the steps k0 .. k0+K−1 (RK4, dt s) from ``work.x``; record every ``every``.
 
@@ -249,33 +304,14 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
                 continue
             if work.rec[1] == 0:
                 work.rec[1] = every
-                row = work.rec[0]
-                rec.t[row] = k * dt
-                for j in range(n):
-                    rec.q[row, j] = x[j]
-                    rec.qd[row, j] = x[n + j]
-                    rec.u[row, j] = U[j]
-                    rec.i[row, j] = (_current(plant.dtable, plant.off, x, m, U[j], x[n + j], j)
-                                     if plant.use_drives else math.nan)
-                    rec.tau[row, j] = tau[j]
-                work.rec[0] = row + 1
+                write_record(plant, rec, work.rec[0], k * dt, x, U, tau)
+                work.rec[0] += 1
             work.rec[1] -= 1
             if last and kr == K:
                 return 0, k, -1
-            for j in range(nx):
-                if not math.isfinite(x[j]) or not math.isfinite(K4[0, j]):
-                    return 1, k, j % n if j < m else -1
-            for j in range(n):
-                if abs(x[n + j]) > MAX_SPEED:
-                    return 2, k, j
-            for j in range(n):
-                ex = max(plant.limits[j, 0] - x[j], x[j] - plant.limits[j, 1])
-                if ex > work.excess[j, 0]:
-                    if work.excess[j, 0] == 0.0:
-                        work.excess[j, 1] = k * dt
-                    work.excess[j, 0] = ex
-                    if stop_at_limits:
-                        return 3, k, j
+            status, joint = check_state(plant, work, x, K4[0], k * dt, stop_at_limits)
+            if status:
+                return status, k, joint
         for j in range(nx):
             x[j] = x[j] + h6 * (K4[0, j] + 2.0 * K4[1, j] + 2.0 * K4[2, j] + K4[3, j])
     return 0, k0 + K, -1

@@ -93,13 +93,18 @@ def metrics_table(doc: dict[str, Any]) -> Table:
 def simulate(
     robot: Annotated[str, typer.Argument(
         help="A catalog robot name (see 'manipcad robots list') or a .yaml/.urdf file.")],
-    trajectory: Annotated[Path, typer.Option(
-        "--trajectory", "-t", help="Trajectory YAML file (reference motion).")],
-    out: Annotated[Path, typer.Option(
-        "--out", "-o", help="Result folder: inputs/, timeseries.csv/.npz, metrics.json, "
-        "errors.png.")],
-    regulator: Annotated[list[Path] | None, typer.Option(
-        "--regulator", "-r", help="Regulator YAML file; repeat for several files. "
+    trajectory: Annotated[str, typer.Option(
+        "--trajectory", "-t", help="Trajectory YAML file (reference motion), or a workspace "
+        "trajectory's name.")],
+    out: Annotated[str | None, typer.Option(
+        "--out", "-o", help="Result folder (inputs/, timeseries.csv/.npz, metrics.json, "
+        "errors.png); with --ws the result's NAME in the workspace (optional there: a name "
+        "is made).")] = None,
+    ws: Annotated[Path | None, typer.Option(
+        "--ws", help="Workspace: inputs may be its item names, and the result is stored and "
+        "indexed there (results/NAME).")] = None,
+    regulator: Annotated[list[str] | None, typer.Option(
+        "--regulator", "-r", help="Regulator YAML file or workspace name; repeat for several. "
         "Joints in no file get U = 0.")] = None,
     t_end: Annotated[float | None, typer.Option(
         "--t-end", help="Simulated time, s (default: the trajectory's duration).")] = None,
@@ -146,7 +151,7 @@ def simulate(
     from manipcad.model.load import load_robot
     from manipcad.sim import SimulationDiverged
     from manipcad.sim import simulate as run_simulation
-    from manipcad.store import check_out_dir, result_document, save_result
+    from manipcad.store import check_out_dir, result_document
     from manipcad.trajectories import load_trajectory
 
     if not (math.isfinite(dt) and dt > 0):
@@ -157,7 +162,18 @@ def simulate(
         raise InputError("--t-end", "", f"must be > 0 s, got {t_end}")
     if payload is not None and not (math.isfinite(payload) and payload >= 0):
         raise InputError("--payload", "", f"must be >= 0 kg, got {payload}")
-    check_out_dir(out, force=force)  # fail before the run, not after
+    from manipcad.workspace import Workspace, resolve_input
+
+    space = Workspace(ws) if ws is not None else None
+    if space is None:
+        if out is None:
+            raise InputError("--out", "", "missing: the result folder (or --ws DIR to store "
+                             "the result in a workspace)")
+        out = Path(out)
+        check_out_dir(out, force=force)  # fail before the run, not after
+    robot = resolve_input("robot", robot, space)
+    trajectory = Path(resolve_input("trajectory", trajectory, space))
+    regulator = [Path(resolve_input("regulator", r, space)) for r in regulator or ()]
 
     with warnings.catch_warnings(record=True) as robot_notes:
         warnings.simplefilter("always", ManipcadWarning)
@@ -208,7 +224,7 @@ def simulate(
     inputs["trajectory"] = trajectory
     if regulator:
         inputs["regulator"] = list(regulator)
-    run = {"robot": robot, "trajectory": str(trajectory),
+    run = {"robot": str(robot), "trajectory": str(trajectory),
            "regulators": [str(p) for p in regulator or ()], "t_end": t_end, "dt": dt,
            "every": every, "drives": not no_drives, "payload": payload,
            "robot_notes": notes, "integrator": integrator, "rtol": rtol, "atol": atol}
@@ -230,19 +246,19 @@ def simulate(
                                  rtol=rtol, atol=atol)
         except SimulationDiverged as exc:
             if save_diverged:
-                save_result(exc.result, out, inputs=inputs, joint_types=arm.joint_types,
-                            force=force, status="diverged", message=str(exc), run=run)
-                raise ManipcadError(f"{exc}; the partial result is in {out}") from None
-            raise ManipcadError(f"{exc}; nothing was written to {out}") from None
+                where = _store(space, exc.result, out, inputs, arm, trajectory, regulator,
+                               run, force, status="diverged", message=str(exc))
+                raise ManipcadError(f"{exc}; the partial result is in {where}") from None
+            raise ManipcadError(f"{exc}; nothing was written to "
+                                f"{out if space is None else space.root}") from None
     wall = time.perf_counter() - wall
     for w in run_notes:
         if issubclass(w.category, ManipcadWarning):
             err_console.print(f"[yellow]warning:[/] {w.message}", highlight=False,
                               soft_wrap=True)
     run["wall_time_s"] = wall
-    with err_console.status(f"writing {out}..."):
-        save_result(res, out, inputs=inputs, joint_types=arm.joint_types, force=force,
-                    run=run)
+    with err_console.status("writing the result..."):
+        out = _store(space, res, out, inputs, arm, trajectory, regulator, run, force)
     doc = result_document(res, joint_types=arm.joint_types, inputs=inputs, run=run)
     doc["out"] = str(out)
     if as_json:
@@ -251,5 +267,22 @@ def simulate(
     console.print(metrics_table(doc))
     console.print(f"simulated {t_end:g} s ({int(round(t_end / dt))} steps of {dt:g} s) in "
                   f"{wall:.3g} s wall (the first run compiles); wrote {out}/ (inputs/, "
-                  "timeseries.csv, timeseries.npz, metrics.json, errors.png)",
+                  "timeseries.csv, timeseries.npz, metrics.json, errors.png)"
+                  + (f", indexed in the workspace {space.root}" if space is not None else ""),
                   highlight=False, soft_wrap=True)
+
+
+def _store(space, res, out, inputs, arm, trajectory, regulators, run, force, *,
+           status: str = "ok", message: str = "") -> Path:
+    """Save a result into a folder, or store and index it in a workspace; its folder."""
+    from manipcad.store import save_result
+
+    if space is None:
+        save_result(res, out, inputs=inputs, joint_types=arm.joint_types, force=force,
+                    status=status, message=message, run=run)
+        return Path(out)
+    item = space.store_result(res, name=out, robot=arm, trajectory=trajectory,
+                              regulators=list(regulators), run=run,
+                              joint_types=arm.joint_types, force=force, status=status,
+                              message=message)
+    return space.root / "results" / item.name

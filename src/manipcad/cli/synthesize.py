@@ -95,8 +95,12 @@ def synthesize(
     trajectory: Annotated[Path | None, typer.Option(
         "--trajectory", "-t", help="The reference a --spec max_error=... is asked on.")]
     = None,
-    out: Annotated[Path | None, typer.Option(
-        "--out", "-o", help="Regulator file to write (YAML).")] = None,
+    out: Annotated[str | None, typer.Option(
+        "--out", "-o", help="Regulator file to write (YAML); with --ws the regulator's NAME "
+        "in the workspace.")] = None,
+    ws: Annotated[Path | None, typer.Option(
+        "--ws", help="Workspace: the robot may be its item name, and the regulator file is "
+        "stored and indexed there (regulators/NAME).")] = None,
     force: Annotated[bool, typer.Option("--force", help="Replace an existing file.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the file as JSON.")] = False,
     list_methods: Annotated[bool, typer.Option(
@@ -123,11 +127,16 @@ def synthesize(
         raise InputError("--joint", "", "missing: give --joint J (repeatable) or --all")
     if joint and all_joints:
         raise InputError("--all", "", "give --joint or --all, not both")
+    from manipcad.workspace import Workspace, resolve_input
+
+    space = Workspace(ws) if ws is not None else None
     if out is None and not as_json:
         raise InputError("--out", "", "missing: the regulator file to write (or --json)")
-    if out is not None and out.exists() and not force:
-        raise InputError(str(out), "", "exists; give --force to replace it")
-    arm = load_robot(robot)
+    if space is None and out is not None:
+        out = Path(out)
+        if out.exists() and not force:
+            raise InputError(str(out), "", "exists; give --force to replace it")
+    arm = load_robot(resolve_input("robot", robot, space))
     if all_joints:
         idx = [j for j in range(arm.n) if arm.drives and arm.drives[j] is not None]
         if not idx:
@@ -156,8 +165,15 @@ def synthesize(
         regs = run_synthesis(arm, idx, method, spec=_pairs(spec, "--spec") or None, **options)
     regs = regs if isinstance(regs, list) else [regs]
     doc = regulators_document(regs, robot=arm)
-    if out is not None:
+    if out is not None and space is None:
         save_regulators(regs, out, robot=arm)
+    elif out is not None:
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as tmp:
+            path = save_regulators(regs, Path(tmp) / f"{out}.yaml", robot=arm)
+            item = space.add(path, kind="regulator", name=str(out), force=force)
+        out = space.root / "regulators" / f"{item.name}.yaml"
     if as_json:
         typer.echo(json.dumps(doc, indent=2, default=str))
         return

@@ -90,6 +90,48 @@ class SimulationResult:
         """Tracking error q_ref - q, rad or m, shape (K, n)."""
         return self.q_ref - self.q
 
+    def to_dataframe(self, joint_types: Sequence[str] | None = None):
+        """The time series as a :class:`pandas.DataFrame`, units in the column names.
+
+        The index is ``t [s]``; one column per joint and quantity, ``"JOINT.QUANTITY
+        [UNIT]"`` (``"waist.q [rad]"``, ``"lift.tau [N]"``), the columns of the CSV export
+        (:mod:`manipcad.sim.series`). ``joint_types`` defaults to the result's own.
+
+        Example:
+            >>> import manipcad
+            >>> res = manipcad.simulate(manipcad.load_robot("cylindrical"), t_end=0.01,
+            ...                         dt=1e-3, drives=False)
+            >>> res.to_dataframe().columns[0]
+            'turn.q [rad]'
+        """
+        import pandas as pd
+
+        from manipcad.sim.series import series_columns
+
+        types = joint_types if joint_types is not None else (self.joint_types or None)
+        cols = series_columns(self, types)
+        return pd.DataFrame(dict(cols[1:]), index=pd.Index(np.asarray(cols[0][1]),
+                                                           name="t [s]"))
+
+    def _repr_html_(self) -> str:
+        """The per-joint metrics as an HTML table (Jupyter)."""
+        from html import escape
+
+        def cell(x) -> str:
+            return "—" if x is None or (isinstance(x, float) and np.isnan(x)) else f"{x:.4g}"
+
+        types = list(self.joint_types) or [None] * len(self.joint_names)
+        rows = "".join(
+            f"<tr><td>{escape(j)}</td><td>{'m' if jt == 'prismatic' else 'rad' if jt else 'rad|m'}"
+            f"</td>" + "".join(f"<td>{cell((self.metrics.get(j) or {}).get(k))}</td>"
+                               for k in ("max_error", "rms_error", "effort_rms", "energy"))
+            + "</tr>" for j, jt in zip(self.joint_names, types, strict=True))
+        t_end = float(self.t[-1]) if len(self.t) else 0.0
+        return (f"<p><b>{escape(self.robot or 'result')}</b>: {len(self.t)} samples, "
+                f"t = 0 … {t_end:.4g} s</p><table><thead><tr><th>joint</th><th>unit</th>"
+                "<th>max |e|</th><th>RMS e</th><th>effort RMS</th><th>energy J</th></tr>"
+                f"</thead><tbody>{rows}</tbody></table>")
+
 
 def simulate(
     robot: Robot,

@@ -62,9 +62,7 @@ import yaml
 
 from manipcad.errors import InputError
 from manipcad.fileio import json_safe
-
-#: the arrays of a result kept in the store, in column order per joint
-SERIES = ("q", "qd", "q_ref", "qd_ref", "error", "u", "current", "tau")
+from manipcad.sim.series import SERIES, result_arrays, series_columns, series_units  # noqa: F401
 
 #: file names inside a result folder
 TIMESERIES_CSV = "timeseries.csv"
@@ -72,24 +70,6 @@ TIMESERIES_NPZ = "timeseries.npz"
 METRICS_JSON = "metrics.json"
 ERRORS_PNG = "errors.png"
 INPUTS_DIR = "inputs"
-
-
-def series_units(joint_type: str | None, drives: bool) -> dict[str, str]:
-    """SI unit of each stored quantity of one joint.
-
-    Args:
-        joint_type: "revolute", "prismatic" or None (unknown: "rad|m" etc.).
-        drives: whether the run had drive models (then u is a voltage).
-
-    Example:
-        >>> series_units("prismatic", True)["tau"]
-        'N'
-    """
-    pos, vel, force = {"revolute": ("rad", "rad/s", "N·m"),
-                       "prismatic": ("m", "m/s", "N")}.get(
-        joint_type or "", ("rad|m", "rad/s|m/s", "N·m|N"))
-    return {"q": pos, "qd": vel, "q_ref": pos, "qd_ref": vel, "error": pos,
-            "u": "V" if drives else force, "current": "A", "tau": force}
 
 
 def metric_units(joint_type: str | None, drives: bool) -> dict[str, str]:
@@ -369,37 +349,6 @@ def _write_all(tmp: Path, result, inputs: Mapping[str, Any], joint_types, status
         plot_errors(result, tmp / ERRORS_PNG, joint_types=joint_types, title=title)
 
     _fsync_tree(tmp)
-
-
-def result_arrays(result) -> dict[str, np.ndarray]:
-    """The stored arrays of a result: ``t`` (K,) s and each of :data:`SERIES` (K, n), float64."""
-    arrays = {"t": np.asarray(result.t, dtype=float)}
-    for name in SERIES:
-        arrays[name] = np.asarray(getattr(result, name), dtype=float)
-    return arrays
-
-
-def series_columns(result, joint_types: Sequence[str] | None = None
-                   ) -> list[tuple[str, np.ndarray]]:
-    """The columns of a result's table: ("t [s]", t), then per joint each of
-    :data:`SERIES` as ("JOINT.QUANTITY [UNIT]", (K,) array); the CSV and the
-    DataFrame (:func:`manipcad.workspace.results_dataframe`) use these.
-
-    Args:
-        result: a :class:`manipcad.sim.SimulationResult`.
-        joint_types: "revolute"/"prismatic" per joint for the units; None: "rad|m".
-    """
-    drives = bool(result.settings.get("drives", True))
-    names = list(result.joint_names)
-    types = list(joint_types) if joint_types is not None else [None] * len(names)
-    if len(types) != len(names):
-        raise InputError("joint_types", "", f"{len(types)} entries for {len(names)} joints")
-    arrays = result_arrays(result)
-    cols = [("t [s]", arrays["t"])]
-    for j, (name, jt) in enumerate(zip(names, types, strict=True)):
-        units = series_units(jt, drives)
-        cols += [(f"{name}.{s} [{units[s]}]", arrays[s][:, j]) for s in SERIES]
-    return cols
 
 
 def write_csv(result, path: str | Path, *, joint_types: Sequence[str] | None = None) -> Path:

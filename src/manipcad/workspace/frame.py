@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numpy as np
-
 
 def results_dataframe(result, joint_types: Sequence[str] | None = None):
     """The time series of a result as a :class:`pandas.DataFrame`.
@@ -36,12 +34,7 @@ def results_dataframe(result, joint_types: Sequence[str] | None = None):
         >>> df.index.name
         't [s]'
     """
-    import pandas as pd
-
-    from manipcad.store.results import series_columns
-
-    cols = series_columns(result, joint_types)
-    return pd.DataFrame(dict(cols[1:]), index=pd.Index(np.asarray(cols[0][1]), name="t [s]"))
+    return result.to_dataframe(joint_types)
 
 
 def result_html(result, joint_types: Sequence[str] | None = None) -> str:
@@ -59,19 +52,8 @@ def result_html(result, joint_types: Sequence[str] | None = None) -> str:
         >>> "max |e|" in result_html(res)
         True
     """
-    from html import escape
+    if joint_types is not None:
+        from dataclasses import replace
 
-    def cell(x) -> str:
-        return "—" if x is None or (isinstance(x, float) and np.isnan(x)) else f"{x:.4g}"
-
-    types = list(joint_types) if joint_types is not None else [None] * len(result.joint_names)
-    rows = "".join(
-        f"<tr><td>{escape(j)}</td><td>{'m' if jt == 'prismatic' else 'rad' if jt else 'rad|m'}"
-        f"</td>" + "".join(f"<td>{cell((result.metrics.get(j) or {}).get(k))}</td>"
-                           for k in ("max_error", "rms_error", "effort_rms", "energy"))
-        + "</tr>" for j, jt in zip(result.joint_names, types, strict=True))
-    t_end = float(result.t[-1]) if len(result.t) else 0.0
-    return (f"<p><b>{escape(result.robot or 'result')}</b>: {len(result.t)} samples, "
-            f"t = 0 … {t_end:.4g} s</p><table><thead><tr><th>joint</th><th>unit</th>"
-            "<th>max |e|</th><th>RMS e</th><th>effort RMS</th><th>energy J</th></tr></thead>"
-            f"<tbody>{rows}</tbody></table>")
+        result = replace(result, joint_types=tuple(joint_types))
+    return result._repr_html_()

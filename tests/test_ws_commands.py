@@ -1,0 +1,40 @@
+"""synthesize and simulate with --ws: inputs by workspace name, outputs stored and indexed."""
+
+from __future__ import annotations
+
+import json
+
+import yaml
+from typer.testing import CliRunner
+
+from manipcad.cli import app
+
+runner = CliRunner()
+
+
+def run(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+def test_synthesize_and_simulate_through_a_workspace(tmp_path):
+    ws = tmp_path / "ws"
+    assert run("ws", "init", ws).exit_code == 0
+    traj = tmp_path / "move.yaml"
+    traj.write_text(yaml.safe_dump({"type": "quintic", "q_start": [0.0, 0.0, 0.25],
+                                    "q_end": [0.3, 0.0, 0.3], "duration": 0.2}))
+    assert run("ws", "add", traj, "--ws", ws, "--name", "move").exit_code == 0
+    r = run("synthesize", "cylindrical", "--method", "ace_de", "--all", "--ws", ws,
+            "--out", "ade")
+    assert r.exit_code == 0, r.output
+    assert (ws / "regulators" / "ade.yaml").is_file()
+    r = run("simulate", "cylindrical", "-t", "move", "-r", "ade", "--ws", ws, "--out", "run1",
+            "--json")
+    assert r.exit_code == 0, r.output
+    r = run("ws", "list", "result", "--ws", ws, "--json")
+    rows = json.loads(r.output)
+    assert [x["name"] for x in rows] == ["run1"]
+    r = run("ws", "rerun", "run1", "--ws", ws)
+    assert r.exit_code == 0 and "identical" in r.output
+    # without --ws, --out is the folder and is required
+    r = run("simulate", "cylindrical", "-t", traj, "-r", ws / "regulators" / "ade.yaml")
+    assert r.exit_code == 2 and "--out" in r.output

@@ -65,6 +65,7 @@ def test_yaml_bombs_refused(tmp_path, kind, loader):
     assert err.value.source == str(p)
 
 
+@pytest.mark.slow
 def test_limits_are_generous_enough_for_real_files():
     assert parse_yaml("a: " + "[" * (MAX_DEPTH - 1) + "1" + "]" * (MAX_DEPTH - 1), "x")
     rows = (MAX_NODES - 10) // 7
@@ -361,6 +362,7 @@ def test_study_refuses_before_allocating(monkeypatch, tmp_path, args, words):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_cli_no_traceback_in_a_real_process(tmp_path):
     import subprocess
     import sys

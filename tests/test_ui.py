@@ -269,3 +269,31 @@ def test_pages_in_the_simulated_user(tmp_path):
         assert "unknown metric 'max_errr'" in _error(user)
 
     _simulate_user(tmp_path / "ws", script)
+
+
+@pytest.mark.slow
+def test_drives_and_identification_are_the_apis(puma):
+    from pathlib import Path
+
+    from manipcad.dynamics.identification import load_torque_data
+
+    traj = logic.make_trajectory({"type": "cosine", "amplitude": [0.2] * 6,
+                                  "omega": [3.0] * 6, "duration": 1.0}, puma)
+    req = manipcad.required_drive(puma, traj)
+    rows = logic.drive_rows(req)
+    assert [r["joint"] for r in rows] == list(puma.joint_names)
+    assert float(rows[1]["peak_torque"]) == pytest.approx(req.peak_torque[1], rel=1e-3)
+    assert logic.torque_speed_png(req)[:8] == b"\x89PNG\r\n\x1a\n"
+
+    csv = Path(__file__).resolve().parents[1] / "examples" / "identify_puma.csv"
+    est = logic.identify_upload(puma, "measured.csv", csv.read_bytes(), com=[0, 0, 0.08])
+    d = load_torque_data(csv, puma)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        ref = manipcad.identify_payload(puma, d.q, d.qd, d.qdd, t=d.t, tau=d.tau,
+                                        com=[0, 0, 0.08])
+    assert est.mass == ref.mass and est.std == ref.std
+    with pytest.raises(InputError, match=r"^bad\.csv"):
+        logic.identify_upload(puma, "bad.csv", b"t,q1\n0,0\n", com=None)
+    with pytest.raises(InputError, match="csv"):
+        logic.identify_upload(puma, "x.txt", csv.read_bytes())

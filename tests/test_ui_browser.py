@@ -210,6 +210,23 @@ def test_designer_flow(browser, server):
     page.get_by_test_id("syn-run").click()
     page.get_by_test_id("syn-saved").get_by_text("saved regulators/pid").wait_for()
 
+    # drives: what the trajectory needs against the motors' limits
+    _open(page, server + "/drives")
+    page.get_by_test_id("drives-run").click()
+    _see(page, page.get_by_test_id("drives-table"))
+    assert "shoulder" in page.get_by_test_id("drives-table").inner_text()
+    page.locator("img").first.wait_for()
+    _shot(page, "drives")
+
+    # identification: the example's measured torques give the payload mass
+    _open(page, server + "/identification")
+    page.locator("input").first.fill("0, 0, 0.08")
+    page.get_by_test_id("ident-upload").locator("input[type=file]").set_input_files(
+        str(ROOT / "examples" / "identify_puma.csv"))
+    _see(page, page.get_by_test_id("ident-mass"))
+    assert "payload mass m_r = " in page.get_by_test_id("ident-mass").inner_text()
+    _shot(page, "identification")
+
     # simulate both, in the worker process
     _open(page, server + "/simulation")
     _simulate(page, "best", "run-best")

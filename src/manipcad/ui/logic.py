@@ -452,3 +452,68 @@ def series_figure(t, y, labels: Sequence[str], title: str, yunit: str):
     fig.update_layout(title=title, xaxis_title="t [s]", yaxis_title=yunit, height=320,
                       margin={"l": 40, "r": 10, "t": 40, "b": 30})
     return fig
+
+
+# ---------------------------------------------------------------- drives and identification
+def drive_rows(req) -> list[dict[str, Any]]:
+    """One row per joint of :func:`manipcad.required_drive`'s summary, for the Drives table.
+
+    Keys (units): joint, peak_torque / rms_torque (N·m|N, joint side), peak_motor_speed
+    (rad/s), peak_motor_torque (N·m), peak_current / rms_current (A), peak_voltage (V),
+    peak_elec_power (W), status (pass, fail, unknown over the motor and gear limits).
+    """
+    def num(v: float) -> str:
+        return "-" if not np.isfinite(v) else f"{float(v):.4g}"
+
+    keys = ("peak_torque", "rms_torque", "peak_motor_speed", "peak_motor_torque",
+            "peak_current", "rms_current", "peak_voltage", "peak_elec_power")
+    return [{"joint": name, **{k: num(getattr(req, k)[j]) for k in keys},
+             "status": req.status[j]} for j, name in enumerate(req.joint_names)]
+
+
+def torque_speed_png(req) -> bytes:
+    """The torque-speed figure of :func:`manipcad.torque_speed_plot` (the motors'
+    envelopes and the required points), as PNG bytes for the page."""
+    from manipcad.sizing import torque_speed_plot
+
+    with tempfile.TemporaryDirectory() as tmp:
+        return torque_speed_plot(req, Path(tmp) / "torque-speed.png").read_bytes()
+
+
+def identify_upload(robot, filename: str, data: bytes, *, com: Sequence[float] | None = None):
+    """Identify the payload mass from an uploaded CSV of measured torques or currents.
+
+    Args:
+        robot: the robot that carried the payload.
+        filename: the browser's file name (its suffix must be .csv).
+        data: the CSV bytes (``manipcad identify``'s format: t, q1.., qd1.., qdd1..,
+            tau1.. or current1..; at most :data:`MAX_UPLOAD` bytes).
+        com: the payload's centre of mass in the last link's frame, m (None: its origin).
+
+    Returns:
+        :class:`manipcad.PayloadEstimate` (mass kg with its standard deviation).
+
+    Raises:
+        InputError: too big, not .csv, or the loader's error naming the file.
+    """
+    from manipcad.dynamics.identification import identify_payload, load_torque_data
+
+    base = Path(filename or "").name or "upload.csv"
+    if len(data) > MAX_UPLOAD:
+        raise InputError(base, "", f"{len(data)} bytes: larger than the {MAX_UPLOAD} bytes "
+                         "accepted")
+    if Path(base).suffix.lower() != ".csv":
+        raise InputError(base, "", "measured data is a .csv file (manipcad identify's format)")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / base
+        path.write_bytes(data)
+        try:
+            d = load_torque_data(path, robot)
+        except InputError as exc:
+            raise InputError(base, exc.field, exc.reason.replace(str(path), base)) from None
+    if d.tau is None and d.current is None:
+        raise InputError(base, "", "no tau1.. or current1.. columns")
+    kw = {"tau": d.tau} if d.tau is not None else {"current": d.current}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        return identify_payload(robot, d.q, d.qd, d.qdd, t=d.t, com=com, **kw)

@@ -11,6 +11,7 @@ the current robot, trajectory and recommendation live in :data:`STATE`.
 
 from __future__ import annotations
 
+import base64
 import math
 from pathlib import Path
 from typing import Any
@@ -18,6 +19,7 @@ from typing import Any
 from nicegui import app, ui
 
 from manipcad.errors import InputError, ManipcadError
+from manipcad.sizing import required_drive
 from manipcad.ui import logic
 from manipcad.ui.worker import SimSpec, SimulationJob
 
@@ -31,7 +33,8 @@ QUANTITIES = {"error": "error [rad|m]", "u": "regulator output U [V]", "current"
 
 MENU = (("/", "Main menu"), ("/robots", "Robots"), ("/trajectories", "Trajectories"),
         ("/requirements", "Requirements → method"), ("/synthesis", "Synthesis"),
-        ("/simulation", "Simulation"), ("/results", "Results"))
+        ("/simulation", "Simulation"), ("/results", "Results"), ("/drives", "Drives"),
+        ("/identification", "Identification"))
 
 
 def ws():
@@ -551,6 +554,83 @@ def register() -> None:
 
 
     # ---------------------------------------------------------------------------- files
+    @ui.page("/drives")
+    def drives_page() -> None:
+        with frame("Drives"):
+            show, clear = error_label()
+            ui.label("The torques, speeds, currents, voltages and powers the current "
+                     "trajectory needs from the picked robot's drives, against the motors' "
+                     "and gears' limits (manipcad size).")
+            out = ui.column().classes("w-full")
+
+            def run() -> None:
+                clear()
+                out.clear()
+                try:
+                    if not STATE["trajectory"]:
+                        raise InputError("drives", "trajectory", "pick or make a trajectory "
+                                         "first (Trajectories page)")
+                    arm = robot()
+                    traj = logic.load_trajectory_ref(ws(), STATE["trajectory"], arm)
+                    req = required_drive(arm, traj)
+                    png = logic.torque_speed_png(req)
+                except ManipcadError as exc:
+                    show(exc)
+                    return
+                with out:
+                    cols = [("joint", ""), ("peak_torque", "N·m|N"), ("rms_torque", "N·m|N"),
+                            ("peak_motor_speed", "rad/s"), ("peak_motor_torque", "N·m"),
+                            ("peak_current", "A"), ("rms_current", "A"),
+                            ("peak_voltage", "V"), ("peak_elec_power", "W"), ("status", "")]
+                    ui.table(columns=[{"name": c, "label": f"{c} [{u}]" if u else c,
+                                       "field": c} for c, u in cols],
+                             rows=logic.drive_rows(req), row_key="joint") \
+                        .props("dense flat data-testid=drives-table")
+                    b64 = base64.b64encode(png).decode()
+                    ui.image(f"data:image/png;base64,{b64}").style("max-width: 1100px")
+
+            ui.button("Compute the drive requirements", on_click=run) \
+                .props("data-testid=drives-run")
+
+    @ui.page("/identification")
+    def identification_page() -> None:
+        with frame("Identification"):
+            show, clear = error_label()
+            ui.label("Upload measured joint torques or motor currents along a motion (CSV: t, "
+                     "q1.., qd1.., qdd1.., tau1.. or current1..; SI units) of the picked "
+                     "robot; get the payload mass with its uncertainty (manipcad identify).")
+            com = ui.input("payload centre of mass x, y, z [m] in the last link's frame",
+                           value="0, 0, 0").classes("w-96")
+            out = ui.column().classes("w-full")
+
+            async def uploaded(e) -> None:
+                clear()
+                out.clear()
+                try:
+                    c = numbers(com.value, "com", "identification form")
+                    if len(c) != 3:
+                        raise InputError("identification form", "com", "expected x, y, z")
+                    est = logic.identify_upload(robot(), e.file.name, await e.file.read(),
+                                                com=c)
+                except ManipcadError as exc:
+                    show(exc)
+                    return
+                with out:
+                    ui.label(f"payload mass m_r = {est.mass:.5g} ± {est.std:.2g} kg "
+                             f"({est.samples} samples of {est.signal}, {est.method}; residual "
+                             f"RMS {est.residual:.3g} N·m|N)").classes("text-h6") \
+                        .props("data-testid=ident-mass")
+                    ui.table(columns=[{"name": k, "label": lab, "field": k} for k, lab in (
+                        ("joint", "joint"), ("mass", "m_r alone [kg]"), ("std", "std [kg]"))],
+                        rows=[{"joint": n, "mass": f"{m:.5g}", "std": f"{s:.2g}"}
+                              for n, m, s in zip(est.joint_names, est.per_joint_mass,
+                                                 est.per_joint_std, strict=True)],
+                        row_key="joint").props("dense flat")
+
+            ui.upload(label="Upload measured data (.csv)", auto_upload=True,
+                      max_file_size=logic.MAX_UPLOAD, on_upload=uploaded) \
+                .props("accept=.csv data-testid=ident-upload")
+
     @app.get("/api/items/{kind}/{name:path}")
     def item_file(kind: str, name: str):
         """A workspace item's file (robots, trajectories, regulators); names checked: a

@@ -4,6 +4,12 @@ Usage::
 
     python benchmarks/bench_simulator.py [--t-end 1.0] [--rounds 5] [--json out.json]
                                          [--profile] [--no-python-rk4]
+                                         [--part python-control|integrators|ur5]
+
+``--part integrators`` and ``--part ur5`` (issue 9, "Performance") compare the
+adaptive integrators with RK4 (PUMA + drives + PD at 1 kHz; LQR-GS and ASVS on the
+cylindrical arm) and the rigid UR5 PD job with MuJoCo and Drake; see
+benchmarks/_bench_integrators.py. The default part is the comparison below.
 
 The closed loop (issue 3, "Speed"): the 6-joint PUMA 560 of the catalog with
 its DC drives' electrical dynamics (armature inductance L kept: one current
@@ -338,8 +344,31 @@ def main(argv=None) -> int:
     ap.add_argument("--profile", action="store_true", help="break one step's cost down")
     ap.add_argument("--no-python-rk4", action="store_true",
                     help="skip the hand-written Python RK4 loop")
+    ap.add_argument("--part", choices=("python-control", "integrators", "ur5"),
+                    default="python-control", help="which comparison (default python-control)")
     args = ap.parse_args(argv)
     t_end = args.t_end
+    if args.part != "python-control":
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        import _bench_integrators as bi
+
+        machine = machine_info()
+        machine["command"] = " ".join(["python", *sys.argv])
+        print(f"machine: {machine['cpu']}, {machine['cores']} cores, load average at start "
+              f"{', '.join(f'{x:.2f}' for x in machine['load_average_at_start'])}; "
+              f"{args.rounds} rounds, medians")
+        print(f"command: {machine['command']}")
+        if args.part == "integrators":
+            result = {"puma": bi.puma_part(args.rounds, t_end),
+                      "cylindrical": bi.cylindrical_part(args.rounds, t_end)}
+        else:
+            result = {"ur5": bi.ur5_part(args.rounds, t_end)}
+        machine["load_average_at_end"] = os.getloadavg()
+        print(f"\nload average at end: "
+              f"{', '.join(f'{x:.2f}' for x in machine['load_average_at_end'])}")
+        if args.json:
+            args.json.write_text(json.dumps({"machine": machine, **result}, indent=1))
+        return 0
     machine = machine_info()
     machine["command"] = " ".join(["python", *sys.argv])
 

@@ -363,9 +363,10 @@ def read_yaml(path: str | Path | Traversable, what: str | None = None, *,
         InputError: as :func:`read_text` and :func:`parse_yaml`.
 
     Example:
-        >>> data = read_yaml("examples/fig3_laws.yaml", "a mapping with a 'type'")  # doctest: +SKIP
-        >>> data["type"]  # doctest: +SKIP
-        'cosine'
+        >>> from manipcad.model.load import CATALOG
+        >>> data = read_yaml(CATALOG / "robots" / "cylindrical.yaml", "a robot")
+        >>> data["name"]
+        'cylindrical arm (paper Fig. 2)'
     """
     del unique_keys
     name = label or str(path)

@@ -52,8 +52,8 @@ def robot_from_pinocchio(model, name: str | None = None) -> Robot:
         InputError: a joint type other than revolute or prismatic (named).
 
     Example:
-        >>> import pinocchio as pin  # doctest: +SKIP
-        >>> robot_from_pinocchio(pin.buildSampleModelManipulator()).n  # doctest: +SKIP
+        >>> import pinocchio as pin
+        >>> robot_from_pinocchio(pin.buildSampleModelManipulator()).n
         6
     """
     import pinocchio as pin

@@ -130,8 +130,8 @@ def robot_from_rtb(r, name: str | None = None) -> Robot:
         InputError: a link with more than one joint variable or no dynamics.
 
     Example:
-        >>> import roboticstoolbox as rtb  # doctest: +SKIP
-        >>> robot_from_rtb(rtb.models.DH.Puma560()).n  # doctest: +SKIP
+        >>> import roboticstoolbox as rtb
+        >>> robot_from_rtb(rtb.models.DH.Puma560()).n
         6
     """
     from manipcad.model.convert import robot_from_joints as _build

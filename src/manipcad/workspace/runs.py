@@ -148,9 +148,15 @@ def run_from_folder(folder: Path, doc: dict[str, Any]):
     regs = []
     for f in sorted(inputs.glob("regulator*.*"), key=_input_order):
         regs += load_regulators(f, robot, dt=dt, drives=drives)
+    # the numerical path the run took (kernels, integrator, drive order) is part of it:
+    # a rerun takes the same, so that it is identical bit for bit
+    same = {k: run[k] for k in ("integrator", "rtol", "atol", "order") if k in run}
+    if "generated" in run:
+        same["use_generated"] = bool(run["generated"])
     return simulate(robot, t_end=float(run["t_end"]), dt=dt, trajectory=traj,
                     regulators=regs, payload=run.get("payload"), drives=drives,
-                    record_every=int(run.get("every") or run.get("record_every") or 1))
+                    record_every=int(run.get("every") or run.get("record_every") or 1),
+                    **same)
 
 
 def _input_order(p: Path) -> tuple[int, str]:

@@ -37,9 +37,11 @@ from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 
 
 def _num(x: Any, fmt: str = ".4g") -> str:
-    """A table cell: nan/None print as "-"."""
+    """A table cell: nan/None print as "-"; a non-number (JSON's "inf") as it is."""
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return "-"
+    if isinstance(x, str):
+        return x
     return format(x, fmt)
 
 

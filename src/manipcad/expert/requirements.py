@@ -212,7 +212,7 @@ class Requirements(BaseModel):
             InputError: naming the file, the field and the reason.
         """
         src = str(path)
-        data = read_yaml(path, "a mapping of requirement fields", unique_keys=False)
+        data = read_yaml(path, "a mapping of requirement fields")
         return cls.from_dict(data, src)
 
     @classmethod

@@ -245,7 +245,12 @@ def simulate(
     if int(record_every) < 1:
         raise ManipcadError(f"record_every must be >= 1, got {record_every}")
     robot = _with_payload(robot, payload)
-    K = int(round(t_end / dt))
+    from manipcad.budget import check_steps
+
+    # the reference is sampled chunk by chunk: memory follows the kept samples (t, q, q̇, U,
+    # i, τ, and q*, q̇* at the end), and the step count is bounded before anything is made
+    K = check_steps(t_end, dt, floats_per_step=0.0, floats_per_kept=1 + 7 * n,
+                    every=int(record_every))
     if int(record_every) > K:
         raise ManipcadError(f"record_every = {record_every} keeps one sample of the {K} steps "
                             f"of the run (t_end = {t_end:g} s, dt = {dt:g} s); at most {K}")
@@ -255,6 +260,16 @@ def simulate(
         q_start = _reference(trajectory, np.zeros(1), n)[0][0]
     x_q = q_start.copy() if q0 is None else _vec(q0, n, "q0")
     x_qd = np.zeros(n) if qd0 is None else _vec(qd0, n, "qd0")
+    # a joint that moves no mass (and no rotor) has no acceleration: say so by name here,
+    # as the dynamics API does, rather than as NaN at t = 0
+    from manipcad.dynamics import forward_dynamics
+
+    try:
+        forward_dynamics(robot, x_q, x_qd, np.zeros(n), drives=bool(drives) and robot.has_drives,
+                         method="crba")
+    except ManipcadError as exc:
+        raise ManipcadError(f"cannot simulate {robot.name!r} from its initial state: {exc}"
+                            ) from None
 
     if drives:
         if not robot.has_drives:

@@ -46,9 +46,7 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
-import os
 import shutil
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -572,30 +570,26 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
 
 def _write(out: Path, data: dict, tracking: dict, steps: dict, plot_fig3, fig3_html,
            arm: Robot) -> dict[str, Path]:
-    """Write the three files into a temporary directory, then move them into ``out``."""
+    """Write the three files and install the folder whole (:func:`manipcad.fileio.write_folder`):
+    a reader, or a kill at any moment, sees the old folder or the new one, never a mix.
+    Other files a user keeps in ``out`` are carried over into the new folder."""
+    from manipcad.fileio import write_folder
+
     names = ("fig3.png", "fig3.json", "report.html")
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
-    try:
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o777 & ~mask)   # mkdtemp makes it 0700; the result is a normal directory
+    with write_folder(out) as tmp:
+        if out.is_dir():
+            for f in out.iterdir():
+                if f.name not in names and not f.name.startswith("."):
+                    if f.is_dir():
+                        shutil.copytree(f, tmp / f.name, symlinks=True)
+                    else:
+                        shutil.copy2(f, tmp / f.name, follow_symlinks=False)
         plot_fig3(tracking, steps, tmp / "fig3.png", joint=TURN, titles=data["titles"],
                   step=data["settings"]["step"]["amplitude"], loads=data["step_loads"])
         (tmp / "fig3.json").write_text(json.dumps(data, indent=2, ensure_ascii=False) + "\n",
                                        encoding="utf-8")
         (tmp / "report.html").write_text(fig3_html(data, tmp / "fig3.png"), encoding="utf-8")
-        if not out.exists():
-            try:
-                os.rename(tmp, out)
-                return {n: out / n for n in names}
-            except OSError:
-                out.mkdir(exist_ok=True)   # lost a race with another writer: replace per file
-        for n in names:
-            os.replace(tmp / n, out / n)
-        return {n: out / n for n in names}
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
+    return {n: out / n for n in names}
 
 
 __all__ = ["run_fig3", "Fig3Result", "Variant", "TRACKING", "STEPS", "STEP_CASES",

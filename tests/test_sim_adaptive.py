@@ -101,7 +101,6 @@ def test_puma_pd_matches_rk4_at_1e_5(puma, integrator):
         assert per_ms < 8, per_ms
 
 
-@pytest.mark.slow
 def test_asvs_switching_matches_rk4_at_1e_5():
     """The cylindrical arm: ASVS (a switching law) on the turn, PID on the lift, LQR on
     the reach, all at 1 kHz, a 0.1 rad step: "adaptive" within 1e-6 of RK4 at 1e-5, the
@@ -186,3 +185,47 @@ def test_cli_integrator_options(tmp_path):
     assert res.exit_code == 2
     assert "integrator" in res.output and "Traceback" not in res.output
     assert not (tmp_path / "b").exists()
+
+
+def test_divergence_limits_and_progress_as_rk4(puma):
+    """Divergence named with time and joint, joints beyond their limits warned or
+    stopped at (about) the same time as RK4, progress reported up to 1."""
+    from manipcad.sim import JointLimitExceeded, SimulationDiverged
+
+    regs = [pid("elbow", kp=-1e6, kd=-1e4, period=1e-3)]  # absurd negative gains
+    with pytest.raises(SimulationDiverged, match=r"diverged at t = .* joint '") as info:
+        simulate(puma, t_end=2.0, dt=1e-4, regulators=regs, drives=False,
+                 q0=[0.0, 0.5, -0.5, 0.0, 0.0, 0.0], integrator="adaptive")
+    assert 0 < len(info.value.result.t) < 2001
+    assert np.isfinite(info.value.result.q).all()
+
+    traj = quintic(Q_START, Q_END, 1.0)
+    narrow = puma.replace(limits=np.array([[-0.1, 0.1]] + [[-3.0, 3.0]] * 5))
+    kw = dict(t_end=0.5, dt=1e-4, trajectory=traj, regulators=pd_regs(), record_every=10)
+    with pytest.raises(JointLimitExceeded, match=r"'waist' left its limits") as rk4:
+        simulate(narrow, joint_limits="stop", **kw)
+    done = []
+    with pytest.raises(JointLimitExceeded, match=r"'waist' left its limits") as ada:
+        simulate(narrow, joint_limits="stop", integrator="adaptive-exact",
+                 progress=done.append, **kw)
+    t_rk4 = float(str(rk4.value).split("t = ")[1].split(" s")[0])
+    t_ada = float(str(ada.value).split("t = ")[1].split(" s")[0])
+    assert abs(t_ada - t_rk4) <= 1e-3  # within one step of the adaptive one (<= 1 ms)
+    with pytest.warns(ManipcadWarning, match="'waist' by up to"):
+        res = simulate(narrow, integrator="adaptive-exact", progress=done.append, **kw)
+    assert res.metrics["waist"]["limit_excess"] > 0.0
+    assert done and done[-1] == 1.0
+
+
+def test_dry_friction_sticking_costs_at_most_steps_of_dt():
+    """With sign dry friction a sticking joint asks for ever smaller steps; the step
+    stays >= dt and such steps are counted."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        arm = manipcad.load_robot("puma560")
+    traj = quintic(Q_START, Q_END, 1.0)
+    res = simulate(arm, t_end=0.2, dt=1e-4, trajectory=traj, regulators=pd_regs(),
+                   integrator="adaptive-exact", record_every=10)
+    s = res.settings
+    assert s["steps"] <= 0.2 / 1e-4 + 200  # + the steps that land on a sample
+    assert s["steps_at_dt_above_tolerance"] > 0

@@ -107,13 +107,36 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
     return item.name, item.metrics
 
 
+def _warm() -> None:
+    """What a spare worker does while it waits: the imports of a run and a run of two
+    steps (which loads the compiled kernels from their cache), so the designer's run
+    starts at once. A failure here is left to the real run to report."""
+    import warnings
+
+    try:
+        import manipcad.control.files  # noqa: F401
+        import manipcad.store.results  # noqa: F401
+        import manipcad.workspace  # noqa: F401
+        from manipcad.control import synthesize
+        from manipcad.errors import ManipcadWarning
+        from manipcad.model import load_robot
+        from manipcad.sim import simulate
+        from manipcad.ui import logic  # noqa: F401
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ManipcadWarning)
+            arm = load_robot("cylindrical")
+            simulate(arm, t_end=2e-4, dt=1e-4, regulators=synthesize(arm, "all", "pid"))
+    except Exception:  # noqa: BLE001, S110  the run itself reports what is wrong
+        pass
+
+
 def _work(inbox, out, cancel) -> None:
     """The worker process's body: import what a run needs, wait for the spec on
     ``inbox``, run it, reporting progress on ``out``; cancel through ``cancel``."""
     from manipcad.errors import ManipcadError
-    from manipcad.sim import simulate  # noqa: F401  imported ahead: the spare is warm
-    from manipcad.ui import logic  # noqa: F401
 
+    _warm()
     spec = inbox.recv()
     if spec is None:               # the spare was not needed
         return

@@ -355,6 +355,16 @@ def simulate(
     if out:
         warnings.warn(f"{robot.name}: joints beyond their limits (not modelled as stops): "
                       + "; ".join(out), ManipcadWarning, stacklevel=2)
+    if trajectory is not None and joint_limits != "ignore" and len(res.t):
+        ex = np.maximum(limits[:, 0] - res.q_ref, res.q_ref - limits[:, 1]) - tol
+        bad = [j for j in range(n) if ex[:, j].max() > 0.0]
+        if bad:
+            warnings.warn(
+                f"{robot.name}: the reference leaves the joint limits: " + "; ".join(
+                    f"{robot.joint_names[j]!r} by up to {ex[:, j].max() + tol[j]:.3g} "
+                    f"{unit[robot.joint_names[j]]} (first at t = "
+                    f"{res.t[int(np.argmax(ex[:, j] > 0))]:.6g} s)" for j in bad),
+                ManipcadWarning, stacklevel=2)
     return res
 
 

@@ -297,3 +297,13 @@ def test_drives_and_identification_are_the_apis(puma):
         logic.identify_upload(puma, "bad.csv", b"t,q1\n0,0\n", com=None)
     with pytest.raises(InputError, match="csv"):
         logic.identify_upload(puma, "x.txt", csv.read_bytes())
+
+
+def test_trajectory_upload_is_validated(ws, puma):
+    good = b"type: quintic\nq_start: [0, 0, 0, 0, 0, 0]\nq_end: [0.1, 0.1, 0.1, 0, 0, 0]\n" \
+           b"duration: 1.0\n"
+    item = logic.add_upload(ws, "move.yaml", good, kind="trajectories", robot=puma)
+    assert logic.load_trajectory_ref(ws, item.name, puma).duration == 1.0
+    with pytest.raises(InputError, match=r"^bad\.yaml.*duration"):
+        logic.add_upload(ws, "bad.yaml", good.replace(b"1.0", b"-1.0"), kind="trajectories",
+                         robot=puma)

@@ -62,8 +62,9 @@ def frame(title: str):
     col = ui.column().classes("w-full p-4 gap-3")
     with col:
         ui.label(title).classes("text-h5")
-        ui.label(f"workspace {Path(STATE['ws']).resolve()} · robot {STATE['robot']} · "
-                 f"trajectory {STATE['trajectory'] or '-'}").classes("text-caption")
+        ui.label().classes("text-caption").bind_text_from(
+            STATE, "robot", lambda _: f"workspace {Path(STATE['ws']).resolve()} · robot "
+            f"{STATE['robot']} · trajectory {STATE['trajectory'] or '-'}")
     return col
 
 
@@ -275,6 +276,21 @@ def register() -> None:
                 ui.notify(f"saved {item.ref}")
                 listing.refresh()
 
+            async def uploaded(e) -> None:
+                clear()
+                try:
+                    item = logic.add_upload(ws(), e.file.name, await e.file.read(),
+                                            kind="trajectories", robot=robot())
+                except (ManipcadError, OSError) as exc:
+                    show(exc)
+                    return
+                STATE["trajectory"] = item.name
+                ui.notify(f"added {item.ref}")
+                listing.refresh()
+
+            ui.upload(label="Or upload a trajectory file (.yaml)", auto_upload=True,
+                      max_file_size=logic.MAX_UPLOAD, on_upload=uploaded) \
+                .props("accept=.yaml,.yml data-testid=traj-upload")
             law.on_value_change(lambda _: fill())
             fill()
             with ui.row().classes("items-center"):
@@ -442,6 +458,7 @@ def register() -> None:
                     .props("data-testid=sim-tend")
                 dt = ui.input("dt [s]", value="1e-4").props("data-testid=sim-dt")
                 name = ui.input("Result name (optional)", value="").props("data-testid=sim-name")
+                keep = ui.checkbox("keep a diverged run's partial result")
             bar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
             status = ui.label("").props("data-testid=sim-status")
             figs = ui.column().classes("w-full")
@@ -459,7 +476,7 @@ def register() -> None:
                                    t_end=numbers(t_end.value, "t_end", "simulation form")[0]
                                    if str(t_end.value).strip() else None,
                                    dt=numbers(dt.value, "dt", "simulation form")[0],
-                                   name=name.value or None)
+                                   name=name.value or None, save_diverged=keep.value)
                 except ManipcadError as exc:
                     show(exc)
                     return

@@ -307,3 +307,20 @@ def test_trajectory_upload_is_validated(ws, puma):
     with pytest.raises(InputError, match=r"^bad\.yaml.*duration"):
         logic.add_upload(ws, "bad.yaml", good.replace(b"1.0", b"-1.0"), kind="trajectories",
                          robot=puma)
+
+
+def test_study_reports_are_served_only_from_the_study(ws, tmp_path):
+    study = tmp_path / "fig3"
+    study.mkdir()
+    (study / "fig3.html").write_text("<html>report</html>")
+    (study / "fig3.png").write_bytes(b"\x89PNG")
+    (study / "notes.sh").write_text("echo")
+    (study / "sub").mkdir()
+    (study / "sub" / "x.html").write_text("x")
+    ws.add(study, kind="studies", name="fig3")
+    assert logic.study_files(ws, "fig3") == ["fig3.html", "fig3.png"]
+    assert logic.study_file(ws, "fig3", "fig3.html").read_text() == "<html>report</html>"
+    for name, file in (("fig3", "notes.sh"), ("fig3", "sub/x.html"), ("fig3", "../fig3.png"),
+                       ("../results", "fig3.html"), ("nothing", "fig3.html")):
+        with pytest.raises(InputError):
+            logic.study_file(ws, name, file)

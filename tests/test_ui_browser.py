@@ -256,6 +256,9 @@ def test_designer_flow(browser, server):
     assert got.status == 200 and b"cosine" in got.body()
     assert page.request.get(server + "/api/items/trajectories/nothing").status == 404
     assert page.request.get(server + "/api/items/secrets/move").status == 400
+    assert page.request.get(server + "/api/studies/..%2Fresults/x.html").status == 400
+    assert page.request.get(server + "/api/studies/fig3/..%2F..%2Findex.sqlite").status == 400
+    assert page.request.get(server + "/api/studies/fig3/fig3.html").status == 404
     page.close()
 
 

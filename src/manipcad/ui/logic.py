@@ -517,3 +517,32 @@ def identify_upload(robot, filename: str, data: bytes, *, com: Sequence[float] |
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
         return identify_payload(robot, d.q, d.qd, d.qdd, t=d.t, com=com, **kw)
+
+
+#: files of a study folder the application serves (reports and figures)
+STUDY_SUFFIXES = (".html", ".png", ".svg", ".json", ".csv", ".md", ".pdf")
+
+
+def study_files(ws: Workspace, name: str) -> list[str]:
+    """The report and figure files directly in ``studies/NAME`` (sorted), for links.
+
+    Raises:
+        InputError: an unsafe or unknown name.
+    """
+    check_name(name, "study")
+    folder = ws.path(ws.get(f"studies/{name}"))
+    return sorted(p.name for p in folder.iterdir()
+                  if p.is_file() and not p.is_symlink() and p.suffix.lower() in STUDY_SUFFIXES)
+
+
+def study_file(ws: Workspace, name: str, file: str) -> Path:
+    """The path of one file of ``studies/NAME``: both names checked, only the files
+    :func:`study_files` lists (no sub-folders, no links, no other suffixes).
+
+    Raises:
+        InputError: an unsafe name, an unknown study, or a file it does not list.
+    """
+    check_name(file, "file")
+    if file not in study_files(ws, name):
+        raise InputError(f"studies/{name}", file, "no such report or figure file")
+    return ws.path(ws.get(f"studies/{name}")) / file

@@ -568,6 +568,16 @@ def register() -> None:
                     .props("data-testid=res-overlay-run")
             figs = ui.column().classes("w-full")
             load()
+            ui.label("Studies (e.g. manipcad study fig3 / claims, added with ws add)") \
+                .classes("text-subtitle1")
+            w = ws()
+            for item in w.list("studies"):
+                with ui.row().classes("items-center"):
+                    ui.label(item.name).classes("font-bold")
+                    for f in logic.study_files(w, item.name):
+                        ui.link(f, f"/api/studies/{item.name}/{f}", new_tab=True)
+            if not w.list("studies"):
+                ui.label("none yet").classes("text-caption")
 
 
     # ---------------------------------------------------------------------------- files
@@ -647,6 +657,25 @@ def register() -> None:
             ui.upload(label="Upload measured data (.csv)", auto_upload=True,
                       max_file_size=logic.MAX_UPLOAD, on_upload=uploaded) \
                 .props("accept=.csv data-testid=ident-upload")
+
+    @app.get("/api/studies/{name}/{file:path}")
+    def study_file(name: str, file: str):
+        """A report or figure of a stored study; unsafe names 400, unknown ones 404."""
+        from fastapi import HTTPException
+        from fastapi.responses import FileResponse
+
+        from manipcad.workspace import check_name
+
+        try:
+            check_name(name, "study")
+            check_name(file, "file")
+        except InputError as exc:
+            raise HTTPException(400, str(exc)) from None
+        try:
+            path = logic.study_file(ws(), name, file)
+        except InputError as exc:
+            raise HTTPException(404, str(exc)) from None
+        return FileResponse(path)
 
     @app.get("/api/items/{kind}/{name:path}")
     def item_file(kind: str, name: str):

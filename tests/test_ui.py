@@ -324,3 +324,42 @@ def test_study_reports_are_served_only_from_the_study(ws, tmp_path):
                        ("../results", "fig3.html"), ("nothing", "fig3.html")):
         with pytest.raises(InputError):
             logic.study_file(ws, name, file)
+
+
+@pytest.mark.slow
+def test_via_points_and_gripper_line_from_the_page(tmp_path):
+    """The Trajectories page makes a via-point spline and a gripper line (through the
+    trajectory schema and inverse kinematics) and saves them; the line's tool path is
+    straight and moves by the given displacement."""
+    from nicegui import ui
+
+    from manipcad.ui import pages
+
+    async def script(user):
+        await user.open("/trajectories")
+        (law,) = [e for e in user.find(kind=ui.select).elements if e.props.get("label") == "Law"]
+        law.value = "spline"
+        user.find(kind=ui.input, content="times of the via").clear().type("0, 0.5, 1")
+        user.find(kind=ui.input, content="one row per time").clear().type("0; 0.2; 0.1")
+        user.find(kind=ui.input, content="Name").clear().type("via")
+        user.find("Save to workspace").click()
+        await user.should_see("saved trajectories/via")
+        law.value = "line"
+        user.find(kind=ui.input, content="start pose").clear().type("0, -0.5, 0.5, 0, 0.5, 0")
+        user.find(kind=ui.input, content="displacement").clear().type("0.05, 0, 0")
+        user.find(kind=ui.input, content="Name").clear().type("line")
+        user.find("Save to workspace").click()
+        await user.should_see("saved trajectories/line")
+
+    _simulate_user(tmp_path / "ws", script)
+    ws = logic.open_workspace(tmp_path / "ws")
+    arm = manipcad.load_robot("puma560")
+    via = logic.load_trajectory_ref(ws, "via", arm)
+    np.testing.assert_allclose(via.sample(np.array([0.5]))[0][0], [0.2] * 6, atol=1e-12)
+    line = logic.load_trajectory_ref(ws, "line", arm)
+    q0 = [0, -0.5, 0.5, 0, 0.5, 0]
+    q, _, _ = line.sample(np.linspace(0.0, 1.0, 11))
+    p = np.array([logic.tool_position(arm, qk) for qk in q])
+    np.testing.assert_allclose(p[0], logic.tool_position(arm, q0), atol=1e-6)
+    np.testing.assert_allclose(p[-1] - p[0], [0.05, 0, 0], atol=1e-6)
+    assert pages.STATE["trajectory"] == "line"

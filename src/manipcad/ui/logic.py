@@ -189,6 +189,19 @@ def stick_points(robot, q: Sequence[float]) -> np.ndarray:
     return np.asarray(segs)
 
 
+def tool_position(robot, q: Sequence[float]) -> np.ndarray:
+    """The tool (gripper) point at pose ``q`` (rad|m) in the base frame, (3,) m.
+
+    Example:
+        >>> import manipcad
+        >>> tool_position(manipcad.load_robot("puma560"), [0.0] * 6).shape
+        (3,)
+    """
+    from manipcad.kinematics.forward import tool_pose
+
+    return tool_pose(robot, np.asarray(q, dtype=float))[:3, 3]
+
+
 def stick_figure(robot, q: Sequence[float]):
     """A Plotly 3-D figure of :func:`stick_points` (axes in m, equal scale)."""
     import plotly.graph_objects as go

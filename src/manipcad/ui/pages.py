@@ -16,6 +16,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from nicegui import app, ui
 
 from manipcad.errors import InputError, ManipcadError
@@ -209,7 +210,10 @@ def register() -> None:
             show, clear = error_label()
             law = ui.select({"cosine": "laws (2): q = q0 + A(1 − cos ωt)",
                              "quintic": "quintic point to point",
-                             "trapezoidal": "trapezoidal velocity"}, value="cosine",
+                             "trapezoidal": "trapezoidal velocity",
+                             "spline": "via points (C2 spline)",
+                             "line": "gripper straight line (inverse kinematics)"},
+                            value="cosine",
                             label="Law").classes("w-96").props("data-testid=law")
             fields: dict[str, Any] = {}
             form = ui.column()
@@ -226,7 +230,13 @@ def register() -> None:
                          "trapezoidal": (("q_start", "start per joint [rad|m]", "0"),
                                          ("q_end", "end per joint [rad|m]", "0.5"),
                                          ("v_max", "max speed [rad/s|m/s]", "1"),
-                                         ("a_max", "max acceleration [rad/s²|m/s²]", "4"))}
+                                         ("a_max", "max acceleration [rad/s²|m/s²]", "4")),
+                         "spline": (("times", "times of the via points [s]", "0, 0.5, 1"),
+                                    ("points", "via points, one row per time, rows split by "
+                                     "';' [rad|m]", "0; 0.2; 0.1")),
+                         "line": (("q0", "start pose per joint [rad|m]", "0.1"),
+                                  ("move", "gripper displacement x, y, z [m]", "0.05, 0, 0"),
+                                  ("duration", "duration [s]", "1"))}
                 with form:
                     ui.label("Lists: one value per joint, or one value for every joint.") \
                         .classes("text-caption")
@@ -238,7 +248,16 @@ def register() -> None:
                 arm = robot()
                 data: dict[str, Any] = {"type": law.value}
                 for key, inp in fields.items():
+                    if key == "points":
+                        rows = [numbers(r, f"points[{k}]", "trajectory form")
+                                for k, r in enumerate(str(inp.value).split(";"))]
+                        data[key] = [r * arm.n if len(r) == 1 else r for r in rows]
+                        continue
                     vals = numbers(inp.value, key, "trajectory form")
+                    if key == "move":
+                        continue
+                    if key == "q0" and len(vals) == 1:
+                        vals = vals * arm.n
                     if key == "duration":
                         data[key] = vals[0]
                     elif key in ("q_start", "q_end") and len(vals) == 1:
@@ -247,6 +266,13 @@ def register() -> None:
                         data[key] = vals * arm.n
                     else:
                         data[key] = vals
+                if law.value == "line":     # from the tool's position at q0, by `move`
+                    d = numbers(fields["move"].value, "move", "trajectory form")
+                    if len(d) != 3:
+                        raise InputError("trajectory form", "move", "expected x, y, z in m")
+                    p0 = logic.tool_position(arm, data["q0"])
+                    data["p_start"] = [float(x) for x in p0]
+                    data["p_end"] = [float(x) for x in p0 + np.asarray(d)]
                 return arm, logic.make_trajectory(data, arm)
 
             def do_preview() -> None:

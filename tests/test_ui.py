@@ -338,18 +338,16 @@ def test_via_points_and_gripper_line_from_the_page(tmp_path):
     async def script(user):
         await user.open("/trajectories")
         (law,) = [e for e in user.find(kind=ui.select).elements if e.props.get("label") == "Law"]
-        law.value = "spline"
-        user.find(kind=ui.input, content="times of the via").clear().type("0, 0.5, 1")
-        user.find(kind=ui.input, content="one row per time").clear().type("0; 0.2; 0.1")
-        user.find(kind=ui.input, content="Name").clear().type("via")
-        user.find("Save to workspace").click()
-        await user.should_see("saved trajectories/via")
-        law.value = "line"
-        user.find(kind=ui.input, content="start pose").clear().type("0, -0.5, 0.5, 0, 0.5, 0")
-        user.find(kind=ui.input, content="displacement").clear().type("0.05, 0, 0")
-        user.find(kind=ui.input, content="Name").clear().type("line")
-        user.find("Save to workspace").click()
-        await user.should_see("saved trajectories/line")
+        forms = {"via": ("spline", {"times of the via": "0, 0.5, 1",
+                                    "one row per time": "0; 0.2; 0.1"}),
+                 "line": ("line", {"start pose": "0, -0.5, 0.5, 0, 0.5, 0",
+                                   "displacement": "0.05, 0, 0"})}
+        for name, (kind, fields) in forms.items():
+            law.value = kind
+            for label, text in {**fields, "Name": name}.items():
+                user.find(kind=ui.input, content=label).clear().type(text)
+            user.find("Save to workspace").click()
+            await user.should_see(f"saved trajectories/{name}")
 
     _simulate_user(tmp_path / "ws", script)
     ws = logic.open_workspace(tmp_path / "ws")

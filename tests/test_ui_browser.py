@@ -129,7 +129,7 @@ def _fill(page, testid: str, value: str) -> None:
 
 def _shot(page, name: str) -> None:
     SHOTS.mkdir(parents=True, exist_ok=True)
-    page.screenshot(path=str(SHOTS / f"{name}.png"), full_page=True)
+    page.screenshot(path=str(SHOTS / f"{name}.png"), full_page=True, timeout=90_000)
 
 
 def _simulate(page, regulator: str, name: str) -> None:

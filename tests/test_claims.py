@@ -49,6 +49,12 @@ def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm):
     from manipcad.study import run_fig3
 
     monkeypatch.setitem(claims_mod.GRIDS, "quick", {"speed_scale": [1.0], "load_ratio": [None]})
+    # one q3 stroke (2π/16 s) and a short step keep the test short; both studies read the
+    # same laws (2), so the comparison is unchanged
+    from manipcad.study import fig3 as fig3_mod
+
+    monkeypatch.setitem(fig3_mod.LAWS, "duration", 0.4)
+    monkeypatch.setattr(claims_mod, "STEP_T_END", 0.15)
     doc = run_claims(tmp_path / "c", workers=1, progress=False)
     for name in ("claims.json", "claims.png", "report.html"):
         assert (tmp_path / "c" / name).is_file()
@@ -59,7 +65,8 @@ def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm):
         assert set(c) >= {"paper", "threshold", "ratio", "holds", "where_it_holds"}
         assert np.shape(c["ratio"]) == (1, 1)
     fig3 = run_fig3(tmp_path / "f", methods=["none_sce", "ace_tf", "ace_de", "lqr", "lqr_gs",
-                                             "vss", "asvs"], progress=False).data
+                                             "vss", "asvs"], progress=False,
+                    step_t_end=0.15).data
     mx = doc["max_error"][0][0]
     for ours, theirs in (("none_sce", "none_sce"), ("ace_tf_observable", "ace_tf"),
                          ("ace_de", "ace_de"), ("lqr", "lqr"), ("lqr_gs", "lqr_gs")):

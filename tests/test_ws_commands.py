@@ -38,3 +38,21 @@ def test_synthesize_and_simulate_through_a_workspace(tmp_path):
     # without --ws, --out is the folder and is required
     r = run("simulate", "cylindrical", "-t", traj, "-r", ws / "regulators" / "ade.yaml")
     assert r.exit_code == 2 and "--out" in r.output
+
+
+def test_study_size_and_identify_take_the_workspace(tmp_path):
+    ws = tmp_path / "ws"
+    assert run("ws", "init", ws).exit_code == 0
+    traj = tmp_path / "move.yaml"
+    traj.write_text(yaml.safe_dump({"type": "quintic", "q_start": [0.0, 0.0, 0.25],
+                                    "q_end": [0.3, 0.0, 0.3], "duration": 0.2}))
+    assert run("ws", "add", traj, "--ws", ws, "--name", "move").exit_code == 0
+    r = run("study", "fig3", "--ws", ws, "--out", "f3", "--t-end", "0.05", "--methods",
+            "none", "--no-progress")
+    assert r.exit_code == 0, r.output
+    assert (ws / "studies" / "f3" / "fig3.json").is_file()
+    rows = json.loads(run("ws", "list", "study", "--ws", ws, "--json").output)
+    assert [x["name"] for x in rows] == ["f3"]
+    r = run("size", "cylindrical", "-t", "move", "--ws", ws, "--allow-unknown")
+    assert r.exit_code in (0, 1), r.output   # a check may fail; the name was found
+    assert "move" not in r.output or "no such file" not in r.output

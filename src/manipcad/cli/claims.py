@@ -27,7 +27,12 @@ from manipcad.cli.study import study_app
 @study_app.command("claims")
 @guarded
 def claims(
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (created).")],
+    out: Annotated[str, typer.Option(
+        "--out", "-o", help="Output folder (created); with --ws the study's NAME in the "
+        "workspace.")],
+    ws: Annotated[Path | None, typer.Option(
+        "--ws", help="Workspace: the study folder is stored and indexed there "
+        "(studies/NAME).")] = None,
     arm: Annotated[str, typer.Option(
         "--arm", help="light (the catalog Fig. 2 arm) or a robot file with joints turn, lift, "
         "reach.")] = "light",
@@ -44,10 +49,12 @@ def claims(
 ) -> None:
     """Claims maps: each claim's measured ratio over speed scale × load ratio; writes
     claims.json, claims.png and report.html into --out."""
+    from manipcad.cli.study import study_folder
     from manipcad.study.claims import run_claims
 
-    doc = run_claims(out, arm=arm, grid=grid, workers=workers, scheduler=scheduler, dt=dt,
-                     progress=progress)
+    with study_folder(out, ws) as folder:
+        doc = run_claims(folder, arm=arm, grid=grid, workers=workers, scheduler=scheduler,
+                         dt=dt, progress=progress)
     t = Table(title=f"where the claims hold (arm {doc['arm']['name']}, grid {grid}: "
                     f"{len(doc['grid']['load_ratio'])} load ratios × "
                     f"{len(doc['grid']['speed_scale'])} speeds)", box=box.SIMPLE_HEAD)
@@ -59,6 +66,7 @@ def claims(
         t.add_row(cid, f"{c['threshold']:g}", rng, c["where_it_holds"])
     console.print(t)
     s = doc["settings"]
+    where = Path(out) if ws is None else Path(ws) / "studies" / out
     console.print(f"{s['cells_computed']} cells computed, {s['cells_cached']} from the cache; "
-                  f"wrote {escape(str(Path(out) / 'claims.json'))}, claims.png, report.html",
+                  f"wrote {escape(str(where / 'claims.json'))}, claims.png, report.html",
                   highlight=False, soft_wrap=True)

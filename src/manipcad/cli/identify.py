@@ -27,6 +27,7 @@ from __future__ import annotations
 import json
 import math
 import warnings
+from pathlib import Path
 from typing import Annotated
 
 import numpy as np
@@ -103,6 +104,8 @@ def identify(
         "--drives/--no-drives", help="The torques include the drive terms (rotor inertia, "
         "friction) of the robot's drives.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
+    ws: Annotated[Path | None, typer.Option(
+        "--ws", help="Workspace: the inputs may be its item names.")] = None,
 ) -> None:
     """Identify an unknown payload mass from measured drive torques or currents."""
     from manipcad.dynamics.identification import (
@@ -119,13 +122,16 @@ def identify(
     if friction not in FRICTION:
         raise InputError("--friction", "", f"{friction!r}: expected one of "
                          f"{', '.join(FRICTION)}")
+    from manipcad.workspace import Workspace, resolve_input
+
+    space = Workspace(ws) if ws is not None else None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)  # data-set quirks, see robots show
-        model = load_robot(robot)
+        model = load_robot(resolve_input("robot", robot, space))
     c = parse_com(com)
     sel = parse_joints(joints, model)
     where = _parse_link(link, model)
-    d = _load_data(data, model)
+    d = _load_data(resolve_input("result", data, space), model)
     if signal == "auto":
         signal = "torque" if d.tau is not None else "current"
     measured = d.tau if signal == "torque" else d.current

@@ -49,8 +49,9 @@ def size(
     robot: Annotated[str, typer.Argument(
         help="A catalog robot name (see 'manipcad robots list'), a robot file (DH, URDF + "
         "drives or tree form, docs/robot-files.md) or a .urdf file.")],
-    trajectory: Annotated[Path, typer.Option(
-        "--trajectory", "-t", help="Trajectory YAML file (see docs/trajectories.md).")],
+    trajectory: Annotated[str, typer.Option(
+        "--trajectory", "-t", help="Trajectory YAML file (see docs/trajectories.md) or a "
+        "workspace trajectory's name.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
     = False,
     plot: Annotated[Path | None, typer.Option(
@@ -65,6 +66,8 @@ def size(
     allow_unknown: Annotated[bool, typer.Option(
         "--allow-unknown", help="Exit 0 even when a check cannot be made (a rating or the "
         "motor's electrical data unknown); failed checks still exit 1.")] = False,
+    ws: Annotated[Path | None, typer.Option(
+        "--ws", help="Workspace: the inputs may be its item names.")] = None,
 ) -> None:
     """Size the drives: torques, currents, voltages, powers; motor and gear checks.
 
@@ -75,11 +78,13 @@ def size(
     from manipcad.model.load import load_robot
     from manipcad.sizing import required_drive, torque_speed_plot
     from manipcad.trajectories import load_trajectory
+    from manipcad.workspace import Workspace, resolve_input
 
+    space = Workspace(ws) if ws is not None else None
     with warnings.catch_warnings():  # published data sets with known quirks (robots show)
         warnings.simplefilter("ignore", ManipcadWarning)
-        arm = load_robot(robot)
-    traj = load_trajectory(trajectory, robot=arm)
+        arm = load_robot(resolve_input("robot", robot, space))
+    traj = load_trajectory(resolve_input("trajectory", trajectory, space), robot=arm)
     if traj.n != arm.n:
         raise InputError(str(trajectory), "", f"has {traj.n} joints but robot {arm.name!r} "
                          f"has {arm.n}")

@@ -13,6 +13,8 @@ parent does not exist) exits with status 2 and one line on stderr.
 from __future__ import annotations
 
 import math
+import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated
 
@@ -40,7 +42,12 @@ def _g(x, unit: str = "") -> str:
 @study_app.command("fig3")
 @guarded
 def fig3(
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output directory (created).")],
+    out: Annotated[str, typer.Option(
+        "--out", "-o", help="Output directory (created); with --ws the study's NAME in the "
+        "workspace.")],
+    ws: Annotated[Path | None, typer.Option(
+        "--ws", help="Workspace: the study folder is stored and indexed there "
+        "(studies/NAME).")] = None,
     dt: Annotated[float, typer.Option("--dt", help="Integration step, s.")] = 1e-4,
     t_end: Annotated[float | None, typer.Option(
         "--t-end", help="Length of the laws (2) runs, s (default 1.6).")] = None,
@@ -62,11 +69,30 @@ def fig3(
     check_steps(LAWS["duration"] if t_end is None else t_end, dt, floats_per_step=1 + 8 * 3,
                 floats_per_kept=(1 + 5 * 3) * len(TRACKING), t_end_name="--t-end",
                 dt_name="--dt")
-    print_fig3(run_fig3(out, dt=dt, t_end=t_end, methods=methods, progress=progress))
+    with study_folder(out, ws) as folder:
+        res = run_fig3(folder, dt=dt, t_end=t_end, methods=methods, progress=progress)
+    print_fig3(res, out if ws is None else Path(ws) / "studies" / out)
 
 
-def print_fig3(res) -> None:
-    """Print the tables, the claims and the written files of a Fig. 3 study result."""
+@contextmanager
+def study_folder(out: str, ws: Path | None):
+    """Where a study writes: ``out`` itself, or (with a workspace) a temporary folder
+    that is then added to the workspace as the study ``out`` (validated, indexed)."""
+    if ws is None:
+        yield Path(out)
+        return
+    from manipcad.workspace import Workspace
+
+    space = Workspace(ws)
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp) / "study"
+        yield folder
+        space.add(folder, kind="study", name=out)
+
+
+def print_fig3(res, where: Path | None = None) -> None:
+    """Print the tables, the claims and the written files of a Fig. 3 study result
+    (``where``: the folder the files are in now, if they moved)."""
     d = res.data
     t = Table(title=f"Fig. 3 study: turning drive, laws (2), t_end = {d['settings']['t_end']:g} s, "
                     f"dt = {d['settings']['dt']:g} s", box=box.SIMPLE_HEAD)
@@ -93,5 +119,6 @@ def print_fig3(res) -> None:
                       f"{escape(c['measured'])}", highlight=False)
     for lab, why in d["skipped"].items():
         console.print(f"[grey50]skipped {escape(lab)}: {escape(why)}[/]", highlight=False)
-    console.print("wrote " + ", ".join(escape(str(p)) for p in res.files.values()),
+    files = [p if where is None else Path(where) / p.name for p in res.files.values()]
+    console.print("wrote " + ", ".join(escape(str(p)) for p in files),
                   highlight=False, soft_wrap=True)

@@ -56,3 +56,17 @@ def test_study_size_and_identify_take_the_workspace(tmp_path):
     r = run("size", "cylindrical", "-t", "move", "--ws", ws, "--allow-unknown")
     assert r.exit_code in (0, 1), r.output   # a check may fail; the name was found
     assert "move" not in r.output or "no such file" not in r.output
+
+
+def test_robots_list_shows_the_catalog_and_the_workspace(tmp_path):
+    from manipcad.model.load import CATALOG
+
+    ws = tmp_path / "ws"
+    assert run("ws", "init", ws).exit_code == 0
+    src = CATALOG / "motors" / "maxon_ec45flat_411812.yaml"
+    assert run("ws", "add", src, "--ws", ws, "--name", "my_motor").exit_code == 0
+    doc = json.loads(run("robots", "list", "--ws", ws, "--json").output)
+    origins = {(m["name"], m["origin"]) for m in doc["motors"]}
+    assert ("my_motor", f"workspace {ws}") in origins
+    assert ("maxon_ec45flat_411812", "catalog") in origins
+    assert {r["name"] for r in doc["robots"]} >= {"puma560", "cylindrical"}

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import warnings
+from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
@@ -41,48 +42,88 @@ def _num(x: float, fmt: str = ".4g") -> str:
 
 @robots_app.command("list")
 @guarded
-def list_catalog() -> None:
-    """List the catalog robots, motors and gears (SI units)."""
+def list_catalog(
+    ws: Annotated[Path | None, typer.Option(
+        "--ws", help="Also list the robots, motors and gears of this workspace (origin "
+        "column).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """List the robots, motors and gears: the built-in catalog (read-only) and, with --ws, the
+    workspace's own (SI units)."""
     from manipcad.model.load import catalog_names, load_robot
     from manipcad.model.yaml_robot import load_gear, load_motor
 
-    robots = Table(title="robots (manipcad robots show NAME)")
-    for col in ("name", "title", "joints", "mass kg", "drives"):
-        robots.add_column(col, justify="right" if col == "mass kg" else "left",
-                          no_wrap=col == "name")
-    for name in catalog_names("robots"):
+    sources: dict[str, list[tuple[str, str, str]]] = {k: [(n, n, "catalog")
+                                                          for n in catalog_names(k)]
+                                                      for k in ("robots", "motors", "gears")}
+    if ws is not None:
+        from manipcad.workspace import Workspace
+
+        space = Workspace(ws)
+        for kind in ("robots", "motors", "gears"):
+            for item in space.list(kind[:-1]):
+                sources[kind].append((item.name, str(space.root / item.path), f"workspace {ws}"))
+    rows: dict[str, list[dict[str, Any]]] = {"robots": [], "motors": [], "gears": []}
+    for name, ref, origin in sources["robots"]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ManipcadWarning)
-            robot = load_robot(name)
-        kinds = "".join("R" if t == "revolute" else "P" for t in robot.joint_types)
-        n_drv = sum(d is not None for d in robot.drives)
-        robots.add_row(name, robot.name, kinds, _num(float(robot.mass.sum())), f"{n_drv}/{robot.n}")
+            robot = load_robot(ref)
+        rows["robots"].append({
+            "name": name, "origin": origin, "title": robot.name,
+            "joints": "".join("R" if t == "revolute" else "P" for t in robot.joint_types),
+            "mass_kg": float(robot.mass.sum()),
+            "drives": f"{sum(d is not None for d in robot.drives)}/{robot.n}"})
+    for name, ref, origin in sources["motors"]:
+        m = load_motor(ref)
+        rows["motors"].append({
+            "name": name, "origin": origin, "U_N_V": m.rated_voltage, "k_m_Nm_per_A": m.k_m,
+            "R_ohm": m.R, "L_H": m.L, "J_kgm2": m.J, "M_N_Nm": m.rated_torque,
+            "M_peak_Nm": m.peak_torque, "n_max_rad_per_s": m.max_speed})
+    for name, ref, origin in sources["gears"]:
+        g = load_gear(ref)
+        rows["gears"].append({
+            "name": name, "origin": origin, "type": g.type, "ratio": g.direction * g.ratio,
+            "J_kgm2": g.J, "efficiency": g.efficiency,
+            "max_continuous_Nm": g.max_continuous_torque,
+            "peak_Nm": g.max_intermittent_torque, "n_in_max_rad_per_s": g.max_input_speed})
+    if as_json:
+        typer.echo(json.dumps(json_safe(rows), indent=2))
+        return
+
+    def num(v, fmt=".3g", scale=1.0):
+        return _num(math.nan if v is None else v * scale, fmt)
+
+    robots = Table(title="robots (manipcad robots show NAME)")
+    for col in ("name", "origin", "title", "joints", "mass kg", "drives"):
+        robots.add_column(col, justify="right" if col == "mass kg" else "left",
+                          overflow="fold")
+    for r in rows["robots"]:
+        robots.add_row(r["name"], r["origin"], r["title"], r["joints"], _num(r["mass_kg"]),
+                       r["drives"])
     console.print(robots)
 
     motors = Table(title="motors (drive: {motor: NAME}); V, N·m/A, Ω, mH, g·cm², N·m, rpm")
-    for col in ("name", "U_N", "k_m", "R", "L", "J", "M_N", "M_peak", "n_max"):
-        motors.add_column(col, justify="left" if col == "name" else "right", no_wrap=True)
-    for name in catalog_names("motors"):
-        m = load_motor(name)
-        motors.add_row(
-            name, _num(m.rated_voltage or math.nan), _num(m.k_m, ".3g"), _num(m.R, ".3g"),
-            _num(m.L * 1e3, ".3g"), _num(m.J * 1e7, ".3g"),
-            _num(m.rated_torque or math.nan, ".3g"), _num(m.peak_torque or math.nan, ".3g"),
-            _num((m.max_speed or math.nan) * 60 / (2 * math.pi), ".0f"))
+    for col in ("name", "origin", "U_N", "k_m", "R", "L", "J", "M_N", "M_peak", "n_max"):
+        motors.add_column(col, justify="left" if col in ("name", "origin") else "right",
+                          overflow="fold")
+    for m in rows["motors"]:
+        motors.add_row(m["name"], m["origin"], num(m["U_N_V"], ".4g"), num(m["k_m_Nm_per_A"]),
+                       num(m["R_ohm"]), num(m["L_H"], scale=1e3), num(m["J_kgm2"], scale=1e7),
+                       num(m["M_N_Nm"]), num(m["M_peak_Nm"]),
+                       num(m["n_max_rad_per_s"], ".0f", 60 / (2 * math.pi)))
     console.print(motors)
 
     gears = Table(title="gears (drive: {gear: NAME or [NAME, ...]}); "
                         "ratio rad/rad (rad/m linear), J g·cm², max N·m (N), n_in rpm")
-    for col in ("name", "type", "ratio", "J", "eff.", "max cont.", "peak", "n_in max"):
-        gears.add_column(col, justify="left" if col in ("name", "type") else "right",
-                         no_wrap=True)
-    for name in catalog_names("gears"):
-        g = load_gear(name)
-        gears.add_row(name, g.type, f"{g.direction * g.ratio:.5g}", _num(g.J * 1e7, ".4g"),
-                      _num(g.efficiency or math.nan, ".2f"),
-                      _num(g.max_continuous_torque or math.nan),
-                      _num(g.max_intermittent_torque or math.nan),
-                      _num((g.max_input_speed or math.nan) * 60 / (2 * math.pi), ".0f"))
+    for col in ("name", "origin", "type", "ratio", "J", "eff.", "max cont.", "peak",
+                "n_in max"):
+        gears.add_column(col, justify="left" if col in ("name", "origin", "type") else "right",
+                         overflow="fold")
+    for g in rows["gears"]:
+        gears.add_row(g["name"], g["origin"], g["type"], f"{g['ratio']:.5g}",
+                      num(g["J_kgm2"], ".4g", 1e7), num(g["efficiency"], ".2f"),
+                      num(g["max_continuous_Nm"], ".4g"), num(g["peak_Nm"], ".4g"),
+                      num(g["n_in_max_rad_per_s"], ".0f", 60 / (2 * math.pi)))
     console.print(gears)
 
 

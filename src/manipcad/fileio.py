@@ -431,9 +431,10 @@ def validation_error(source: str, exc: ValidationError,
         skip: location parts to leave out (union branch names, see :func:`field_path`).
 
     Returns:
-        ``InputError(source, field, reason)``, the field dotted with ``[i]`` for
-        list entries (:func:`field_path`); when other fields have problems too
-        the reason ends "(and N more problem(s))". Raise it ``from None``.
+        ``InputError(source, field, reason)`` for the first problem, the field dotted with
+        ``[i]`` for list entries (:func:`field_path`); when other fields have problems too
+        the reason ends "(and N more problem(s): FIELD: REASON; ...)", naming every one.
+        Raise it ``from None``.
 
     Example:
         >>> from pydantic import BaseModel, ValidationError
@@ -448,9 +449,16 @@ def validation_error(source: str, exc: ValidationError,
     errors = exc.errors(include_url=False)
     fields = [field_path(err["loc"], prefix, skip) for err in errors]
     text = reason(errors[0])
-    more = len(set(fields)) - 1  # the branches of a union fail at one field: one problem
-    if more:
-        text += f" (and {more} more problem{'s' if more > 1 else ''})"
+    # every other field with a problem, each named with its reason (the branches of a
+    # union fail at one field: one problem)
+    others: dict[str, str] = {}
+    for f, err in zip(fields, errors, strict=True):
+        if f != fields[0] and f not in others:
+            others[f] = reason(err)
+    if others:
+        more = len(others)
+        text += (f" (and {more} more problem{'s' if more > 1 else ''}: "
+                 + "; ".join(f"{f or '(top level)'}: {r}" for f, r in others.items()) + ")")
     return InputError(source, fields[0], text)
 
 

@@ -361,3 +361,21 @@ def test_via_points_and_gripper_line_from_the_page(tmp_path):
     np.testing.assert_allclose(p[0], logic.tool_position(arm, q0), atol=1e-6)
     np.testing.assert_allclose(p[-1] - p[0], [0.05, 0, 0], atol=1e-6)
     assert pages.STATE["trajectory"] == "line"
+
+
+@pytest.mark.slow
+def test_verify_by_simulation_from_names(ws, puma):
+    """The page's "verify by simulation" (in a worker process, by names) equals
+    recommend(..., verify=True); a bad name comes back as the API's message."""
+    form = {"accuracy": 1e-3, "overshoot_allowed": False, "fast_action": True,
+            "inductance": "negligible", "parameter_variation": "slow",
+            "transmission": {"backlash": False, "elasticity": False}}
+    traj = logic.make_trajectory({"type": "quintic", "q_start": [0.0] * 6,
+                                  "q_end": [0.1] * 6, "duration": 0.05}, puma)
+    logic.save_trajectory_to(ws, traj, "short")
+    doc = logic.verify_by_names(form, str(ws.root), "puma560", "short")
+    direct = manipcad.recommend(form, puma, traj, verify=True)
+    assert doc["verified"] and [r["method"] for r in doc["recommendations"]] == direct.methods
+    assert doc["recommendations"][0]["max_error"] == direct[0].max_error
+    assert "may not contain" in logic.verify_by_names(form, str(ws.root), "puma560",
+                                                      "../short")["error"]

@@ -196,6 +196,10 @@ def test_designer_flow(browser, server):
     best = methods.inner_text().split(":", 1)[1].split(",")[0].strip()
     assert best == "asvs", methods.inner_text()
     page.get_by_text("Rules that fired").wait_for()
+    page.get_by_test_id("req-verify").click()            # simulated in a worker process
+    verified = page.get_by_test_id("req-verified")
+    _see(page, verified, timeout=120_000)
+    assert "asvs" in verified.inner_text() and "true" in verified.inner_text()
     _shot(page, "requirements")
 
     # synthesis: the recommended method (preselected) and a PID

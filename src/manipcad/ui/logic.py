@@ -320,13 +320,16 @@ def load_trajectory_ref(ws: Workspace, name: str, robot):
     return load_trajectory(ws.resolve("trajectories", name), robot=robot)
 
 
-def recommend_for(form: Mapping[str, Any], robot=None, trajectory=None):
+def recommend_for(form: Mapping[str, Any], robot=None, trajectory=None, *,
+                  verify: bool = False):
     """The recommended methods for the requirement form (the expert system's ranking).
 
     Args:
         form: requirement fields (:class:`manipcad.expert.Requirements`); empty
             values are left out (derived from the robot and trajectory when they can be).
         robot, trajectory: to derive the fields left out.
+        verify: synthesize the top candidates, simulate them along the trajectory
+            and re-rank by the measured error (``manipcad recommend --verify``).
 
     Returns:
         :class:`manipcad.expert.Recommendations`.
@@ -344,7 +347,28 @@ def recommend_for(form: Mapping[str, Any], robot=None, trajectory=None):
     req = Requirements.from_dict(data, "requirements form")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
-        return recommend(req, robot, trajectory)
+        return recommend(req, robot, trajectory, verify=verify)
+
+
+def verify_by_names(form: Mapping[str, Any], ws_root: str, robot_ref: str,
+                    trajectory: str):
+    """:func:`recommend_for` with ``verify=True`` from names (what the page sends to a
+    worker process, so the server keeps answering while it simulates).
+
+    Returns:
+        The recommendations as plain data (``Recommendations.to_dict()``), or
+        ``{"error": message}`` for bad input (the message crosses the process
+        boundary as text).
+    """
+    from manipcad.errors import ManipcadError
+
+    try:
+        ws = open_workspace(ws_root)
+        robot, _ = load_robot_ref(ws, robot_ref)
+        traj = load_trajectory_ref(ws, trajectory, robot)
+        return recommend_for(form, robot, traj, verify=True).to_dict()
+    except ManipcadError as exc:
+        return {"error": str(exc)}
 
 
 def synthesize_to(ws: Workspace, robot, method: str, *, joints: str | Sequence = "all",

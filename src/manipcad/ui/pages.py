@@ -22,7 +22,7 @@ from nicegui import app, ui
 from manipcad.errors import InputError, ManipcadError
 from manipcad.sizing import required_drive
 from manipcad.ui import logic
-from manipcad.ui.worker import SimSpec, SimulationJob
+from manipcad.ui.worker import SimSpec, SimulationJob, run_in_worker
 
 #: the session's state: workspace root, picked robot, trajectory, method, jobs
 STATE: dict[str, Any] = {"ws": None, "robot": "puma560", "trajectory": None, "method": None,
@@ -362,20 +362,23 @@ def register() -> None:
                 elas = ui.select(yes_no, value=False, label="elasticity")
             out = ui.column().classes("w-full")
 
+            def read_form() -> dict[str, Any]:
+                return {
+                    "accuracy": numbers(acc.value, "accuracy", "requirements form")[0]
+                    if str(acc.value).strip() else None,
+                    "overshoot_allowed": over.value, "fast_action": fast.value,
+                    "gripper_speed": numbers(speed.value, "gripper_speed",
+                                             "requirements form")[0]
+                    if str(speed.value).strip() else None,
+                    "inductance": ind.value, "coupling": coup.value,
+                    "parameter_variation": var.value,
+                    "transmission": {"backlash": back.value, "elasticity": elas.value}}
+
             def run() -> None:
                 clear()
                 out.clear()
                 try:
-                    form: dict[str, Any] = {
-                        "accuracy": numbers(acc.value, "accuracy", "requirements form")[0]
-                        if str(acc.value).strip() else None,
-                        "overshoot_allowed": over.value, "fast_action": fast.value,
-                        "gripper_speed": numbers(speed.value, "gripper_speed",
-                                                 "requirements form")[0]
-                        if str(speed.value).strip() else None,
-                        "inductance": ind.value, "coupling": coup.value,
-                        "parameter_variation": var.value,
-                        "transmission": {"backlash": back.value, "elasticity": elas.value}}
+                    form = read_form()
                     arm = robot()
                     traj = logic.load_trajectory_ref(ws(), STATE["trajectory"], arm) \
                         if STATE["trajectory"] else None
@@ -405,7 +408,39 @@ def register() -> None:
                             f"{m} ({', '.join(ids)})" for m, ids in recs.excluded_by.items()))
                     ui.link(f"Synthesize {recs.best.method} →", "/synthesis")
 
-            ui.button("Recommend", on_click=run).props("data-testid=req-run")
+            async def verify() -> None:
+                clear()
+                try:
+                    form = read_form()
+                    if not STATE["trajectory"]:
+                        raise InputError("requirements form", "trajectory", "verify by "
+                                         "simulation needs a trajectory (Trajectories page)")
+                    checked.text = "verifying: synthesizing and simulating the top candidates"
+                    doc = await run_in_worker(logic.verify_by_names, form, str(STATE["ws"]),
+                                              STATE["robot"], STATE["trajectory"])
+                    if "error" in doc:
+                        raise ManipcadError(doc["error"])
+                except ManipcadError as exc:
+                    checked.text = ""
+                    show(exc)
+                    return
+                checked.text = "verified by simulation along " + STATE["trajectory"]
+                vbox.clear()
+                with vbox:
+                    ui.table(columns=[{"name": c, "label": lab, "field": c} for c, lab in (
+                        ("method", "method"), ("max_error", "max error [rad|m]"),
+                        ("meets", "meets the accuracy"), ("note", "note"))],
+                        rows=[{"method": r["method"], "max_error": r["max_error"],
+                               "meets": r["meets_accuracy"], "note": r["note"]}
+                              for r in doc["recommendations"]], row_key="method") \
+                        .props("dense flat data-testid=req-verified")
+
+            with ui.row():
+                ui.button("Recommend", on_click=run).props("data-testid=req-run")
+                ui.button("Verify by simulation", on_click=verify) \
+                    .props("data-testid=req-verify")
+            checked = ui.label("")
+            vbox = ui.column().classes("w-full")
 
 
     @ui.page("/synthesis")

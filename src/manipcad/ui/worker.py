@@ -183,7 +183,10 @@ def prestart() -> None:
 
 
 def stop_spare() -> None:
-    """End the spare worker (it was started by :func:`prestart`)."""
+    """End the spare worker (started by :func:`prestart`) and the pool of
+    :func:`run_in_worker`."""
+    while _POOL:
+        _POOL.pop().shutdown(wait=False, cancel_futures=True)
     while _SPARE:
         w = _SPARE.pop()
         w.send.send(None)
@@ -256,3 +259,18 @@ class SimulationJob:
     def finished(self) -> bool:
         """Whether the run is over (done, error or cancelled)."""
         return self.state in ("done", "error", "cancelled")
+
+
+_POOL: list = []
+
+
+async def run_in_worker(fn, *args):
+    """``fn(*args)`` in a worker process (``spawn``; one kept for later calls), awaited
+    without blocking the server; for short jobs with no progress (verify by simulation).
+    ``fn`` and its arguments must pickle; it should return plain data."""
+    import asyncio
+    from concurrent.futures import ProcessPoolExecutor
+
+    if not _POOL:
+        _POOL.append(ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn")))
+    return await asyncio.get_running_loop().run_in_executor(_POOL[0], fn, *args)

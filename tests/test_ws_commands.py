@@ -70,3 +70,26 @@ def test_robots_list_shows_the_catalog_and_the_workspace(tmp_path):
     assert ("my_motor", f"workspace {ws}") in origins
     assert ("maxon_ec45flat_411812", "catalog") in origins
     assert {r["name"] for r in doc["robots"]} >= {"puma560", "cylindrical"}
+
+
+def test_size_runs_the_gear_ratio_sweep(tmp_path):
+    """The sweep from the command line equals the API's (feasible range, best ratio)."""
+    import numpy as np
+
+    import manipcad
+    from manipcad.sizing import ratio_sweep
+
+    laws = "examples/fig3_laws.yaml"
+    png = tmp_path / "sweep.png"
+    r = run("size", "cylindrical", "-t", laws, "--ratio-sweep", "20:400:50", "--sweep-joint",
+            "turn", "--sweep-plot", png, "--json", "--allow-unknown")
+    assert r.exit_code in (0, 1), r.output
+    doc = json.loads(r.output)
+    arm = manipcad.load_robot("cylindrical")
+    sw = ratio_sweep(arm, manipcad.load_trajectory(laws), "turn", np.geomspace(20, 400, 50))
+    got = doc["ratio_sweep"][0]
+    assert got["joint"] == "turn" and got["best_ratio"] == sw.best_ratio
+    assert got["feasible"] == [list(iv) for iv in sw.intervals]
+    assert png.is_file() and png.stat().st_size > 1000
+    r = run("size", "cylindrical", "-t", laws, "--ratio-sweep", "400:20:5")
+    assert r.exit_code == 2 and "LO < HI" in r.output

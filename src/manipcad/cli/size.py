@@ -32,6 +32,7 @@ from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
 from manipcad.errors import InputError, ManipcadWarning
+from manipcad.fileio import json_safe
 
 _COLOUR = {"pass": "green", "fail": "red", "unknown": "grey50", "n/a": "grey50"}
 
@@ -68,6 +69,14 @@ def size(
         "motor's electrical data unknown); failed checks still exit 1.")] = False,
     ws: Annotated[Path | None, typer.Option(
         "--ws", help="Workspace: the inputs may be its item names.")] = None,
+    ratio_sweep: Annotated[str | None, typer.Option(
+        "--ratio-sweep", help="Sweep the gear ratio |i_r| of the --sweep-joint joints over "
+        "LO:HI:N (N values spaced evenly in log): feasible range and best ratio.")] = None,
+    sweep_joint: Annotated[list[str] | None, typer.Option(
+        "--sweep-joint", help="A joint to sweep (name or number 1..n); repeat. Default: every "
+        "joint with a drive.")] = None,
+    sweep_plot: Annotated[Path | None, typer.Option(
+        "--sweep-plot", help="Write the sweep's figure to this image file.")] = None,
 ) -> None:
     """Size the drives: torques, currents, voltages, powers; motor and gear checks.
 
@@ -98,15 +107,43 @@ def size(
     req = required_drive(arm, traj, t_end=t_end, dt=dt, payload=payload)
     written = torque_speed_plot(req, plot) if plot is not None else None
 
+    sweeps = _sweeps(arm, traj, ratio_sweep, sweep_joint, t_end, dt, payload)
+    if sweep_plot is not None:
+        if not sweeps:
+            raise InputError("--sweep-plot", "", "needs --ratio-sweep LO:HI:N")
+        from manipcad.fileio import atomic_write
+        from manipcad.sizing.plot import ratio_sweep_figure
+
+        fig = ratio_sweep_figure(sweeps)
+        fmt = sweep_plot.suffix.lower().lstrip(".")
+        if fmt not in fig.canvas.get_supported_filetypes():
+            raise InputError(str(sweep_plot), "", f"unknown image format {fmt!r}")
+        atomic_write(sweep_plot, lambda fh: fig.savefig(fh, format=fmt), binary=True)
+
     if as_json:
         out = req.to_dict()
         out["trajectory"] = str(trajectory)
         out["plot"] = str(written) if written is not None else None
-        typer.echo(json.dumps(out, indent=2, allow_nan=False))
+        if sweeps:
+            out["ratio_sweep"] = [{"joint": sw.joint, "present_ratio": sw.ratio,
+                                   "feasible": [list(iv) for iv in sw.intervals],
+                                   "best_ratio": sw.best_ratio, "criterion": sw.criterion,
+                                   "bounded_by_grid": sw.bounded_by_grid} for sw in sweeps]
+        typer.echo(json.dumps(json_safe(out), indent=2, allow_nan=False))
     else:
         _print_tables(req, str(trajectory))
         if written is not None:
             console.print(f"torque-speed plot written to {escape(str(written))}")
+        for sw in sweeps:
+            feas = (", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in sw.intervals)
+                    or "none in the swept range")
+            console.print(f"gear ratio of {escape(sw.joint)} ({escape(sw.motor or 'motor')}): "
+                          f"present |i_r| = {abs(sw.ratio):.4g}; feasible {feas}; best "
+                          f"{sw.best_ratio:.4g} ({sw.criterion})"
+                          + (" — the range reaches the end of the sweep"
+                             if sw.bounded_by_grid else ""), highlight=False, soft_wrap=True)
+        if sweep_plot is not None:
+            console.print(f"sweep figure written to {escape(str(sweep_plot))}")
     raise typer.Exit(exit_status(req.status, allow_unknown))
 
 
@@ -203,3 +240,38 @@ def _print_tables(req, source: str) -> None:
                       f"unknown; exit 1 unless --allow-unknown):[/] {escape(', '.join(unknown))}")
     if not fails and not unknown:
         console.print("[green]every motor and gear meets every limit[/]")
+
+
+def _sweeps(arm, traj, spec: str | None, joints: list[str] | None, t_end, dt, payload) -> list:
+    """The gear-ratio sweeps asked by ``--ratio-sweep LO:HI:N`` (and ``--sweep-joint``)."""
+    if spec is None:
+        if joints:
+            raise InputError("--sweep-joint", "", "needs --ratio-sweep LO:HI:N")
+        return []
+    import numpy as np
+
+    from manipcad.sizing import ratio_sweep
+
+    try:
+        lo, hi, n = spec.split(":")
+        lo, hi, n = float(lo), float(hi), int(n)
+    except ValueError:
+        raise InputError("--ratio-sweep", "", f"expected LO:HI:N (e.g. 10:300:200), got "
+                         f"{spec!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi and 2 <= n <= 100000):
+        raise InputError("--ratio-sweep", "", f"needs 0 < LO < HI and 2 <= N <= 100000, got "
+                         f"{spec!r}")
+    if joints:
+        idx = []
+        for name in joints:
+            if name in arm.joint_names:
+                idx.append(arm.joint_names.index(name))
+            elif name.isdigit() and 1 <= int(name) <= arm.n:
+                idx.append(int(name) - 1)
+            else:
+                raise InputError("--sweep-joint", "", f"no joint {name!r}; joints: "
+                                 f"{', '.join(arm.joint_names)} (or 1..{arm.n})")
+    else:
+        idx = [j for j in range(arm.n) if arm.drives and arm.drives[j] is not None]
+    grid = np.geomspace(lo, hi, n)
+    return [ratio_sweep(arm, traj, j, grid, t_end=t_end, dt=dt, payload=payload) for j in idx]

@@ -130,3 +130,57 @@ def torque_speed_plot(req: DriveRequirements, path: str | Path, *, dpi: int = 12
                  + (f", payload {req.payload_mass:g} kg" if req.payload_mass else ""))
     fig.tight_layout()
     return atomic_write(path, lambda fh: fig.savefig(fh, format=fmt), binary=True)
+
+
+def ratio_sweep_figure(sweeps):
+    """The gear-ratio sweep of one or more joints as a matplotlib Figure.
+
+    Per joint: the RMS and peak motor torque (N·m) and the peak current (A, right axis)
+    against |i_r| (log scale), the feasible ratios shaded, the present ratio and the best
+    one (:attr:`~manipcad.sizing.sweep.RatioSweep.best_ratio`) marked.
+
+    Args:
+        sweeps: a :class:`~manipcad.sizing.sweep.RatioSweep` or a list of them.
+
+    Returns:
+        :class:`matplotlib.figure.Figure` (saving is the caller's choice).
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.sizing import ratio_sweep
+        >>> from manipcad.sizing.plot import ratio_sweep_figure
+        >>> from manipcad.trajectories import cosine
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> sw = ratio_sweep(arm, cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], 1.6), "turn",
+        ...                  ratios=[20.0, 50.0, 100.0, 200.0])
+        >>> len(ratio_sweep_figure(sw).axes)
+        2
+    """
+    from matplotlib.figure import Figure
+
+    sweeps = sweeps if isinstance(sweeps, list | tuple) else [sweeps]
+    fig = Figure(figsize=(6.0, 3.6 * len(sweeps)))
+    axes = fig.subplots(len(sweeps), 1, squeeze=False)[:, 0]
+    for ax, sw in zip(axes, sweeps, strict=True):
+        r = sw.ratios
+        ax.plot(r, sw.rms_motor_torque, label="RMS motor torque, N·m")
+        ax.plot(r, sw.peak_motor_torque, label="peak motor torque, N·m")
+        for lo, hi in sw.intervals:
+            ax.axvspan(lo, hi, color="tab:green", alpha=0.12, lw=0)
+        ax.axvline(abs(sw.ratio), color="k", lw=0.8, ls="--", label=f"present {abs(sw.ratio):.4g}")
+        if math.isfinite(sw.best_ratio):
+            ax.axvline(sw.best_ratio, color="tab:green", lw=1.2,
+                       label=f"best {sw.best_ratio:.4g} ({sw.criterion})")
+        ax.set_xscale("log")
+        ax.set_xlabel("|i_r| (rad/rad, rad/m)")
+        ax.set_ylabel("motor torque (N·m)")
+        ax2 = ax.twinx()
+        ax2.plot(r, sw.peak_current, color="tab:red", lw=0.8, label="peak current, A")
+        ax2.set_ylabel("peak current (A)", color="tab:red")
+        spans = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in sw.intervals)
+        feas = f"feasible (shaded) {spans}" if sw.intervals else "no feasible ratio"
+        ax.set_title(f"{sw.joint}: {sw.motor or 'motor'}; {feas}", fontsize=9)
+        ax.legend(fontsize=7, loc="upper center")
+        ax.grid(True, lw=0.3, which="both")
+    fig.tight_layout()
+    return fig

@@ -52,7 +52,7 @@ def leftovers(folder: Path) -> list[str]:
 def test_simulate_writes_everything(tmp_path, traj):
     out = tmp_path / "runs" / "r1"
     res = run("puma560", "--trajectory", traj, "--regulator", EXAMPLES / "pid_puma.yaml",
-              "--out", out, "--t-end", "0.06")
+              "--out", out, "--t-end", "0.06", "--csv")
     assert res.exit_code == 0, both(res)
     assert "closed-loop metrics" in res.output and "shoulder" in res.output
     assert sorted(os.listdir(out)) == ["errors.png", "inputs", "metrics.json",
@@ -73,7 +73,7 @@ def test_simulate_writes_everything(tmp_path, traj):
                 "shoulder.u [V]", "shoulder.current [A]", "shoulder.tau [N·m]"):
         assert col in header
     data = np.loadtxt(out / "timeseries.csv", delimiter=",", skiprows=1)
-    assert data.shape == (601, 49)
+    assert data.shape == (61, 49)   # one sample per regulator period (1 ms) by default
     assert data[-1, 0] == pytest.approx(0.06)
     # metrics
     doc = json.loads((out / "metrics.json").read_text())
@@ -113,7 +113,7 @@ def test_no_drives_payload_every(tmp_path, traj):
     reg.write_text("type: pid\nperiod: 0.0001\nkp: [2000, 4000, 2000, 5, 5, 0.5]\n"
                    "kd: [100, 200, 80, 0.1, 0.05, 0.003]\n")
     res = run("puma560", "-t", traj, "-r", reg, "-o", out, "--no-drives", "--payload", "2.5",
-              "--every", "10", "--json")
+              "--every", "10", "--json", "--csv")
     assert res.exit_code == 0, both(res)
     doc = json.loads(res.stdout)
     assert doc["units"]["shoulder"]["effort_rms"] == "N·m"
@@ -144,7 +144,11 @@ def test_empty_existing_folder_is_used(tmp_path, traj):
     out.mkdir()
     res = run("puma560", "-t", traj, "-r", EXAMPLES / "pid_puma.yaml", "-o", out)
     assert res.exit_code == 0, both(res)
-    assert (out / "timeseries.csv").is_file()
+    # CSV on request (--csv, or 'ws export'); the arrays are in the npz, one sample per
+    # regulator period (examples/pid_puma.yaml: 1 ms)
+    assert (out / "timeseries.npz").is_file() and not (out / "timeseries.csv").exists()
+    doc = json.loads((out / "metrics.json").read_text())
+    assert doc["run"]["every"] == 10
 
 
 DIVERGENT = "type: pid\nperiod: 0.001\nkp: -1.0e6\nkd: -1.0e4\njoints: [elbow]\n"

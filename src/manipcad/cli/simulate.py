@@ -113,9 +113,14 @@ def simulate(
     dt: Annotated[float, typer.Option(
         "--dt", help="Integration step (RK4), s; regulator periods must be multiples of it.")]
     = 1e-4,
-    every: Annotated[int, typer.Option(
+    every: Annotated[int | None, typer.Option(
         "--every", help="Keep every N-th step in the saved time series (the metrics are "
-        "computed on the kept samples).")] = 1,
+        "computed on the kept samples); default: one sample per regulator period (every "
+        "step without regulators).")] = None,
+    csv: Annotated[bool, typer.Option(
+        "--csv/--no-csv", help="Also write timeseries.csv (text, units in the header); the "
+        "full-precision arrays are always in timeseries.npz, and 'ws export' writes CSV.")]
+    = False,
     as_json: Annotated[bool, typer.Option(
         "--json", help="Print the metrics document (metrics.json) instead of a table.")] = False,
     no_drives: Annotated[bool, typer.Option(
@@ -158,7 +163,7 @@ def simulate(
 
     if not (math.isfinite(dt) and dt > 0):
         raise InputError("--dt", "", f"must be > 0 s, got {dt}")
-    if every < 1:
+    if every is not None and every < 1:
         raise InputError("--every", "", f"must be >= 1, got {every}")
     if t_end is not None and not (math.isfinite(t_end) and t_end > 0):
         raise InputError("--t-end", "", f"must be > 0 s, got {t_end}")
@@ -231,6 +236,11 @@ def simulate(
            "every": every, "drives": not no_drives, "payload": payload,
            "robot_notes": notes, "integrator": integrator, "rtol": rtol, "atol": atol}
 
+    if every is None:
+        from manipcad.store.results import record_every_for
+
+        every = record_every_for(dt, [r.period for r in regs])
+        run["every"] = every
     from manipcad.cli.warmup import ensure_warm
 
     ensure_warm("simulator")
@@ -249,7 +259,7 @@ def simulate(
         except SimulationDiverged as exc:
             if save_diverged:
                 where = _store(space, exc.result, out, inputs, arm, trajectory, regulator,
-                               run, force, status="diverged", message=str(exc))
+                               run, force, status="diverged", message=str(exc), csv=csv)
                 raise ManipcadError(f"{exc}; the partial result is in {where}") from None
             raise ManipcadError(f"{exc}; nothing was written to "
                                 f"{out if space is None else space.root}") from None
@@ -260,7 +270,7 @@ def simulate(
                               soft_wrap=True)
     run["wall_time_s"] = wall
     with err_console.status("writing the result..."):
-        out = _store(space, res, out, inputs, arm, trajectory, regulator, run, force)
+        out = _store(space, res, out, inputs, arm, trajectory, regulator, run, force, csv=csv)
     doc = result_document(res, joint_types=arm.joint_types, inputs=inputs, run=run)
     doc["out"] = str(out)
     if as_json:
@@ -269,19 +279,20 @@ def simulate(
     console.print(metrics_table(doc))
     console.print(f"simulated {t_end:g} s ({int(round(t_end / dt))} steps of {dt:g} s) in "
                   f"{wall:.3g} s wall (the first run compiles); wrote {out}/ (inputs/, "
-                  "timeseries.csv, timeseries.npz, metrics.json, errors.png)"
+                  + ("timeseries.csv, " if csv else "")
+                  + f"timeseries.npz with every {every}. step, metrics.json, errors.png)"
                   + (f", indexed in the workspace {space.root}" if space is not None else ""),
                   highlight=False, soft_wrap=True)
 
 
 def _store(space, res, out, inputs, arm, trajectory, regulators, run, force, *,
-           status: str = "ok", message: str = "") -> Path:
+           status: str = "ok", message: str = "", csv: bool = False) -> Path:
     """Save a result into a folder, or store and index it in a workspace; its folder."""
     from manipcad.store import save_result
 
     if space is None:
         save_result(res, out, inputs=inputs, joint_types=arm.joint_types, force=force,
-                    status=status, message=message, run=run)
+                    status=status, message=message, run=run, csv=csv)
         return Path(out)
     item = space.store_result(res, name=out, robot=arm, trajectory=trajectory,
                               regulators=list(regulators), run=run,

@@ -93,3 +93,27 @@ def test_size_runs_the_gear_ratio_sweep(tmp_path):
     assert png.is_file() and png.stat().st_size > 1000
     r = run("size", "cylindrical", "-t", laws, "--ratio-sweep", "400:20:5")
     assert r.exit_code == 2 and "LO < HI" in r.output
+
+
+def test_notebook_views_and_figures():
+    """Regulators, results and robots show themselves in a notebook; plots are Figures;
+    the robot exports to Pinocchio as a method."""
+    from matplotlib.figure import Figure
+
+    import manipcad
+    from manipcad.sizing import required_drive
+    from manipcad.sizing.plot import torque_speed_figure
+    from manipcad.trajectories import cosine
+
+    arm = manipcad.load_robot("cylindrical")
+    reg = manipcad.synthesize(arm, "turn", "ace_de")
+    html = reg._repr_html_()
+    assert "ace_de" in html and "operations per period" in html
+    fig = torque_speed_figure(required_drive(arm, cosine([0.5, 0, 0.25], [4, 0, 16], 1.6)))
+    assert isinstance(fig, Figure)
+    model, order = arm.to_pinocchio()
+    assert model.nq == 3 and list(order) == [0, 1, 2]
+    r = run("synthesize", "--list", "--json")
+    doc = json.loads(r.output)
+    assert {d["method"] for d in doc} >= {"ace_de", "lqr_gs", "computed_torque_full"}
+    assert all(d["ops_per_period"] > 0 for d in doc)

@@ -114,6 +114,13 @@ def synthesize(
     from manipcad.model.load import load_robot
 
     if list_methods:
+        if as_json:
+            from manipcad.expert.engine import base_complexity
+
+            typer.echo(json.dumps([{"method": name, "section": m.section, "summary": m.summary,
+                                    **base_complexity(None, name)}
+                                   for name, m in METHODS.items()], indent=2))
+            return
         console.print(method_table())
         return
     if robot is None:

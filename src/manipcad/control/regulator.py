@@ -156,6 +156,17 @@ class Regulator:
 
         return to_control(self)
 
+    def _repr_html_(self) -> str:
+        """The regulator in a notebook: method, joints, period, law, counted complexity."""
+        from html import escape
+
+        c = self.realization_complexity()
+        names = ", ".join(self.joint_names) or ", ".join(str(j) for j in self.joints)
+        return (f"<p><b>{escape(self.method)}</b> on {escape(names)}, period "
+                f"{self.period:g} s</p><p>{escape(self.describe())}</p>"
+                f"<p>{c['ops_per_period']} operations per period, {c['gains_stored']} numbers "
+                f"stored; signals: {escape(', '.join(c['signals']))}</p>")
+
     def __repr__(self) -> str:
         names = ", ".join(self.joint_names) or ", ".join(str(j) for j in self.joints)
         return f"Regulator({self.method!r}, joints=[{names}], period={self.period:g} s)"

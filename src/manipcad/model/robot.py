@@ -525,6 +525,21 @@ class Robot:
 
         return robot_to_urdf(self, path)
 
+    def to_pinocchio(self, *, armature: bool = False):
+        """(Pinocchio ``Model``, joint order) of this robot (``pip install pin``;
+        :func:`manipcad.model.to_pinocchio.to_pinocchio`): Pinocchio's joint k is ours
+        ``order[k]``; pass ``(q + robot.offset)[order]``; ``armature`` sets J·i_r².
+
+        Example:
+            >>> import manipcad
+            >>> model, order = manipcad.load_robot("puma560").to_pinocchio()
+            >>> model.nq
+            6
+        """
+        from manipcad.model.to_pinocchio import to_pinocchio
+
+        return to_pinocchio(self, armature=armature)
+
     def without_drives(self) -> Robot:
         """The same robot with no drives (pure rigid body)."""
         return self.replace(drives=(None,) * self.n)

@@ -84,6 +84,38 @@ def _panel(ax, req: DriveRequirements, j: int) -> None:
     ax.grid(True, lw=0.3)
 
 
+def torque_speed_figure(req: DriveRequirements, *, dpi: int = 120):
+    """Each drive's required motor torque against motor speed and the motor envelope, as a
+    matplotlib Figure (saving is the caller's choice; :func:`torque_speed_plot` writes one).
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.sizing import required_drive
+        >>> from manipcad.sizing.plot import torque_speed_figure
+        >>> from manipcad.trajectories import cosine
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> req = required_drive(arm, cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], 1.6))
+        >>> len(torque_speed_figure(req).axes)
+        3
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(5.0 * min(req.n, 3), 4.2 * math.ceil(req.n / 3)), dpi=dpi)
+    cols = min(req.n, 3)
+    rows = math.ceil(req.n / 3)
+    axes = fig.subplots(rows, cols, squeeze=False)
+    for j in range(rows * cols):
+        ax = axes[j // cols][j % cols]
+        if j < req.n:
+            _panel(ax, req, j)
+        else:
+            ax.set_visible(False)
+    fig.suptitle(f"{req.robot.name}: required motor torque vs speed, t_end = {req.t_end:g} s"
+                 + (f", payload {req.payload_mass:g} kg" if req.payload_mass else ""))
+    fig.tight_layout()
+    return fig
+
+
 def torque_speed_plot(req: DriveRequirements, path: str | Path, *, dpi: int = 120) -> Path:
     """Plot each drive's required motor torque against motor speed and the motor envelope.
 
@@ -107,28 +139,14 @@ def torque_speed_plot(req: DriveRequirements, path: str | Path, *, dpi: int = 12
         >>> torque_speed_plot(req, "/tmp/ts.png")  # doctest: +SKIP
         PosixPath('/tmp/ts.png')
     """
-    from matplotlib.figure import Figure
-
     p = writable_target(path)
     src = str(path)
     fmt = p.suffix.lower().lstrip(".")
-    fig = Figure(figsize=(5.0 * min(req.n, 3), 4.2 * math.ceil(req.n / 3)), dpi=dpi)
+    fig = torque_speed_figure(req, dpi=dpi)
     supported = fig.canvas.get_supported_filetypes()
     if fmt not in supported:
         raise InputError(src, "", f"unknown image format {fmt!r}; use one of "
                          f"{', '.join(sorted(supported))}")
-    cols = min(req.n, 3)
-    rows = math.ceil(req.n / 3)
-    axes = fig.subplots(rows, cols, squeeze=False)
-    for j in range(rows * cols):
-        ax = axes[j // cols][j % cols]
-        if j < req.n:
-            _panel(ax, req, j)
-        else:
-            ax.set_visible(False)
-    fig.suptitle(f"{req.robot.name}: required motor torque vs speed, t_end = {req.t_end:g} s"
-                 + (f", payload {req.payload_mass:g} kg" if req.payload_mass else ""))
-    fig.tight_layout()
     return atomic_write(path, lambda fh: fig.savefig(fh, format=fmt), binary=True)
 
 

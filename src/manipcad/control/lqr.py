@@ -323,28 +323,33 @@ class GainTable:
         return f, err
 
 
-def _gains_at(args) -> np.ndarray:
-    drive, H, h, weights, order, tr, period = args
+def gain_cell(H: float, h: float, drive: Drive, weights: Weights, order: int, tr,
+              period: float | None) -> np.ndarray:
+    """The LQR gains at one grid point (a task of :func:`gain_table`'s executor)."""
     return lqr_gains(drive, H, h, weights, order, tr, period)
 
 
 def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *,
                progress: bool = False, n_jobs: int = 1, transmission=None,
-               period: float | None = None) -> GainTable:
-    """Compute the LQR gains at every grid point.
+               period: float | None = None, scheduler: str | None = None) -> GainTable:
+    """Compute the LQR gains at every grid point, on the sweep executor.
 
     Args:
         drive: the drive; H_grid, h_grid: the axes (kg·m², N·m·s/rad).
         weights: :class:`Weights`; order: 3 or 2.
         progress: show a progress bar (rich) while computing.
-        n_jobs: worker processes (local; 1 computes in this process).
+        n_jobs: worker processes of a local Dask cluster (1: in this process;
+            :func:`manipcad.parallel.run_tasks`).
         transmission: an elastic transmission: the gains of the elastic model (5 each).
         period: design each point in discrete time at this control period, s
             (:func:`lqr_gains`); None: continuous time.
+        scheduler: address of a running Dask scheduler (``tcp://HOST:PORT``) instead.
 
     Returns:
-        :class:`GainTable`.
+        :class:`GainTable` (the same whichever way the points ran).
     """
+    from manipcad.parallel import run_tasks
+
     H_grid = np.asarray(H_grid, dtype=float)
     h_grid = np.asarray(h_grid, dtype=float)
     n_jobs = int(n_jobs)
@@ -352,23 +357,12 @@ def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *
         raise ManipcadError(f"n_jobs must be >= 1, got {n_jobs}")
     idx = [(a, b) for a in range(len(H_grid)) for b in range(len(h_grid))]
     tr = as_transmission(transmission)
-    args = [(drive, H_grid[a], h_grid[b], weights, order, tr, period) for a, b in idx]
+    rows = run_tasks(gain_cell, [{"H": float(H_grid[a]), "h": float(h_grid[b])} for a, b in idx],
+                     common={"drive": drive, "weights": weights, "order": order, "tr": tr,
+                             "period": period},
+                     workers=None if scheduler else n_jobs, scheduler=scheduler,
+                     progress=progress, desc="lqr_gs gain table")
     g = np.empty((len(H_grid), len(h_grid), 3 if tr is None else 5))
-
-    def run(results):
-        if not progress:
-            return list(results)
-        from rich.progress import track
-
-        return list(track(results, total=len(args), description="lqr_gs gain table"))
-
-    if n_jobs == 1:
-        rows = run(map(_gains_at, args))
-    else:
-        from concurrent.futures import ProcessPoolExecutor
-
-        with ProcessPoolExecutor(max_workers=n_jobs) as pool:
-            rows = run(pool.map(_gains_at, args, chunksize=max(1, len(args) // (4 * n_jobs))))
     for (a, b), row in zip(idx, rows, strict=True):
         g[a, b] = row
     return GainTable(H_grid, h_grid, g)
@@ -481,7 +475,8 @@ def _transmission(transmission) -> Transmission | None:
 
 def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
                       load_range=None, h_range=None, grid=None, order: int = 3,
-                      progress: bool = False, n_jobs: int = 1, feedforward: bool = True,
+                      progress: bool = False, n_jobs: int = 1, scheduler: str | None = None,
+                      feedforward: bool = True,
                       load_torque: bool = True, transmission=None) -> Regulator:
     """LQR gains scheduled on the load from a table computed ahead.
 
@@ -495,7 +490,8 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
             at most 74 points in all (the compiled table's room).
         order: 3 or 2.
         progress: show a progress bar while the table is computed.
-        n_jobs: local worker processes for the grid (1: none).
+        n_jobs: worker processes of a local Dask cluster for the grid (1: none); or
+        scheduler: a running Dask scheduler's address (:mod:`manipcad.parallel`).
         feedforward: the reference feed-forward U_ff at the current load.
         load_torque: compensate the measured velocity torque and gravity τ_w in U_ff.
         transmission: the joint's elastic transmission, as :func:`synthesize_lqr`: the table
@@ -531,6 +527,7 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     h_grid = np.linspace(hl, hh, nV) if hl < hh else np.array([hl])
     w = weights_from_spec(spec, d)
     table = gain_table(d, H_grid, h_grid, w, order, progress=progress, n_jobs=n_jobs,
+                       scheduler=scheduler,
                        transmission=tr, period=period)
     p = packed(d, order)
     ulim = u_limit(d)

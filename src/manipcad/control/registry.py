@@ -188,7 +188,8 @@ def _call(m: Method, robot, joint, spec, options):
     reg.robot = robot.name
     reg.robot_hash = robot_hash(robot)
     reg.spec = dict(spec or {})
-    opts = {k: v for k, v in options.items() if k not in ("progress", "n_jobs", "reference")}
+    opts = {k: v for k, v in options.items()
+            if k not in ("progress", "n_jobs", "scheduler", "reference")}
     reg.options = {**opts, **reg.options}
     if not m.spans and robot.drives is not None and robot.drives[idx[0]] is not None:
         from manipcad.control.design import inertia_range

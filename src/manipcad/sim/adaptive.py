@@ -49,10 +49,9 @@ from manipcad.dynamics.crba import CRBA_WORK
 from manipcad.dynamics.rnea import RNEA_WORK
 from manipcad.sim.loop import (
     _rates,
-    _signals,
     _torques,
     check_state,
-    regulator_update,
+    sample_due,
     write_record,
 )
 
@@ -182,17 +181,7 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
         kr = (k - k0) // stride
         dist = ref.dist[kr]
         # sample the regulators due at step k, as RK4 does
-        due = False
-        for r in range(R):
-            if wait[r] == 0:
-                due = True
-        if due:
-            _signals(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp)
-        for r in range(R):
-            if wait[r] == 0:
-                wait[r] = ctrl.steps[r]
-                regulator_update(ctrl.kind[r], ctrl.params[r], ctrl.state[r], sig, H,
-                                 ctrl.joints[r], ctrl.nj[r], ctrl.steps[r] * dt, U)
+        sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait)
         if work.rec[0] * every == k:
             _torques(x, U, dist, n, plant, q, qd, xd, dxd, tau, Kd, 0)
             write_record(plant, rec, work.rec[0], k * dt, x, U, tau)

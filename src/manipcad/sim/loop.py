@@ -237,6 +237,27 @@ def check_state(plant, work, x, xdot, t, stop_at_limits):
 
 
 @nb.njit(cache=True)
+def sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait):
+    """Sample the regulators due at step k (``wait[r] == 0``): fill the signal matrix once,
+    run each due regulator through the registry's dispatch (its output held in U) and set
+    its ``wait`` to its period in steps. Both integrators call this, so the regulators see
+    the same instants and signals whichever integrates between them."""
+    R = ctrl.kind.shape[0]
+    due = False
+    for r in range(R):
+        if wait[r] == 0:
+            due = True
+    if not due:
+        return
+    _signals(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp)
+    for r in range(R):
+        if wait[r] == 0:
+            wait[r] = ctrl.steps[r]
+            regulator_update(ctrl.kind[r], ctrl.params[r], ctrl.state[r], sig, H,
+                             ctrl.joints[r], ctrl.nj[r], ctrl.steps[r] * dt, U)
+
+
+@nb.njit(cache=True)
 def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
     """Integrate the steps k0 .. k0+K−1 (RK4, dt s) from ``work.x``; record every ``every``.
 
@@ -273,20 +294,9 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
     kend = K + 1 if last else K
     for kr in range(kend):
         k = k0 + kr
-        # sample the regulators due at this step (all rows of sig at once)
-        due = False
+        sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait)
         for r in range(R):
-            if wait[r] == 0:
-                due = True
-        if due:
-            _signals(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp)
-        for r in range(R):
-            if wait[r] != 0:
-                wait[r] -= 1
-                continue
-            wait[r] = ctrl.steps[r] - 1
-            regulator_update(ctrl.kind[r], ctrl.params[r], ctrl.state[r], sig, H,
-                             ctrl.joints[r], ctrl.nj[r], ctrl.steps[r] * dt, U)
+            wait[r] -= 1
         # the four RK4 stages with U held and the disturbance at the step's start
         for st in range(4):
             if st == 0:

@@ -276,4 +276,4 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
 METHOD = Method(
     name="ace_de", synthesize=synthesize_ace_de, update=ace_de_update, section="3.1 (3)",
     summary="law (3): the drive's differential equation stabilized at the nominal, + SCE",
-    fields=FIELDS, export=nonlinear_system)
+    fields=FIELDS, export=nonlinear_system, linear=True)

@@ -177,4 +177,4 @@ METHOD = Method(
     name="ace_tf", synthesize=synthesize_ace_tf, update=ace_tf_update, section="3.1 (1)",
     summary="ACE (1): moving zero cancels the load pole (realization observable|controllable)"
             ", + SCE",
-    fields=FIELDS, export=nonlinear_system)
+    fields=FIELDS, export=nonlinear_system, linear=True, dynamic_states=(ST_X,))

@@ -157,9 +157,9 @@ def export_p(reg: Regulator):
 NONE = Method(
     name="none", synthesize=synthesize_none, update=p_update, section="3.1 (Fig. 3 curve 1)",
     summary="plain P position loop at the nominal load, no adaptation",
-    fields=P_FIELDS, export=export_p, drive_blocks=0)
+    fields=P_FIELDS, export=export_p, drive_blocks=0, linear=True)
 
 NONE_SCE = Method(
     name="none_sce", synthesize=synthesize_none_sce, update=sce_update, section="3.1",
     summary="the SCE of ace_de without the corrector (Fig. 3 curve 1)",
-    fields=SCE_FIELDS, export=export_sce)
+    fields=SCE_FIELDS, export=export_sce, linear=True)

@@ -108,4 +108,4 @@ METHOD = Method(
     name="computed_torque", synthesize=synthesize_computed_torque,
     update=computed_torque_update, section="baseline",
     summary="decentralized computed torque: H_ii, c_i, Q_i of the joint through the drive model",
-    fields=FIELDS)
+    fields=FIELDS, linear=True)

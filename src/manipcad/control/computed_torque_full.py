@@ -135,4 +135,4 @@ METHOD = Method(
     summary="centralized inverse dynamics H(q)·v + c + Q over all joints (Drake's "
             "InverseDynamicsController)",
     fields=FIELDS, spans=True, drive_blocks="per_joint",
-    joint_fields={"u_limit_V": CTF_ULIM0})
+    joint_fields={"u_limit_V": CTF_ULIM0}, drive_base=CTF_DRV)

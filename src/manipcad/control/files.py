@@ -102,7 +102,7 @@ def regulator_to_dict(reg: Regulator) -> dict[str, Any]:
     if m.drive_blocks == 1:
         g["drive_assumed"] = {k: float(p[i]) for k, i in DRIVE_FIELDS.items()}
     elif m.drive_blocks == "per_joint":
-        base = _span_base(m)
+        base = m.drive_base
         g["drives_assumed"] = {
             nm: {**{k: float(p[base + a * NPAR + i]) for k, i in DRIVE_FIELDS.items()},
                  **{k: float(p[i0 + a]) for k, i0 in m.joint_fields.items()}}
@@ -113,12 +113,6 @@ def regulator_to_dict(reg: Regulator) -> dict[str, Any]:
     g["design"] = json_safe({k: v for k, v in reg.design.items()
                              if k not in ("table", "weights", "transmission")})
     return g
-
-
-def _span_base(m) -> int:
-    from manipcad.control.computed_torque_full import CTF_DRV
-
-    return CTF_DRV
 
 
 def _table_to_dict(p: np.ndarray) -> dict[str, Any]:
@@ -363,7 +357,7 @@ def _group(group: Any, robot: Robot, source: str, where: str,
         if not isinstance(ds, dict) or sorted(ds) != sorted(names):
             raise InputError(source, f"{where}.drives_assumed",
                              f"expected one drive per joint of the group: {', '.join(names)}")
-        base = _span_base(m)
+        base = m.drive_base
         keys = {**DRIVE_FIELDS, **m.joint_fields}
         for a, nm in enumerate(names):
             d = _mapping(source, f"{where}.drives_assumed.{nm}", ds[nm], keys, inf_ok=_INF_OK)

@@ -571,9 +571,11 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
 LQR = Method(
     name="lqr", synthesize=synthesize_lqr, update=lqr_update, section="3.3 (7), fixed",
     summary="LQR gains at the nominal load (no scheduling), with feed-forward",
-    fields=FIELDS, table=True, export=nonlinear_system)
+    fields=FIELDS, table=True, export=nonlinear_system,
+    linear=True)
 
 LQR_GS = Method(
     name="lqr_gs", synthesize=synthesize_lqr_gs, update=lqr_update, section="3.3 (6)-(7)",
     summary="LQR gains scheduled on H_ii (and Ḣ_ii) from a table computed ahead",
-    fields=FIELDS, table=True, export=nonlinear_system)
+    fields=FIELDS, table=True, export=nonlinear_system,
+    linear=True)

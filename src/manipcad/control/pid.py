@@ -171,4 +171,5 @@ def export_pid(reg: Regulator):
 METHOD = Method(
     name="pid", synthesize=synthesize_pid, update=pid_update, section="baseline",
     summary="PID designed at the nominal (largest) load, fixed gains",
-    fields=FIELDS, export=export_pid, drive_blocks=0)
+    fields=FIELDS, export=export_pid, drive_blocks=0, linear=True,
+    dynamic_states=(PID_INT,))

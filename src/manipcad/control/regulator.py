@@ -44,6 +44,11 @@ class Method:
             methods), or ``"per_joint"`` (spanning methods, see the method), or 0.
         joint_fields: per-joint entries of a spanning method: key -> index of its first
             joint (joint k at index + k).
+        drive_base: index of the first packed drive (joint k's at drive_base + k·NPAR).
+        linear: the law is linear in its signals at a frozen load, so its sampled loop
+            can be checked by eigenvalues (:mod:`manipcad.control.sampled`).
+        dynamic_states: the state entries that are the law's own dynamics (integrators,
+            filters), as opposed to histories of measured signals.
     """
 
     name: str
@@ -57,6 +62,9 @@ class Method:
     export: Callable | None = None
     drive_blocks: int | str = 1
     joint_fields: dict[str, int] = field(default_factory=dict)
+    drive_base: int = 0
+    linear: bool = False
+    dynamic_states: tuple[int, ...] = ()
 
 
 @dataclass

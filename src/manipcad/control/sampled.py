@@ -34,12 +34,6 @@ from manipcad.drives.linear import linearize
 from manipcad.drives.params import P_MFN, P_MFP
 from manipcad.errors import ManipcadError
 
-#: methods whose law is linear at a frozen load (the Jacobian is the loop)
-LINEAR = frozenset({"none", "none_sce", "pid", "computed_torque", "ace_tf", "ace_de", "lqr",
-                    "lqr_gs"})
-#: regulator state entries that are dynamic states of the law (integrators, filters)
-DYNAMIC = {"pid": (0,), "ace_tf": (6,)}
-
 
 def _discrete(drive, H: float, T: float) -> tuple[np.ndarray, np.ndarray]:
     lin = linearize(drive, H, 0.0, order=3)
@@ -65,7 +59,7 @@ def spectral_radius(reg: Regulator, drive, H: float, period: float | None = None
     if m.drive_blocks == 1:  # dry friction is outside a linear check
         p[P_MFP] = p[P_MFN] = 0.0
     r = drive.ratio
-    dyn = DYNAMIC.get(reg.method, ())
+    dyn = m.dynamic_states
     nx = Ad.shape[0]
 
     def signals(x):
@@ -110,7 +104,9 @@ def check_sampled(reg: Regulator, drive, loads: tuple[float, ...]) -> dict:
     Raises:
         ManipcadError: unstable, naming |λ|, the load and the stable period range.
     """
-    if reg.method not in LINEAR:
+    from manipcad.control.registry import method
+
+    if not method(reg.method).linear:
         return {}
     rho = {H: spectral_radius(reg, drive, H) for H in loads}
     worst_H = max(rho, key=rho.get)

@@ -89,13 +89,15 @@ def recommend(
         t.add_row(f, f"{v:.4g}" if isinstance(v, float) else str(v), src, how)
     console.print(t)
 
-    title = "recommended methods" + (" (verified by simulation)" if recs.verified else "")
+    title = "recommended methods" + (" (verified by simulation)" if recs.verified else
+                                      " (by the rules only: accuracy not verified)")
     table = Table(box=box.SIMPLE_HEAD, title=title)
     for col, just in (("#", "right"), ("method", "left"), ("score", "right"),
                       ("gains", "right"), ("ops/period", "right"), ("signals", "right")):
         table.add_column(col, justify=just, overflow="fold")
     if recs.verified:
         table.add_column("max error", justify="right")
+    table.add_column("accuracy", justify="left")
     table.add_column("reasons (rules)", overflow="fold")
     for k, r in enumerate(recs, 1):
         c = r.complexity
@@ -107,6 +109,8 @@ def recommend(
             else:
                 style = "green" if r.meets_accuracy else "red"
                 row.append(f"[{style}]{r.max_error:.3g}[/]")
+        row.append({"met": "[green]met[/]", "missed": "[red]missed[/]"}.get(
+            r.accuracy, "[yellow]unverified[/]"))
         ids = [x.split(" ", 1)[0] for x in r.reasons if x.split(" ", 1)[0] in recs.rule_texts]
         row.append(", ".join(ids) or "meets every fired rule")
         table.add_row(*row)

@@ -401,6 +401,11 @@ class Recommendation:
         max_error: with verify, the largest simulated tracking error, rad or m.
         meets_accuracy: with verify, whether max_error <= accuracy (None: not verified).
         note: with verify, what happened (e.g. why it was not verified).
+
+    The rules know qualitative facts (coupling, speed, inductance, transmission,
+    overshoot; paper section 5), never the error a method reaches on this robot
+    and trajectory: without ``verify`` every recommendation's :attr:`accuracy` is
+    "unverified", and a number the rules rank first is not a promise.
     """
 
     method: str
@@ -412,6 +417,14 @@ class Recommendation:
     meets_accuracy: bool | None = None
     note: str = ""
 
+    @property
+    def accuracy(self) -> str:
+        """Whether the accuracy asked is known to be met: "met" or "missed" (simulated
+        by ``verify``), or "unverified" (ranked by the rules only, or not simulated)."""
+        if self.meets_accuracy is None:
+            return "unverified"
+        return "met" if self.meets_accuracy else "missed"
+
     def to_dict(self) -> dict:
         err = self.max_error
         if err is not None and not math.isfinite(err):
@@ -419,7 +432,7 @@ class Recommendation:
         return {"method": self.method, "score": self.score, "cost": self.cost,
                 "complexity": self.complexity, "reasons": self.reasons,
                 "max_error": err, "meets_accuracy": self.meets_accuracy,
-                "note": self.note}
+                "accuracy": self.accuracy, "note": self.note}
 
 
 class Recommendations(list):
@@ -508,7 +521,10 @@ def recommend(requirements: Requirements | dict | str | Path, robot=None, trajec
             from and, with ``verify``, to synthesize and simulate.
         trajectory: a trajectory (object or YAML file) for the same.
         verify: synthesize the ``top`` candidates, simulate them along the
-            trajectory and re-rank by measured accuracy, then complexity.
+            trajectory and re-rank by measured accuracy, then complexity. Without it
+            every recommendation's ``accuracy`` is "unverified" and, when an accuracy
+            is asked, ``notes`` says so (the rules cannot know the error a method
+            reaches).
         joint: the joint whose drive is designed (overrides ``requirements.joint``);
             None: the whole robot (derived fields at their worst joint; verify
             puts the candidate on every driven joint).
@@ -534,8 +550,8 @@ def recommend(requirements: Requirements | dict | str | Path, robot=None, trajec
         ...                   "inductance": "negligible", "coupling": "inertial",
         ...                   "parameter_variation": "slow",
         ...                   "transmission": {"backlash": False, "elasticity": False}})
-        >>> recs.best.method
-        'asvs'
+        >>> recs.best.method, recs.best.accuracy    # the rules alone: not a promise
+        ('asvs', 'unverified')
     """
     rb = rules if isinstance(rules, RuleBase) else load_rules(rules)
     req = Requirements.coerce(requirements)
@@ -646,10 +662,21 @@ def recommend(requirements: Requirements | dict | str | Path, robot=None, trajec
     out.rule_texts = {r.id: r.text() for r in fired}
     if verify:
         _verify(out, rb, robot, trajectory, top=top, dt=dt)
+    elif req.accuracy is not None:
+        out.notes.append(UNVERIFIED_NOTE.format(accuracy=req.accuracy))
     return out
 
 
 # ---------------------------------------------------------------------- verification
+
+#: said when the ranking comes from the rules alone and an accuracy was asked
+UNVERIFIED_NOTE = (
+    "accuracy {accuracy:.3g} not verified: the rules rank the methods that can meet the "
+    "requirements by what they know (coupling, speed, inductance, transmission, "
+    "overshoot; least realization complexity first, paper section 5), not by the error "
+    "each reaches on this robot and trajectory; the first is not promised to reach "
+    "{accuracy:.3g}. Verify by simulation (--verify, or recommend(..., verify=True)) "
+    "before choosing.")
 
 
 def _verify(out: Recommendations, rb: RuleBase, robot, trajectory, *, top: int,

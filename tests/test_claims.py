@@ -11,10 +11,9 @@ from typer.testing import CliRunner
 
 import manipcad
 from manipcad.cli import app
-from manipcad.errors import InputError, ManipcadError
+from manipcad.errors import InputError
 from manipcad.study import claims as claims_mod
 from manipcad.study.claims import arm_with_load_ratio, own_load_ratio, run_claims
-from manipcad.study.fig3 import turn_inertia
 
 
 @pytest.fixture(scope="module")
@@ -25,19 +24,50 @@ def arm():
 def test_load_ratio_arms(arm):
     own = own_load_ratio(arm)
     same, info = arm_with_load_ratio(arm, own)
-    assert same is arm and info["payload_kg"] == 0.0
-    for rho in (1.6, 1.9, 2.2):
+    assert same is arm and info["payload_kg"] == 0.0 and info["reached"]
+    for rho in (1.6, 2.2, 5.0):
         new, info = arm_with_load_ratio(arm, rho)
         d = new.drives[new.joint_index("turn")]
-        H = turn_inertia(new)  # measured on the new arm, not taken from info
-        got = (d.J * d.ratio**2 + H["max_load"]) / (d.J * d.ratio**2 + H["min_load"])
-        assert got == pytest.approx(rho, rel=1e-9)
+        lo, hi = claims_mod.turn_load_range(new, info["stroke_m"])  # measured on the new arm
+        got = (d.J * d.ratio**2 + hi) / (d.J * d.ratio**2 + lo)
+        assert got == pytest.approx(rho, rel=1e-9) and info["reached"]
         assert math.copysign(1, d.ratio) == math.copysign(1, arm.drives[0].ratio)
         assert 0 <= info["payload_kg"] <= claims_mod.MAX_PAYLOAD
-    with pytest.raises(ManipcadError, match="needs more than"):
-        arm_with_load_ratio(arm, 10.0)
+    # 5: the payload alone is not enough, the reach stroke is moved in and lengthened
+    assert info["payload_kg"] == claims_mod.MAX_PAYLOAD and 0.5 < info["stroke_m"] < 1.0
+    assert new.limits[new.joint_index("reach"), 1] >= info["stroke_m"]
+    # 10 is beyond the light arm's levers: the arm at their ends, the ratio it gets, said
+    new, info = arm_with_load_ratio(arm, 10.0)
+    assert not info["reached"] and 5.0 < info["load_ratio"] < 10.0
+    assert info["stroke_m"] == claims_mod.STROKE_MAX
     with pytest.raises(InputError, match="load_ratio"):
         arm_with_load_ratio(arm, 0.5)
+    with pytest.raises(InputError, match="max_payload"):
+        arm_with_load_ratio(arm, 2.0, max_payload=-1.0)
+
+
+def test_presets_sized_and_time_scaled():
+    """The industrial and heavy presets: catalog parts only, heavier than the light arm as
+    the issue asks, reach a load ratio of 10 (heavy), and laws (2) time-scaled to what the
+    sizing module passes."""
+    light = manipcad.load_robot("cylindrical")
+    for name, extra, payload in (("industrial", 3.0, 2.0), ("heavy", 5.0, 5.0)):
+        robot_name, max_payload = claims_mod.ARMS[name]
+        assert max_payload == payload
+        r = manipcad.load_robot(robot_name)
+        k = r.joint_index("reach")
+        assert r.mass[k] - light.mass[k] == pytest.approx(extra, abs=0.5)
+        assert abs(r.drives[0].gear_rated_torque) > abs(light.drives[0].gear_rated_torque)
+        loaded = r.with_payload(payload, np.asarray(r.tool_p), link="reach")
+        assert claims_mod.sizing_failures(loaded, 1.0)  # full speed: over the limits
+        s_run, fails = claims_mod.feasible_speed_scale(loaded, 1.0)
+        assert fails and s_run is not None and 0.1 < s_run < 1.0
+        assert claims_mod.sizing_failures(loaded, s_run) == []
+        assert claims_mod.sizing_failures(loaded, 1.05 * s_run)  # the largest, to 1 %
+    heavy = manipcad.load_robot(claims_mod.ARMS["heavy"][0])
+    assert abs(heavy.drives[k].ratio) > 4 * abs(light.drives[k].ratio)  # extra reduction
+    new, info = arm_with_load_ratio(heavy, 10.0, max_payload=5.0)
+    assert info["reached"] and info["load_ratio"] == pytest.approx(10.0, rel=1e-9)
 
 
 @pytest.mark.slow
@@ -78,14 +108,36 @@ def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm):
     assert slide > 1.0  # the adaptive slope decays faster once sliding (1.25 at this cell)
     assert doc["claims"]["lqr_gs"]["ratio"][0][0] == pytest.approx(
         fig3["max_error"]["lqr"] / fig3["max_error"]["lqr_gs"], rel=1e-6)
+    eq = doc["claims"]["lqr_equal_information"]["ratio"][0][0]
+    assert eq == pytest.approx(mx["lqr_equal_information"] / mx["lqr_gs"], rel=1e-12)
+    assert doc["speed_scale_run"] == [[1.0]] and doc["time_scaled"] == [[False]]
     again = run_claims(tmp_path / "c", workers=1, progress=False)
     assert again["settings"]["cells_cached"] == 1 and again["settings"]["cells_computed"] == 0
     assert again["claims"] == doc["claims"]
+
+
+def test_equal_information_lqr_is_the_fixed_lqr(arm):
+    """lqr_equal_information: lqr_gs on one table point at the middle of the H_11 range has
+    the fixed lqr's gains, and reads the measured H_11, c_1, Q_1 as lqr_gs does."""
+    from manipcad.control import synthesize
+    from manipcad.control.design import inertia_range
+
+    lo, hi = inertia_range(arm, 0)
+    mid = 0.5 * (lo + hi)
+    fixed = synthesize(arm, "turn", "lqr")
+    eq = synthesize(arm, "turn", "lqr_gs", load_range=(mid, mid))
+    gs = synthesize(arm, "turn", "lqr_gs")
+    assert fixed.design["H_nominal"] == mid
+    np.testing.assert_allclose(eq.design["table"].gains[0, 0], fixed.design["gains"],
+                               rtol=1e-12)
+    assert set(eq.needs) == set(gs.needs) and {"H_ii", "c_i", "Q_i"} <= set(eq.needs)
+    assert claims_mod.RATIOS["lqr_equal_information"] == ("lqr_equal_information", "lqr_gs")
 
 
 def test_cli_bad_options(tmp_path):
     runner = CliRunner()
     r = runner.invoke(app, ["study", "claims", "--grid", "huge", "--out", str(tmp_path / "x")])
     assert r.exit_code == 2 and "--grid" in r.output and "Traceback" not in r.output
-    r = runner.invoke(app, ["study", "claims", "--arm", "heavy", "--out", str(tmp_path / "x")])
-    assert r.exit_code == 2 and "not built" in r.output
+    r = runner.invoke(app, ["study", "claims", "--arm", str(tmp_path / "nope.yaml"), "--out",
+                            str(tmp_path / "x")])
+    assert r.exit_code == 2 and "nope.yaml" in r.output and "Traceback" not in r.output

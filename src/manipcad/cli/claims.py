@@ -2,7 +2,7 @@
 
 ::
 
-    manipcad study claims [--arm light|FILE] [--grid quick|full]
+    manipcad study claims [--arm light|industrial|heavy|FILE] [--grid quick|full]
                           [--workers N | --scheduler ADDRESS] --out DIR
 
 Writes claims.json, claims.png and report.html into DIR (the cells' cache in
@@ -34,8 +34,9 @@ def claims(
         "--ws", help="Workspace: the study folder is stored and indexed there "
         "(studies/NAME).")] = None,
     arm: Annotated[str, typer.Option(
-        "--arm", help="light (the catalog Fig. 2 arm) or a robot file with joints turn, lift, "
-        "reach.")] = "light",
+        "--arm", help="light (the catalog Fig. 2 arm), industrial (+3 kg arm, 2 kg payload, "
+        "CSF-20 on the turn), heavy (+5 kg arm, 5 kg payload, extra reach reduction) or a "
+        "robot file with joints turn, lift, reach.")] = "light",
     grid: Annotated[str, typer.Option("--grid", help="quick (4 × 4 cells) or full (7 × 7).")]
     = "quick",
     workers: Annotated[int | None, typer.Option(

@@ -43,6 +43,8 @@ def plot_claims(doc: Mapping[str, Any], path: str | Path, *, dpi: int = 100) -> 
     speeds = doc["grid"]["speed_scale"]
     rhos = doc["grid"]["load_ratio"]
     sat = _grid(doc["saturation"])
+    achieved = [row[0] for row in doc.get("load_ratio_achieved", [[r] for r in rhos])]
+    runs = doc.get("speed_scale_run", [[s for s in speeds] for _ in rhos])
     ids = list(claims)
     cols = 3
     rows = math.ceil(len(ids) / cols)
@@ -70,10 +72,15 @@ def plot_claims(doc: Mapping[str, Any], path: str | Path, *, dpi: int = 100) -> 
             for k in range(len(speeds)):
                 if math.isfinite(z[i, k]):
                     ax.text(k, i, f"{z[i, k]:.3g}", ha="center", va="center", fontsize=7)
+                if runs[i][k] != speeds[k]:  # time-scaled: the speed scale it ran at
+                    ran = "-" if runs[i][k] is None else f"{runs[i][k]:.2g}"
+                    ax.text(k, i - 0.32, f"s={ran}", ha="center", va="center", fontsize=5,
+                            color="0.25")
                 if math.isfinite(sat[i, k]) and sat[i, k] > SATURATED:
                     ax.add_patch(_hatch(k, i))
         ax.set_xticks(x, [f"{s:g}" for s in speeds])
-        ax.set_yticks(y, [f"{r:.3g}" for r in rhos])
+        ax.set_yticks(y, [f"{a:.3g}" if abs(a / r - 1) < 1e-6 else f"{a:.3g} (of {r:.3g})"
+                          for r, a in zip(rhos, achieved, strict=True)])
         ax.set_xlabel("speed scale s of laws (2)")
         ax.set_ylabel("load ratio ρ")
         unit = "overshoot" if overshoot else f"ratio (threshold {c['threshold']:g})"
@@ -100,13 +107,17 @@ def claims_html(doc: Mapping[str, Any], png: str | Path) -> str:
         section("The maps", figure(png, "Measured ratio per cell (rows: load ratio ρ, columns: "
                                         "speed scale s); black line: the paper's threshold; "
                                         f"hatched: an amplifier saturated more than "
-                                        f"{SATURATED:.0%} of the time.")),
+                                        f"{SATURATED:.0%} of the time; 's=…' under a "
+                                        "value: laws (2) time-scaled to that speed scale "
+                                        "(the sizing fails at the column's).")),
         section("Where each claim holds", table(["claim", "paper", "threshold", "where"],
                                                 rows)),
         section("Arm and grid", paragraph(
             f"Arm {arm['name']} ({arm['robot']}); speed scales {doc['grid']['speed_scale']}, "
-            f"load ratios {doc['grid']['load_ratio']}; {doc['settings']['laws']}. Not built: "
-            f"{', '.join(doc['not_built'])}.")),
+            f"load ratios {doc['grid']['load_ratio']} (achieved "
+            f"{[row[0] for row in doc.get('load_ratio_achieved', [])]}); "
+            f"{doc['settings']['laws']}. {doc['settings'].get('levers', '')}. "
+            f"{doc['settings'].get('time_scaling', '')}.")),
     ]
     return page("Where the paper's claims hold", parts,
                 subtitle=esc("manipcad study claims, created " + str(doc.get("created", ""))))

@@ -5,14 +5,22 @@
 - speed scale s of laws (2) (ω multiplied by s, the duration 1.6/s: the same
   motion, s times faster), ×
 - the turning motor's load ratio ρ = (J·i_r² + H_11,max)/(J·i_r² + H_11,min)
-  (:func:`arm_with_load_ratio`: a payload at the gripper raises the links'
-  H_11 range, then the turning gear ratio sets ρ exactly; the first row is the
-  arm as it is, ρ = 1.42 for the Fig. 2 arm, so the cell at s = 1 is the Fig. 3
-  experiment). On the Fig. 2 arm the gripper is 0.8 m from the turning axis
-  at the shortest reach, so a payload can raise H_max/H_min only to about
-  2.5: the grids stop at ρ = 2.2 (with up to 2 kg); the issue's ρ up to 10
-  needs an arm whose gripper passes near the turning axis (not built),
+  (:func:`arm_with_load_ratio`: a payload at the gripper up to the arm's rated
+  payload, then the reach stroke moved towards the turning axis and lengthened,
+  then the turning gear ratio; the first row is the arm as it is, ρ = 1.42 for
+  the Fig. 2 arm, so the cell at s = 1 is the Fig. 3 experiment; where the
+  levers cannot reach a row's ρ the arm at their ends is run and the ρ it
+  achieves is reported),
 
+on one of the arms (``ARMS``: ``light``, the catalog Fig. 2 arm;
+``industrial``, about 3 kg more arm, 2 kg payload, a Harmonic Drive
+CSF-20-100 on the turning joint; ``heavy``, 5 kg more arm, 5 kg payload, an
+RE 65 on the CSF-20-100 and a 4.3:1 gearhead on the reach; or a robot file).
+Every cell's arm is checked by the sizing module (:func:`sizing_failures`) on
+laws (2) at the cell's speed scale; where a motor or gear is over its limits
+the laws are time-scaled to the largest feasible speed scale below it
+(:func:`feasible_speed_scale`), and claims.json says so per cell
+(``speed_scale_run``, ``time_scaled``, ``sizing_failures``). Measured per cell:
 the Fig. 3 experiment's regulators on the turning drive (the same support
 regulators on the lift and the reach as ``study fig3``) and measures each
 claim as a ratio against its like-for-like baseline:
@@ -36,7 +44,10 @@ claim as a ratio against its like-for-like baseline:
   attributed step by step: ``lqr_gs_gains_only`` (the scheduled gains alone:
   ``lqr`` and ``lqr_gs`` both without feed-forward), ``lqr_gs_feedforward``
   (+ the reference feed-forward at the current load instead of the nominal
-  one), ``lqr_gs`` (+ the measured load torque).
+  one), ``lqr_gs`` (+ the measured load torque); and
+  ``lqr_equal_information``: a fixed-gain LQR (the ``lqr``'s one gain at the
+  middle of the H_11 range) given the same measured H_11, c_1, Q_1 and
+  feed-forward as ``lqr_gs``, / ``lqr_gs``: the share of the scheduled gains.
 
 Per cell also: the fraction of time any amplifier saturates (over all runs),
 the gripper's peak speed (m/s) and whether any run diverged. Every cell is
@@ -50,8 +61,6 @@ what another process left in the kernel cache.
 Files: ``claims.json`` (the layout of issue 13: rows over the load ratio,
 columns over the speed scale), ``claims.png`` (one heat map per claim, the
 threshold as a contour, saturated cells hatched) and ``report.html``.
-Not built (stated in claims.json under ``"not_built"``): the ``industrial`` and
-``heavy`` arm presets, load ratios above 2.2 and ``lqr_equal_information``.
 """
 
 from __future__ import annotations
@@ -75,25 +84,37 @@ from manipcad.study.fig3 import (
     LAWS,
     LIFT,
     REACH,
-    ROBOT,
     SKIP_ERRORS,
     TURN,
     _Hold,
     control_period,
     support_regulators,
-    turn_inertia,
 )
 
 #: the grids: speed scales (1 included) and load ratios (1.4 to 10)
-#: (None: the arm's own load ratio, the arm unchanged; the cell at speed scale 1 is then
-#: the Fig. 3 experiment)
+#: (None: the arm's own load ratio, the arm unchanged; on the light arm the cell at speed
+#: scale 1 is then the Fig. 3 experiment)
 GRIDS = {
-    "quick": {"speed_scale": [0.5, 1.0, 1.5, 2.0], "load_ratio": [None, 1.6, 1.9, 2.2]},
+    "quick": {"speed_scale": [0.5, 1.0, 1.5, 2.0], "load_ratio": [None, 2.5, 5.0, 10.0]},
     "full": {"speed_scale": [0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0],
-             "load_ratio": [None, 1.5, 1.6, 1.75, 1.9, 2.05, 2.2]},
+             "load_ratio": [None, 1.9, 2.5, 3.5, 5.0, 7.0, 10.0]},
 }
-#: the largest payload at the gripper used to raise the load ratio, kg
+#: the arm presets: name -> (catalog robot, rated payload at the gripper, kg: the largest
+#: payload used to raise the load ratio)
+ARMS = {"light": ("cylindrical", 2.0), "industrial": ("cylindrical_industrial", 2.0),
+        "heavy": ("cylindrical_heavy", 5.0)}
+#: the largest payload at the gripper of an arm given as a file, kg
 MAX_PAYLOAD = 2.0
+#: the reach-stroke lever (:func:`arm_with_load_ratio`): at its end the reach's retracted
+#: position is moved SHIFT_MAX m towards the turning axis and the stroke of laws (2)'s q3
+#: (0.5 m) lengthened to STROKE_MAX m
+SHIFT_MAX, STROKE_MAX = 0.55, 1.0
+#: the reach stroke of laws (2), m (q3 = 0.25(1 − cos 16t))
+STROKE = 0.5
+#: the gear-ratio lever: |i_r| at least this fraction of the arm's own
+RATIO_MIN_FRACTION = 0.1
+#: laws (2) are time-scaled down to at most this speed scale; below it a cell is skipped
+SPEED_SCALE_MIN = 0.05
 #: the claims: id -> (paper's words, threshold of the measured ratio)
 CLAIMS = {
     "ace_tf_observable": ("ACE (1) considerably increases the dynamic accuracy (Fig. 3, curve 2 "
@@ -114,6 +135,9 @@ CLAIMS = {
     "lqr_gs_feedforward": ("Self-adaptation raises the accuracy 6-8 times (scheduled gains and "
                            "the feed-forward at the current load, no measured load torque).",
                            6.0),
+    "lqr_equal_information": ("Self-adaptation raises the accuracy 6-8 times (against a "
+                              "fixed-gain LQR given the same measured signals and feed-forward: "
+                              "the scheduled gains' own share).", 6.0),
 }
 #: the tracking runs of a cell: label -> (method, options)
 TRACKING = {
@@ -127,6 +151,9 @@ TRACKING = {
     "lqr_gs_gains_only": ("lqr_gs", {"feedforward": False, "load_torque": False}),
     "lqr_gs_feedforward": ("lqr_gs", {"feedforward": True, "load_torque": False}),
     "lqr_gs": ("lqr_gs", {}),
+    # one gain (the lqr's, at the middle of the H_11 range) with the lqr_gs's measured
+    # H_11, c_1, Q_1 and its feed-forward at the current load: load_range set per cell
+    "lqr_equal_information": ("lqr_gs", {"load_range": "nominal"}),
 }
 #: ratio id -> (numerator run, denominator run)
 RATIOS = {
@@ -137,11 +164,12 @@ RATIOS = {
     "lqr_gs": ("lqr", "lqr_gs"),
     "lqr_gs_gains_only": ("lqr_no_feedforward", "lqr_gs_gains_only"),
     "lqr_gs_feedforward": ("lqr", "lqr_gs_feedforward"),
+    "lqr_equal_information": ("lqr_equal_information", "lqr_gs"),
 }
 #: the step of the turning drive, rad, and the length of a step run, s
 STEP, STEP_T_END = 0.1, 0.4
 #: a cell's code version (part of its cache key)
-CELL_VERSION = "4"
+CELL_VERSION = "5"
 #: an amplifier counts as saturated within this fraction of its limit
 SATURATION_TOL = 1e-6
 
@@ -150,68 +178,136 @@ def _tool_point(arm: Robot) -> np.ndarray:
     return np.asarray(arm.tool_p, dtype=float)
 
 
-def arm_with_load_ratio(arm: Robot, rho: float) -> tuple[Robot, dict[str, float]]:
-    """The arm changed so that the turning motor's load ratio is ``rho``.
+def turn_load_range(arm: Robot, stroke: float = STROKE) -> tuple[float, float]:
+    """H_11 (links only, kg·m²): its least and largest value over the reach stroke.
 
-    ρ = (J·i_r² + H_max)/(J·i_r² + H_min) over the reach stroke (q3 = 0 and
-    0.5 m). The links alone give at most H_max/H_min; a payload m_p at the
-    gripper (the tool point on the reach link) raises that to what ρ needs
-    (the smallest payload giving H_max/H_min ≥ 1.05·ρ, at most ``MAX_PAYLOAD``,
-    or none when the links suffice), then the turning gear ratio is set so that
-    J·i_r² = (H_max − ρ·H_min)/(ρ − 1) (its sign kept).
+    Sampled at 201 points of q3 in [0, stroke] m (lift and turn at 0: H_11 does not
+    depend on them); on the unchanged Fig. 2 arm these are q3 = 0 and 0.5 m.
+
+    Example:
+        >>> import manipcad
+        >>> lo, hi = turn_load_range(manipcad.load_robot("cylindrical"))
+        >>> round(lo, 4), round(hi, 4)
+        (0.4738, 0.7652)
+    """
+    from manipcad.dynamics import mass_matrix
+
+    j, k = arm.joint_index(TURN), arm.joint_index(REACH)
+    q = np.zeros((201, arm.n))
+    q[:, k] = np.linspace(0.0, stroke, 201)
+    H = mass_matrix(arm, q, drives=False)[:, j, j]
+    return float(H.min()), float(H.max())
+
+
+def _restroked(arm: Robot, lam: float) -> tuple[Robot, float, float]:
+    """The arm with the reach-stroke lever at ``lam`` in [0, 1]: (arm, shift m, stroke m)."""
+    if lam <= 0.0:
+        return arm, 0.0, STROKE
+    k = arm.joint_index(REACH)
+    shift, stroke = SHIFT_MAX * lam, STROKE + (STROKE_MAX - STROKE) * lam
+    offset = np.array(arm.offset, dtype=float)
+    offset[k] -= shift
+    changes = {"offset": offset}
+    if arm.limits is not None:
+        limits = np.array(arm.limits, dtype=float)
+        limits[k] = (0.0, max(limits[k, 1], stroke))
+        changes["limits"] = limits
+    return arm.replace(**changes), shift, stroke
+
+
+def _h_ratio(arm: Robot, m_p: float, lam: float) -> float:
+    new, _, stroke = _restroked(arm, lam)
+    if m_p > 0:
+        new = new.with_payload(m_p, _tool_point(arm), link=REACH)
+    lo, hi = turn_load_range(new, stroke)
+    return hi / lo
+
+
+def _bisect(f, lo: float, hi: float, target: float, tol: float = 1e-6) -> float:
+    """The least x in [lo, hi] with f(x) >= target, f increasing (f(hi) >= target)."""
+    for _ in range(60):
+        if hi - lo <= tol * max(1.0, abs(hi)):
+            break
+        mid = 0.5 * (lo + hi)
+        if f(mid) >= target:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def arm_with_load_ratio(arm: Robot, rho: float, *, max_payload: float = MAX_PAYLOAD
+                        ) -> tuple[Robot, dict[str, Any]]:
+    """The arm changed so that the turning motor's load ratio is ``rho`` (or as near as it goes).
+
+    ρ = (J·i_r² + H_max)/(J·i_r² + H_min), H over the reach stroke. The levers, the least
+    change first, each only as far as needed for H_max/H_min ≥ 1.05·ρ:
+
+    1. a payload m_p at the gripper (the tool point on the reach link), up to
+       ``max_payload`` kg;
+    2. with ``max_payload`` not enough, the reach stroke: its retracted position moved
+       towards the turning axis by up to ``SHIFT_MAX`` m and laws (2)'s q3 stroke
+       lengthened from 0.5 m to up to ``STROKE_MAX`` m, together (one lever λ in [0, 1];
+       the reach link's mass is kept: a longer tube is not added);
+    3. then the turning gear ratio so that J·i_r² = (H_max − ρ·H_min)/(ρ − 1) (its sign
+       kept; |i_r| at least ``RATIO_MIN_FRACTION`` of the arm's own).
+
+    When the levers at their ends do not reach ρ, the arm at those ends is returned and
+    ``info["reached"]`` is False: ``info["load_ratio"]`` is always the ratio achieved.
 
     Args:
         arm: an arm with joints turn, lift, reach and a drive on turn.
         rho: the load ratio wanted, > 1.
+        max_payload: the largest payload at the gripper, kg (>= 0).
 
     Returns:
-        ``(arm, info)``: the new arm and {"payload_kg", "ratio", "H_11_min",
-        "H_11_max", "load_ratio"} (kg, rad/rad, kg·m²).
+        ``(arm, info)``: the new arm and {"payload_kg", "shift_m", "stroke_m", "ratio",
+        "H_11_min", "H_11_max", "load_ratio", "target", "reached"} (kg, m, m, rad/rad,
+        kg·m², kg·m², 1, 1, bool).
 
     The arm's own ratio (:func:`own_load_ratio`) returns the arm unchanged.
-
-    Raises:
-        ManipcadError: ρ needs more than ``MAX_PAYLOAD`` at the gripper.
 
     Example:
         >>> import manipcad
         >>> arm, info = arm_with_load_ratio(manipcad.load_robot("cylindrical"), 1.9)
-        >>> round(info["load_ratio"], 9), round(info["payload_kg"], 3)
-        (1.9, 0.436)
+        >>> round(info["load_ratio"], 9), round(info["payload_kg"], 3), info["stroke_m"]
+        (1.9, 0.436, 0.5)
     """
     if not (isinstance(rho, int | float) and math.isfinite(rho) and rho > 1.0):
         raise InputError("load_ratio", "", f"must be a number > 1, got {rho!r}")
+    if not (isinstance(max_payload, int | float) and math.isfinite(max_payload)
+            and max_payload >= 0):
+        raise InputError("max_payload", "", f"must be a number >= 0 kg, got {max_payload!r}")
     j = arm.joint_index(TURN)
     d = arm.drives[j]
-    H0 = turn_inertia(arm)
-    hmin, hmax = H0["min_load"], H0["max_load"]
     own = own_load_ratio(arm)
+    hmin, hmax = turn_load_range(arm)
+    base = {"payload_kg": 0.0, "shift_m": 0.0, "stroke_m": STROKE, "ratio": d.ratio,
+            "H_11_min": hmin, "H_11_max": hmax, "load_ratio": own, "target": float(rho),
+            "reached": True}
     if abs(rho / own - 1.0) < 1e-9:
-        return arm, {"payload_kg": 0.0, "ratio": d.ratio, "H_11_min": hmin, "H_11_max": hmax,
-                     "load_ratio": own}
-    H1 = turn_inertia(arm.with_payload(1.0, _tool_point(arm), link=REACH))
-    dmin, dmax = H1["min_load"] - H0["min_load"], H1["max_load"] - H0["max_load"]
-    m_p = 0.0
+        return arm, base
     target = 1.05 * rho
-    if hmax / hmin < target:
-        m_p = (target * hmin - hmax) / (dmax - target * dmin) if dmax > target * dmin \
-            else math.inf
-        if m_p > MAX_PAYLOAD:
-            top = (hmax + MAX_PAYLOAD * dmax) / (hmin + MAX_PAYLOAD * dmin)
-            raise ManipcadError(f"a load ratio of {rho:g} needs more than {MAX_PAYLOAD:g} kg at "
-                                f"the gripper (with {MAX_PAYLOAD:g} kg and no rotor the links "
-                                f"reach {top / 1.05:.3g})")
-        hmin, hmax = hmin + m_p * dmin, hmax + m_p * dmax
-    Jr2 = (hmax - rho * hmin) / (rho - 1.0)
-    ratio = math.copysign(math.sqrt(Jr2 / d.J), d.ratio)
-    drives = list(arm.drives)
-    drives[j] = d.replace(ratio=ratio)
-    new = arm.replace(drives=tuple(drives))
+    m_p, lam = 0.0, 0.0
+    if hmax / hmin < target and max_payload > 0:
+        m_p = (max_payload if _h_ratio(arm, max_payload, 0.0) < target
+               else _bisect(lambda m: _h_ratio(arm, m, 0.0), 0.0, max_payload, target))
+    if _h_ratio(arm, m_p, 0.0) < target:
+        lam = (1.0 if _h_ratio(arm, m_p, 1.0) < target
+               else _bisect(lambda x: _h_ratio(arm, m_p, x), 0.0, 1.0, target))
+    new, shift, stroke = _restroked(arm, lam)
     if m_p > 0:
         new = new.with_payload(m_p, _tool_point(arm), link=REACH)
+    hmin, hmax = turn_load_range(new, stroke)
+    Jr2 = max((hmax - rho * hmin) / (rho - 1.0), d.J * (RATIO_MIN_FRACTION * d.ratio) ** 2)
+    ratio = math.copysign(math.sqrt(Jr2 / d.J), d.ratio)
+    drives = list(new.drives)
+    drives[j] = d.replace(ratio=ratio)
+    new = new.replace(drives=tuple(drives))
     got = (d.J * ratio**2 + hmax) / (d.J * ratio**2 + hmin)
-    return new, {"payload_kg": m_p, "ratio": ratio, "H_11_min": hmin, "H_11_max": hmax,
-                 "load_ratio": got}
+    return new, {"payload_kg": m_p, "shift_m": shift, "stroke_m": stroke, "ratio": ratio,
+                 "H_11_min": hmin, "H_11_max": hmax, "load_ratio": got, "target": float(rho),
+                 "reached": bool(abs(got / rho - 1.0) < 1e-6)}
 
 
 def own_load_ratio(arm: Robot) -> float:
@@ -223,9 +319,74 @@ def own_load_ratio(arm: Robot) -> float:
         1.422
     """
     d = arm.drives[arm.joint_index(TURN)]
-    H = turn_inertia(arm)
+    lo, hi = turn_load_range(arm)
     Jr2 = d.J * d.ratio**2
-    return (Jr2 + H["max_load"]) / (Jr2 + H["min_load"])
+    return (Jr2 + hi) / (Jr2 + lo)
+
+
+def laws(speed_scale: float, stroke: float = STROKE):
+    """Laws (2) at speed scale s with a reach stroke (m): q1 = 0.5(1 − cos 4s·t) rad,
+    q3 = stroke/2·(1 − cos 16s·t) m, for 1.6/s s.
+
+    Example:
+        >>> laws(2.0).duration
+        0.8
+    """
+    from manipcad.trajectories import cosine
+
+    s = float(speed_scale)
+    amp = list(LAWS["amplitude"])
+    amp[2] = 0.5 * stroke
+    return cosine(amp, [w * s for w in LAWS["omega"]], LAWS["duration"] / s)
+
+
+def sizing_failures(arm: Robot, speed_scale: float, stroke: float = STROKE) -> list[str]:
+    """The motor and gear limits the arm fails on laws (2) at this speed scale.
+
+    Runs :func:`manipcad.sizing.required_drive` (1 ms grid) and lists "joint: limit" for
+    every check whose status is "fail" (an unknown rating is not a failure).
+
+    Example:
+        >>> import manipcad
+        >>> sizing_failures(manipcad.load_robot("cylindrical"), 1.0)
+        []
+    """
+    from manipcad.sizing import required_drive
+
+    req = required_drive(arm, laws(speed_scale, stroke), dt=1e-3)
+    return [f"{arm.joint_names[j]}: {name}" for name, c in req.checks.items()
+            for j, st in enumerate(c.status) if st == "fail"]
+
+
+def feasible_speed_scale(arm: Robot, speed_scale: float, stroke: float = STROKE
+                         ) -> tuple[float | None, list[str]]:
+    """The speed scale a cell runs at: ``speed_scale`` if the sizing passes, else laws (2)
+    time-scaled to the largest feasible speed scale below it.
+
+    Returns:
+        ``(s_run, failures)``: s_run (``speed_scale`` itself, or the largest feasible
+        value found by bisection to 1 %, rounded down to 3 significant digits; None when
+        not even ``SPEED_SCALE_MIN`` passes) and the limits failed at ``speed_scale``.
+
+    Example:
+        >>> import manipcad
+        >>> feasible_speed_scale(manipcad.load_robot("cylindrical"), 1.0)
+        (1.0, [])
+    """
+    fails = sizing_failures(arm, speed_scale, stroke)
+    if not fails:
+        return float(speed_scale), []
+    if sizing_failures(arm, SPEED_SCALE_MIN, stroke):
+        return None, fails
+    lo, hi = SPEED_SCALE_MIN, float(speed_scale)
+    while hi / lo > 1.01:
+        mid = math.sqrt(lo * hi)
+        if sizing_failures(arm, mid, stroke):
+            hi = mid
+        else:
+            lo = mid
+    e = math.floor(math.log10(lo)) - 2
+    return round(math.floor(lo / 10.0**e) * 10.0**e, -e), fails
 
 
 def _saturation(res, arm: Robot) -> float:
@@ -238,8 +399,12 @@ def _saturation(res, arm: Robot) -> float:
     return float(sat.mean()) if sat.size else 0.0
 
 
-def claims_cell(*, speed_scale: float, load_ratio: float, arm: Robot, dt: float) -> dict:
+def claims_cell(*, speed_scale: float, load_ratio: float, arm: Robot, dt: float,
+                max_payload: float = MAX_PAYLOAD) -> dict:
     """One cell of the claims maps: every run and the ratios (SI units; see the module).
+
+    ``speed_scale`` is the speed scale the laws run at (after any time scaling, see
+    :func:`feasible_speed_scale`); the arm is :func:`arm_with_load_ratio` of ``arm``.
 
     Returns a dict with "max_error" (rad per tracking run), "rise_time" (s),
     "overshoot" (fraction), "ratio" (claim id -> measured ratio), "saturation",
@@ -247,31 +412,31 @@ def claims_cell(*, speed_scale: float, load_ratio: float, arm: Robot, dt: float)
     load-ratio change).
     """
     from manipcad.control import synthesize
+    from manipcad.control.design import inertia_range
     from manipcad.sim import SimulationDiverged, simulate
-    from manipcad.trajectories import cosine, gripper_speed
+    from manipcad.trajectories import gripper_speed
 
     out: dict[str, Any] = {"max_error": {}, "rise_time": {}, "overshoot": {}, "ratio": {},
                            "saturation": 0.0, "diverged": False, "skipped": {},
                            "warnings": {}, "sliding_rate": {}}
-    try:
-        cell_arm, info = arm_with_load_ratio(arm, load_ratio)
-    except ManipcadError as exc:
-        out["skipped"]["arm"] = str(exc)
-        out["peak_gripper_speed"] = None
-        out["arm"] = None
-        return out
+    cell_arm, info = arm_with_load_ratio(arm, load_ratio, max_payload=max_payload)
     out["arm"] = info
     period = control_period(dt)
     s = float(speed_scale)
     duration = LAWS["duration"] / s
-    traj = cosine(list(LAWS["amplitude"]), [w * s for w in LAWS["omega"]], duration)
+    traj = laws(s, info["stroke_m"])
     out["peak_gripper_speed"] = float(np.max(gripper_speed(
         cell_arm, traj, np.linspace(0.0, duration, 801))))
     support = support_regulators(cell_arm, period)
+    j1 = cell_arm.joint_index(TURN)
+    h_lo, h_hi = inertia_range(cell_arm, j1)
     sat = 0.0
 
     def run(label, method, options, **sim):
         nonlocal sat
+        if options.get("load_range") == "nominal":
+            mid = 0.5 * (h_lo + h_hi)
+            options = {**options, "load_range": (mid, mid)}
         try:
             reg = synthesize(cell_arm, TURN, method, period=period, **options)
         except SKIP_ERRORS as exc:
@@ -297,10 +462,10 @@ def claims_cell(*, speed_scale: float, load_ratio: float, arm: Robot, dt: float)
         if res is not None:
             v = res.metrics[TURN]["max_error"]
             out["max_error"][label] = float(v) if math.isfinite(v) else None
-    j1, j3 = cell_arm.joint_index(TURN), cell_arm.joint_index(REACH)
+    j3 = cell_arm.joint_index(REACH)
     Hmin = info["H_11_min"]
     steps = {"vss": ("vss", {}, 0.0), "asvs": ("asvs", {}, 0.0),
-             "vss_light": ("vss", {"load_range": (Hmin, Hmin)}, 0.5)}
+             "vss_light": ("vss", {"load_range": (Hmin, Hmin)}, info["stroke_m"])}
     for label, (method, options, q3) in steps.items():
         q0 = np.zeros(cell_arm.n)
         q0[j3] = q3
@@ -383,8 +548,9 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
     Args:
         out_dir: the output folder (created; its parent must exist); the cells'
             cache is kept in ``out_dir/cache``.
-        arm: "light" (the catalog Fig. 2 arm), a robot file or a Robot with
-            joints turn, lift, reach and drives.
+        arm: "light" (the catalog Fig. 2 arm), "industrial", "heavy" (the presets,
+            ``ARMS``), a robot file or a Robot with joints turn, lift, reach and drives
+            (the largest payload then ``MAX_PAYLOAD``).
         grid: "quick" (4 × 4 cells) or "full" (7 × 7).
         workers, scheduler: as :func:`manipcad.parallel.run_tasks` (default one
             worker process per core; 1: serial).
@@ -415,14 +581,11 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
     if not out.parent.is_dir():
         raise InputError(str(out), "", f"the parent folder {str(out.parent)!r} does not exist")
     if isinstance(arm, Robot):
-        robot, arm_name = arm, arm.name
-    elif arm == "light":
-        robot, arm_name = manipcad.load_robot(ROBOT), "light"
-    elif arm in ("industrial", "heavy"):
-        raise InputError("--arm", "", f"the {arm!r} preset is not built yet (issue 13); use "
-                         "light or a robot file")
+        robot, arm_name, max_payload = arm, arm.name, MAX_PAYLOAD
+    elif arm in ARMS:
+        robot, arm_name, max_payload = manipcad.load_robot(ARMS[arm][0]), arm, ARMS[arm][1]
     else:
-        robot, arm_name = manipcad.load_robot(arm), str(arm)
+        robot, arm_name, max_payload = manipcad.load_robot(arm), str(arm), MAX_PAYLOAD
     for name in (TURN, LIFT, REACH):
         try:
             j = robot.joint_index(name)
@@ -432,13 +595,42 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
         if robot.drives[j] is None:
             raise InputError(str(arm_name), name, "the claims study needs a drive here")
     g = dict(GRIDS[grid])
-    g["load_ratio"] = [own_load_ratio(robot) if r is None else r for r in g["load_ratio"]]
-    tasks = [{"speed_scale": s, "load_ratio": r} for r in g["load_ratio"]
-             for s in g["speed_scale"]]
+    targets = [own_load_ratio(robot) if r is None else r for r in g["load_ratio"]]
+    g["load_ratio"] = targets
+    # per row the arm; per cell the speed scale the sizing allows (laws (2) time-scaled
+    # where the motors or gears are over their limits)
+    rows, runs, fails = [], [], []
+    for rho in targets:
+        row_arm, info = arm_with_load_ratio(robot, rho, max_payload=max_payload)
+        rows.append(info)
+        # one bisection per row (from the grid's largest speed scale), so that the
+        # time-scaled cells of a row run at one speed scale (computed once)
+        s_max, _ = feasible_speed_scale(row_arm, max(g["speed_scale"]), info["stroke_m"])
+        r_runs, r_fails = [], []
+        for s in g["speed_scale"]:
+            f = sizing_failures(row_arm, s, info["stroke_m"])
+            r_runs.append(s if not f else (None if s_max is None else min(s, s_max)))
+            r_fails.append(f)
+        runs.append(r_runs)
+        fails.append(r_fails)
+    tasks, where = [], {}
+    for i, rho in enumerate(targets):
+        for s_run in runs[i]:
+            if s_run is not None and (rho, s_run) not in where:
+                where[(rho, s_run)] = len(tasks)
+                tasks.append({"speed_scale": s_run, "load_ratio": rho})
     out.mkdir(exist_ok=True)
-    cells = run_tasks(claims_cell, tasks, common={"arm": robot, "dt": dt}, workers=workers,
-                      scheduler=scheduler, cache_dir=out / "cache", progress=progress,
-                      desc="claims cells", version=CELL_VERSION)
+    done = run_tasks(claims_cell, tasks, common={"arm": robot, "dt": dt,
+                                                 "max_payload": max_payload},
+                     workers=workers, scheduler=scheduler, cache_dir=out / "cache",
+                     progress=progress, desc="claims cells", version=CELL_VERSION)
+    cells = []
+    for i, rho in enumerate(targets):
+        for k, s_run in enumerate(runs[i]):
+            if s_run is None:
+                cells.append(_infeasible_cell(rows[i], g["speed_scale"][k]))
+            else:
+                cells.append(done[where[(rho, s_run)]])
     R, S = len(g["load_ratio"]), len(g["speed_scale"])
 
     def table(fn):
@@ -465,9 +657,14 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
     doc = {
         "study": "claims",
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-        "arm": {"name": arm_name, "robot": robot.name,
+        "arm": {"name": arm_name, "robot": robot.name, "max_payload_kg": max_payload,
                 "cells": table(lambda c: c["arm"])},
         "grid": {"speed_scale": g["speed_scale"], "load_ratio": g["load_ratio"]},
+        "load_ratio_achieved": [[rows[i]["load_ratio"]] * S for i in range(R)],
+        "speed_scale_run": runs,
+        "time_scaled": [[r != s for r, s in zip(row, g["speed_scale"], strict=True)]
+                        for row in runs],
+        "sizing_failures": fails,
         "claims": claims,
         "saturation": table(lambda c: c["saturation"]),
         "peak_gripper_speed": table(lambda c: c["peak_gripper_speed"]),
@@ -480,18 +677,32 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
         "settings": {"dt": dt, "period": control_period(dt), "step": STEP,
                      "step_t_end": STEP_T_END, "laws": "q1 = 0.5(1 − cos 4s·t) rad, "
                      "q3 = 0.25(1 − cos 16s·t) m, duration 1.6/s s", "cells_computed":
-                     cells.computed, "cells_cached": cells.cached},
+                     done.computed, "cells_cached": done.cached,
+                     "time_scaling": "a cell whose arm fails a motor or gear limit of the "
+                     "sizing module on laws (2) at its speed scale runs at the largest "
+                     "feasible speed scale below it (speed_scale_run; time_scaled true); "
+                     "sizing_failures lists the limits failed at the requested scale",
+                     "levers": "load ratio raised by a payload at the gripper (up to "
+                     "max_payload_kg), then the reach stroke (retracted position moved up "
+                     f"to {SHIFT_MAX:g} m towards the turning axis, q3 stroke lengthened to "
+                     f"up to {STROKE_MAX:g} m), then the turning gear ratio; "
+                     "load_ratio_achieved per row"},
         "units": {"ratio": "1", "saturation": "fraction of time", "peak_gripper_speed": "m/s",
                   "sliding_rate": "1/s",
                   "max_error": "rad", "rise_time": "s", "overshoot": "fraction of the step"},
-        "not_built": ["the industrial and heavy arm presets",
-                      "load ratios above 2.2 (the Fig. 2 arm's gripper stays 0.8 m from the "
-                      "turning axis: a payload raises H_max/H_min to about 2.5 at most)",
-                      "lqr_equal_information"],
     }
     doc = json_safe(doc)
     _write(out, doc)
     return doc
+
+
+def _infeasible_cell(info: dict, speed_scale: float) -> dict:
+    """A cell whose arm fails the sizing even at ``SPEED_SCALE_MIN``: nothing run."""
+    return {"max_error": {}, "rise_time": {}, "overshoot": {}, "ratio": {}, "saturation": None,
+            "diverged": False, "warnings": {}, "sliding_rate": {}, "arm": info,
+            "peak_gripper_speed": None,
+            "skipped": {"cell": f"the motors or gears fail the sizing on laws (2) even at "
+                                f"speed scale {SPEED_SCALE_MIN:g}"}}
 
 
 def _where_below(grid, vals, limit):

@@ -11,6 +11,7 @@ frame is Pinocchio's frame placement composed with the file's xyz/rpy.
 from __future__ import annotations
 
 import dataclasses
+import math
 import shutil
 from pathlib import Path
 
@@ -250,7 +251,7 @@ def test_cli_robots_show_and_save(tmp_path):
     assert [j["number"] for j in data["joints"]] == list(range(1, 8))
     assert data["joints"][6]["link"] == "panda_link7"
     assert "panda_hand_tcp" in [f["name"] for f in data["links"]]
-    assert data["joints"][0]["drive"]["gear_rated_torque"] == 40.0
+    assert data["joints"][0]["drive"]["gear_rated_torque"] == 52.0     # CSG-20-100
     out = tmp_path / "panda_saved.yaml"
     res = runner.invoke(app, ["robots", "save", str(EXAMPLES / "panda" / "panda.yaml"), str(out)])
     assert res.exit_code == 0, res.output
@@ -263,8 +264,10 @@ def test_cli_robots_show_and_save(tmp_path):
 @pytest.mark.parametrize("which", ["ur5", "panda"])
 def test_examples_load_and_size(which):
     """The worked examples load from their own folder (no absolute path) and every check
-    that can be made passes on their trajectory; the EC 90 flat's maximum speed is not in
-    its source, so those speed checks stay unknown."""
+    that can be made passes on their trajectory. What their sources do not give stays
+    unknown: the EC 90 flat's maximum speed (its speed checks), and the CSG gears'
+    efficiency (every motor's torque and voltage checks: computed at η = 1 they pass,
+    but the gear loss is not known)."""
     from manipcad.sizing import required_drive
     from manipcad.trajectories import load_trajectory
 
@@ -274,8 +277,17 @@ def test_examples_load_and_size(which):
     assert "fail" not in req.status
     unknown = {(name, j) for name, c in req.checks.items() for j, s in enumerate(c.status)
                if s == "unknown"}
-    assert unknown == {("speed", j) for j, d in enumerate(robot.drives)
-                       if d.name == "maxon_ec90flat_244879"}
+    assert unknown == ({("speed", j) for j, d in enumerate(robot.drives)
+                        if d.name == "maxon_ec90flat_244879"}
+                       | {(k, j) for k in ("continuous", "peak", "voltage")
+                          for j in range(robot.n)})
+    assert all(d.gear.startswith("harmonic_csg") and math.isnan(d.efficiency)
+               for d in robot.drives)
+    for k in ("continuous", "peak", "voltage"):          # at η = 1 (a lossless gear)
+        c = req.checks[k]
+        assert (c.required < c.limit).all()
+    for k in ("gear_continuous", "gear_peak", "gear_speed"):
+        assert set(req.checks[k].status) == {"pass"}
 
 
 def test_payload_on_unknown_link_names_links_and_joints(urdf_dir):

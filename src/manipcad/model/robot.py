@@ -83,7 +83,9 @@ class Drive:
             needs a finite stiffness (the contact stiffness).
         efficiency: gear (chain) efficiency in (0, 1]; the motor supplies
             P/(i_r·η) while it drives the load and P·η/i_r while the load
-            drives it back (docs/sizing.md); 1 when unknown.
+            drives it back (docs/sizing.md); 1 when no gear is given, nan when the
+            gear's efficiency is unknown (its source gives none: sizing then
+            reports the motor torque and voltage checks it cannot make as unknown).
         gear_rated_torque: the gear's rated (continuous) output torque, N·m
             (N), referred to the joint (nan if unknown).
         gear_peak_torque: the gear's repeated-peak output torque, N·m (N),
@@ -136,8 +138,11 @@ class Drive:
         if self.backlash > 0 and not math.isfinite(self.stiffness):
             raise ModelError("drive backlash needs a contact stiffness: give a finite "
                              "stiffness (elasticity) too")
-        if not 0 < float(self.efficiency) <= 1:
-            raise ModelError(f"drive efficiency must be in (0, 1], got {self.efficiency}")
+        if math.isnan(float(self.efficiency)):   # one nan object: equal drives compare equal
+            object.__setattr__(self, "efficiency", math.nan)
+        elif not 0 < float(self.efficiency) <= 1:
+            raise ModelError(f"drive efficiency must be in (0, 1] (nan: unknown), "
+                             f"got {self.efficiency}")
 
     @property
     def elastic(self) -> bool:

@@ -192,6 +192,9 @@ def drive_to_dict(d: Drive) -> dict[str, Any]:
         out["gear_name"] = d.gear
     for key in _DRIVE_NUMBERS:
         v = float(getattr(d, key))
+        if key == "efficiency" and math.isnan(v):
+            out[key] = "unknown"          # not 1: the gear's source gives none
+            continue
         if math.isnan(v) or (key == "u_max" and math.isinf(v)) or (key == "backlash" and v == 0):
             continue
         out[key] = v

@@ -281,8 +281,9 @@ class DriveSpec(_Spec):
     rad/s, rated_voltage V, rated_current A; joint side: elasticity k_s N·m/rad
     or [k_s N·m/rad, d_s N·m·s/rad], backlash b rad (half the gap), gear
     ratings gear_rated_torque / gear_peak_torque N·m; gear_max_input_speed
-    rad/s on the motor shaft; efficiency η in (0, 1]; motor_name / gear_name
-    are labels for reports when no catalog part is named)."""
+    rad/s on the motor shaft; efficiency η in (0, 1], or "unknown" (what a
+    gear without a stated efficiency gives: sizing does not assume η = 1);
+    motor_name / gear_name are labels for reports when no catalog part is named)."""
 
     motor: str | None = None
     gear: NameList = None
@@ -290,7 +291,7 @@ class DriveSpec(_Spec):
     gear_name: str | None = None
     elasticity: Elasticity = None
     backlash: OptNum = None
-    efficiency: OptNum = None
+    efficiency: OptNum | Literal["unknown"] = None
     gear_rated_torque: OptNum = None
     gear_peak_torque: OptNum = None
     gear_max_input_speed: OptNum = None
@@ -386,7 +387,17 @@ class GearSpec(_Spec):
     efficiency, output torque limits (N·m, or N for linear ones), max input speed
     rad/s, torsional stiffness on the output N·m/rad (N/m; used as the contact
     stiffness when a drive gives backlash without elasticity), mass kg, and the
-    source."""
+    source.
+
+    The torque ratings, output side (N·m, or N): ``max_continuous_torque`` the
+    rated torque (a harmonic drive's at ``rated_input_speed``, rad/s, e.g. 2000
+    rpm), ``max_average_torque`` the limit for the average load torque,
+    ``max_intermittent_torque`` the repeated peak (acceleration) torque,
+    ``max_momentary_torque`` the momentary (emergency-stop, collision) peak. Input
+    speeds, rad/s: ``max_input_speed`` and ``max_average_input_speed`` (the limit
+    for the average input speed). A rating the source does not give is left out
+    (unknown); the loader checks the ones given are in the catalogues' order
+    (rated <= average <= repeated peak <= momentary; average speed <= max speed)."""
 
     source: str = Field(min_length=1)
     description: str = ""
@@ -402,6 +413,10 @@ class GearSpec(_Spec):
     max_input_speed: OptNum = None
     stiffness: OptNum = None
     mass: OptNum = None
+    rated_input_speed: OptNum = None
+    max_average_torque: OptNum = None
+    max_momentary_torque: OptNum = None
+    max_average_input_speed: OptNum = None
 
     @property
     def linear(self) -> bool:
@@ -511,11 +526,40 @@ def _load_spec(kind: str, file: str) -> MotorSpec | GearSpec:
             raise InputError(file, "ratio", f"must be > 0, got {spec.ratio}")
         if spec.efficiency is not None and not 0 < spec.efficiency <= 1:
             raise InputError(file, "efficiency", f"must be in (0, 1], got {spec.efficiency}")
+        _check_gear_ratings(spec, file)
     for key in ("J", "R", "L", "k_m", "k_w", "k_v"):
         v = getattr(spec, key, None)
         if v is not None and v < 0:
             raise InputError(file, key, f"must be >= 0, got {v}")
     return spec
+
+
+#: a gear's ratings that must come in this order where given (GearSpec docstring)
+_GEAR_ORDER: tuple[tuple[str, str], ...] = (
+    ("max_continuous_torque", "max_average_torque"),
+    ("max_continuous_torque", "max_intermittent_torque"),
+    ("max_average_torque", "max_intermittent_torque"),
+    ("max_intermittent_torque", "max_momentary_torque"),
+    ("max_continuous_torque", "max_momentary_torque"),
+    ("max_average_input_speed", "max_input_speed"),
+)
+
+
+def _check_gear_ratings(spec: GearSpec, file: str) -> None:
+    """Every rating given is > 0, and they come in the order of :data:`_GEAR_ORDER`
+    (a transcription that swapped two columns of a rating table fails here)."""
+    for key in ("max_continuous_torque", "max_average_torque", "max_intermittent_torque",
+                "max_momentary_torque", "max_input_speed", "max_average_input_speed",
+                "rated_input_speed", "stiffness", "mass"):
+        v = getattr(spec, key)
+        if v is not None and not v > 0:
+            raise InputError(file, key, f"must be > 0, got {v}")
+    for low, high in _GEAR_ORDER:
+        a, b = getattr(spec, low), getattr(spec, high)
+        if a is not None and b is not None and a > b:
+            raise InputError(file, high, f"{b:g} is below {low} {a:g}: the ratings must "
+                             f"come in the order rated <= average <= repeated peak <= "
+                             f"momentary (torque), average <= max (input speed)")
 
 
 def _resolve(kind: str, name: str, base_dir: Path | None) -> Path | None:
@@ -745,6 +789,8 @@ def build_drive(spec: DriveSpec, label: str, where: str, base_dir: Path | None =
         gear_name = " + ".join(spec.gear)
     explicit = spec.model_dump(exclude={"motor", "gear", "motor_name", "gear_name",
                                         "elasticity"}, exclude_none=True)
+    if explicit.get("efficiency") == "unknown":
+        explicit["efficiency"] = math.nan
     fields.update(explicit)
     motor_name = spec.motor_name or motor_name
     gear_name = spec.gear_name or gear_name
@@ -781,12 +827,13 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None
     """The drive fields a gear chain sets (gears from the motor outwards).
 
     ``J = sum_k J_k / (i_1···i_{k-1})²`` (kg·m², motor shaft), ``ratio = prod_k
-    direction_k·i_k``, ``efficiency = prod_k η_k`` (a gear without one counts
-    as 1), the output torque ratings referred to the joint (gear k's limit
-    times ``prod_{m>k} i_m·η_m``, the tightest over the chain, N·m or N) and
-    the input-speed limit referred to the motor shaft (gear k's limit times
-    ``i_1···i_{k-1}``, the tightest, rad/s). A rating that any gear of the
-    chain lacks is left out (unknown).
+    direction_k·i_k``, ``efficiency = prod_k η_k`` (nan, unknown, when a gear's
+    source gives none: the sizing then says so rather than assume η = 1), the
+    output torque ratings referred to the joint (gear k's limit times
+    ``prod_{m>k} i_m·η_m``, the tightest over the chain, N·m or N; unknown when a
+    later gear's efficiency is) and the input-speed limit referred to the motor
+    shaft (gear k's limit times ``i_1···i_{k-1}``, the tightest, rad/s). A rating
+    that any gear of the chain lacks is left out (unknown).
 
     Returns:
         (fields, stiffness): the :class:`Drive` fields, and the chain's
@@ -809,7 +856,7 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None
         J += g.J / before**2
         after = 1.0
         for m in gears[k + 1:]:
-            after *= m.ratio * (m.efficiency or 1.0)
+            after *= m.ratio * (math.nan if m.efficiency is None else m.efficiency)
         after_i = math.prod(m.ratio for m in gears[k + 1:])
         # a rating one gear of the chain lacks is unknown for the chain (nan)
         rated = min(rated, math.nan if g.max_continuous_torque is None
@@ -821,7 +868,7 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None
         if compliance is not None:
             compliance = (None if g.stiffness is None or g.stiffness <= 0
                           else compliance + 1.0 / (g.stiffness * after_i**2))
-        eta *= g.efficiency if g.efficiency is not None else 1.0
+        eta *= g.efficiency if g.efficiency is not None else math.nan
         before *= g.ratio
         ratio *= g.direction * g.ratio
     out: dict[str, float] = {"J": J, "ratio": ratio, "efficiency": eta}

@@ -19,7 +19,9 @@ of T_m (everything but the dry-friction step, see
 
     dT_m/dt = (dP_rigid/dt) / i_r + J·i_r·q⃛ + k_v·i_r·q̈
 
-Gear efficiency η (``Drive.efficiency``, 1 when unknown) acts on the load
+Gear efficiency η (``Drive.efficiency``; 1 without a gear, nan when the
+gear's source gives none, computed here as 1 and bounded by
+:func:`manipcad.sizing.requirements.required_drive`) acts on the load
 torque the gear passes, P_rigid: while the motor drives the load
 (P_rigid·q̇ >= 0, holding at rest included) it must supply P_rigid/(i_r·η);
 while the load drives the motor back (braking) only P_rigid·η/i_r:
@@ -36,6 +38,7 @@ every ratio in one pass.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -107,6 +110,8 @@ def efficiency_factor(drive: Drive, tau_rigid: np.ndarray, qd: np.ndarray) -> np
         [1.25, 0.8]
     """
     eta = float(drive.efficiency)
+    if math.isnan(eta):      # unknown: η = 1 here; the sizing bounds what it cannot know
+        eta = 1.0
     return np.where(tau_rigid * qd >= 0, 1.0 / eta, eta)
 
 

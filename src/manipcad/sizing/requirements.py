@@ -28,6 +28,8 @@ peak) and its input speed the motor speed.
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,7 +37,15 @@ import numpy as np
 
 from manipcad.fileio import json_safe
 from manipcad.model.robot import PRISMATIC, Drive, Robot
-from manipcad.sizing.limits import ALL_LIMITS, LimitCheck, check_limits, overall_status
+from manipcad.sizing.limits import (
+    ALL_LIMITS,
+    FAIL,
+    UNKNOWN,
+    LimitCheck,
+    check_limits,
+    margin,
+    overall_status,
+)
 from manipcad.sizing.motion import SampledMotion, sample_motion
 from manipcad.sizing.motor import motor_series
 from manipcad.sizing.stats import peak, time_mean, time_rms
@@ -242,6 +252,60 @@ def motor_side(motion: SampledMotion) -> dict[str, np.ndarray]:
     return out
 
 
+def efficiency_unknown(checks: dict[str, LimitCheck], motion: SampledMotion,
+                       t: np.ndarray) -> dict[str, LimitCheck]:
+    """The motor checks of the drives whose gear efficiency is unknown (nan), made honest.
+
+    The motor torque T_m = P_rigid·f/i_r + D/i_r (D: the drive's own terms, J, k_v,
+    M_f, referred to the joint) is computed with η = 1, which is not a bound: with
+    the true η in (0, 1], while the motor drives the load (P_rigid·q̇ >= 0)
+    |T_m| >= |P_rigid + D|/|i_r| only where P_rigid and D have the same sign, and
+    while the load drives it back |T_m| may be anywhere down to 0. So the lower
+    bound |T_m| >= |P_rigid + D|/|i_r| where both hold, else 0, is what can be
+    known: the continuous (RMS) and peak checks fail when that bound already
+    exceeds the rating (their ``required`` is then the bound), and are "unknown"
+    otherwise (``required`` stays the value at η = 1, margin nan); the voltage
+    check, which depends on η through the current and its rate, is "unknown".
+    Speed and gear checks do not depend on η and are kept.
+
+    Args:
+        checks: the checks of :func:`check_limits` (computed with η = 1 for these drives).
+        motion: the sampled motion.
+        t: its time grid, s.
+
+    Returns:
+        The checks, with those of the unknown-η drives replaced.
+    """
+    drives = motion.robot.drives
+    unknown = [j for j, d in enumerate(drives) if d is not None and math.isnan(d.efficiency)]
+    if not unknown:
+        return checks
+    out = dict(checks)
+    for name in ("continuous", "peak", "voltage"):
+        c = checks[name]
+        status = list(c.status)
+        req = np.array(c.required, dtype=float)
+        for j in unknown:
+            d = drives[j]
+            a = motion.tau_rigid[:, j]
+            b = motion.tau[:, j] - a
+            same = (a * b >= 0) & (a * motion.qd[:, j] >= 0)
+            lower = np.where(same, np.abs(a + b), 0.0) / abs(d.ratio)
+            if name == "voltage":
+                status[j] = UNKNOWN
+                continue
+            bound = float(peak(lower[:, None])[0] if name == "peak"
+                          else time_rms(lower[:, None], t)[0])
+            if bound > c.limit[j]:
+                status[j], req[j] = FAIL, bound
+            else:
+                status[j] = UNKNOWN
+        m = margin(req, c.limit)
+        m[[k for k, st in enumerate(status) if st == UNKNOWN]] = np.nan
+        out[name] = dataclasses.replace(c, required=req, margin=m, status=tuple(status))
+    return out
+
+
 def required_drive(robot: Robot, trajectory: Trajectory, *, t_end: float | None = None,
                    dt: float = 1e-3, payload: Any = None) -> DriveRequirements:
     """The drive torques, currents, voltages and powers a trajectory needs, and the motor checks.
@@ -297,12 +361,13 @@ def required_drive(robot: Robot, trajectory: Trajectory, *, t_end: float | None 
         "peak_elec_power": peak(elec), "mean_elec_power": time_mean(elec, t),
     }
     drives = motion.robot.drives
-    checks = check_limits({
+    required = {
         "continuous": summary["rms_motor_torque"], "peak": summary["peak_motor_torque"],
         "speed": summary["peak_motor_speed"], "voltage": summary["peak_voltage"],
         "gear_continuous": summary["rms_gear_torque"], "gear_peak": summary["peak_gear_torque"],
         "gear_speed": summary["peak_motor_speed"],
-    }, drives)
+    }
+    checks = efficiency_unknown(check_limits(required, drives), motion, t)
     return DriveRequirements(
         robot=motion.robot, drives=drives, t_end=motion.t_end, dt=motion.dt,
         payload_mass=motion.payload_mass, t=t, q=motion.q, qd=motion.qd, qdd=motion.qdd,

@@ -1,0 +1,159 @@
+"""The Harmonic Drive CSG catalog entries (sizes 14-32, docs/robot-files.md "Catalog
+parts"), the gear-rating validator, and what an unknown gear efficiency does to a sizing:
+it is never taken as η = 1 (a false pass), and a motor that fails even at the lower
+bound of its torque fails."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+import manipcad
+from manipcad.errors import InputError
+from manipcad.model.robot import Drive
+from manipcad.model.yaml_robot import CONSTANTS, compose_gears, load_gear
+from manipcad.sizing import required_drive
+from manipcad.trajectories import cosine, quintic
+
+RPM = CONSTANTS["rpm"]
+#: the CSG rating-table rows entered: size -> ratios (the table has no CSG-14-120/160,
+#: no CSG-17-160)
+CSG = {14: (50, 80, 100), 17: (50, 80, 100, 120), 20: (50, 80, 100, 120, 160),
+       25: (50, 80, 100, 120, 160), 32: (50, 80, 100, 120, 160)}
+#: size -> (max input speed grease rpm, moment of inertia kg·m²), per the table
+SIZE = {14: (8500, 0.033e-4), 17: (7300, 0.079e-4), 20: (6500, 0.193e-4),
+        25: (5600, 0.413e-4), 32: (4800, 1.690e-4)}
+
+
+@pytest.mark.parametrize("size, ratio", [(s, r) for s, rs in CSG.items() for r in rs])
+def test_csg_entry_loads_ordered_and_sourced(size, ratio):
+    g = load_gear(f"harmonic_csg{size}_{ratio}")
+    assert g.type == "harmonic" and g.ratio == ratio and g.direction == -1
+    assert g.max_continuous_torque <= g.max_average_torque <= g.max_intermittent_torque \
+        <= g.max_momentary_torque
+    assert g.max_input_speed == pytest.approx(SIZE[size][0] * RPM, rel=1e-15)
+    assert g.max_average_input_speed == pytest.approx(3500 * RPM, rel=1e-15)
+    assert g.rated_input_speed == pytest.approx(2000 * RPM, rel=1e-15)
+    assert g.J == pytest.approx(SIZE[size][1], rel=1e-12)
+    # what the transcription does not give stays unknown, and the source says so
+    assert g.efficiency is None and g.stiffness is None and g.mass is None
+    assert f"size {size}, ratio {ratio}" in " ".join(g.source.split())
+    assert "transcription" in g.source and "efficiency" in g.source
+
+
+def test_csg_25_100_cross_check():
+    """The row two further independent public notes confirm: 87 / 204 / 369 N·m."""
+    g = load_gear("harmonic_csg25_100")
+    assert (g.max_continuous_torque, g.max_intermittent_torque, g.max_momentary_torque) \
+        == (87, 204, 369)
+
+
+def test_rating_order_validator_names_the_field(tmp_path):
+    """A transcription that swapped two columns (rated above the repeated peak) fails
+    with the field named; so does an average input speed above the maximum."""
+    base = yaml.safe_load(open(load_gear.__globals__["CATALOG"].joinpath(
+        "gears", "harmonic_csg20_100.yaml"), encoding="utf-8"))
+    bad = dict(base, max_continuous_torque=120)
+    p = tmp_path / "swapped.yaml"
+    p.write_text(yaml.safe_dump(bad), encoding="utf-8")
+    with pytest.raises(InputError) as exc:
+        load_gear(str(p))
+    assert exc.value.field in ("max_average_torque", "max_intermittent_torque")
+    assert "order" in str(exc.value)
+    slow = dict(base, max_average_input_speed="9000*rpm")
+    p = tmp_path / "speed.yaml"
+    p.write_text(yaml.safe_dump(slow), encoding="utf-8")
+    with pytest.raises(InputError) as exc:
+        load_gear(str(p))
+    assert exc.value.field == "max_input_speed"
+    p = tmp_path / "neg.yaml"
+    p.write_text(yaml.safe_dump(dict(base, max_momentary_torque=-1)), encoding="utf-8")
+    with pytest.raises(InputError) as exc:
+        load_gear(str(p))
+    assert exc.value.field == "max_momentary_torque"
+
+
+def test_unknown_efficiency_composes_to_nan_and_round_trips(tmp_path):
+    f, _ = compose_gears([load_gear("harmonic_csg20_100")])
+    assert math.isnan(f["efficiency"])
+    assert (f["gear_rated_torque"], f["gear_peak_torque"]) == (52.0, 107.0)
+    assert f["gear_max_input_speed"] == pytest.approx(6500 * RPM, rel=1e-15)
+    # a chain: the rating of a gear before one of unknown efficiency is unknown too
+    f, _ = compose_gears([load_gear("wittenstein_tp004mf_10"), load_gear("harmonic_csg20_100")])
+    assert math.isnan(f["efficiency"]) and "gear_rated_torque" not in f
+    assert "gear_max_input_speed" in f                      # speeds need no efficiency
+    doc = {"name": "one", "joints": [{
+        "name": "j1", "type": "revolute", "dh": {"a": 0, "alpha": 0, "d": 0, "theta": 0},
+        "link": {"mass": 1.0, "com": [0.1, 0, 0], "inertia": {"ixx": 0.01, "iyy": 0.01,
+                                                               "izz": 0.01}},
+        "drive": {"motor": "maxon_ec90flat_244879", "gear": "harmonic_csg20_100"}}]}
+    p = tmp_path / "one.yaml"
+    p.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+    arm = manipcad.load_robot(p)
+    assert math.isnan(arm.drives[0].efficiency)
+    saved = arm.save(tmp_path / "saved.yaml")
+    assert "efficiency: unknown" in saved.read_text(encoding="utf-8")
+    assert math.isnan(manipcad.load_robot(saved).drives[0].efficiency)
+    # a designer who has the efficiency from his own data states it in the drive
+    doc["joints"][0]["drive"]["efficiency"] = 0.7
+    p.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+    assert manipcad.load_robot(p).drives[0].efficiency == 0.7
+
+
+def _one_joint(efficiency: float, rated_torque: float):
+    """One horizontal-axis joint, 2 kg at 0.3 m, through a CSG-20-100's ratings (SI)."""
+    f, _ = compose_gears([load_gear("harmonic_csg20_100")])
+    d = Drive(J=1e-4, ratio=100.0, R=1.0, L=1e-3, k_m=0.1, k_w=0.1, u_max=48.0,
+              rated_torque=rated_torque, peak_torque=10 * rated_torque, max_speed=600.0,
+              efficiency=efficiency, gear="harmonic_csg20_100",
+              gear_rated_torque=f["gear_rated_torque"], gear_peak_torque=f["gear_peak_torque"],
+              gear_max_input_speed=f["gear_max_input_speed"])
+    R_x = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])   # joint axis horizontal
+    return manipcad.Robot.from_arrays("one", ["revolute"], [-1], R_x[None], np.zeros((1, 3)),
+                                      [2.0], [[0.3, 0.0, 0.0]], np.eye(3)[None] * 0.01,
+                                      drives=[d])
+
+
+def test_unknown_efficiency_is_not_a_pass():
+    """Holding the arm horizontal needs m·g·c/(i_r·η) = 0.0589/η N·m. Against a 0.1 N·m
+    rating the old sizing (η taken as 1) said "pass"; with η unknown it cannot know
+    (η = 0.5 would need 0.118): "unknown". Against 0.05 N·m even the lower bound 0.0589
+    fails: "fail", unknown η or not. The gear checks, which do not depend on η, are
+    made with the CSG data (52 N·m rated against 0.59 N·m: pass)."""
+    hold = quintic([0.0], [0.0], 1.0)
+    need = 2.0 * 9.81 * 0.3 / 100.0
+    req = required_drive(_one_joint(math.nan, 0.1), hold, t_end=1.0)
+    assert req.checks["continuous"].status == ("unknown",)
+    assert math.isnan(req.checks["continuous"].margin[0])
+    assert req.checks["continuous"].required[0] == pytest.approx(need, rel=1e-9)  # at η = 1
+    assert req.checks["voltage"].status == ("unknown",)
+    assert req.checks["speed"].status == ("pass",)
+    for k in ("gear_continuous", "gear_peak", "gear_speed"):
+        assert req.checks[k].status == ("pass",)
+    assert req.checks["gear_continuous"].limit[0] == 52.0
+    assert req.status == ("unknown",)
+    # the same with a known efficiency is decided
+    known = required_drive(_one_joint(0.7, 0.1), hold, t_end=1.0)
+    assert known.checks["continuous"].status == ("pass",)
+    assert known.checks["continuous"].required[0] == pytest.approx(need / 0.7, rel=1e-9)
+    # a motor too weak even for the lossless bound fails, efficiency unknown or not
+    weak = required_drive(_one_joint(math.nan, 0.05), hold, t_end=1.0)
+    assert weak.checks["continuous"].status == ("fail",) and weak.status == ("fail",)
+    assert weak.checks["continuous"].required[0] == pytest.approx(need, rel=1e-9)
+
+
+def test_lower_bound_is_a_bound():
+    """Swinging (motoring and braking, acceleration against gravity): for every η in
+    (0, 1] the RMS and peak motor torque stay at or above the bound used for η unknown,
+    so a "fail" from the bound is a fail for the true gear."""
+    traj = cosine([0.8], [3.0], 2.0)
+    bound = required_drive(_one_joint(math.nan, 1e-3), traj)
+    assert bound.checks["continuous"].status == ("fail",)
+    rms_lb, peak_lb = (bound.checks[k].required[0] for k in ("continuous", "peak"))
+    for eta in (1.0, 0.9, 0.6, 0.3, 0.05):
+        r = required_drive(_one_joint(eta, 1e-3), traj)
+        assert r.rms_motor_torque[0] >= rms_lb * (1 - 1e-12)
+        assert r.peak_motor_torque[0] >= peak_lb * (1 - 1e-12)

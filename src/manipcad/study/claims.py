@@ -540,6 +540,37 @@ def _where(claim: str, grid: dict, ratio: list[list], threshold: float) -> str:
             f" at speed scales {', '.join(f'{s:g}' for s in speeds)}")
 
 
+def resolve_arm(arm: str | Robot, study: str = "claims") -> tuple[Robot, str, float]:
+    """The arm of a study: ``(robot, name, largest payload kg)`` from a preset name
+    (``ARMS``), a robot file or a Robot, checked to have joints turn, lift, reach with drives.
+
+    Raises:
+        InputError: the file cannot be read, or a joint or drive is missing (named).
+
+    Example:
+        >>> robot, name, m = resolve_arm("heavy")
+        >>> robot.name, m
+        ('cylindrical arm, heavy preset (5 kg payload)', 5.0)
+    """
+    import manipcad
+
+    if isinstance(arm, Robot):
+        robot, arm_name, max_payload = arm, arm.name, MAX_PAYLOAD
+    elif arm in ARMS:
+        robot, arm_name, max_payload = manipcad.load_robot(ARMS[arm][0]), arm, ARMS[arm][1]
+    else:
+        robot, arm_name, max_payload = manipcad.load_robot(arm), str(arm), MAX_PAYLOAD
+    for name in (TURN, LIFT, REACH):
+        try:
+            j = robot.joint_index(name)
+        except ManipcadError:
+            raise InputError(str(arm_name), name, f"the {study} study needs joints turn, "
+                             "lift, reach") from None
+        if robot.drives[j] is None:
+            raise InputError(str(arm_name), name, f"the {study} study needs a drive here")
+    return robot, arm_name, max_payload
+
+
 def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "quick",
                workers: int | None = None, scheduler: str | None = None, dt: float = 1e-4,
                progress: bool = True) -> dict:
@@ -568,7 +599,6 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
         >>> doc = run_claims("/tmp/claims", workers=1)  # doctest: +SKIP
         >>> sorted(doc["claims"])  # doctest: +SKIP
     """
-    import manipcad
     from manipcad.parallel import run_tasks
 
     if grid not in GRIDS:
@@ -576,24 +606,13 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
     if not (isinstance(dt, int | float) and math.isfinite(dt) and 0 < dt <= 1e-3):
         raise InputError("dt", "", f"must be in (0, 1e-3] s, got {dt!r}")
     out = Path(out_dir)
+    if workers is not None and scheduler is not None:
+        raise InputError("--scheduler", "", "give either --workers or --scheduler, not both")
     if out.exists() and not out.is_dir():
         raise InputError(str(out), "", "exists and is not a folder")
     if not out.parent.is_dir():
         raise InputError(str(out), "", f"the parent folder {str(out.parent)!r} does not exist")
-    if isinstance(arm, Robot):
-        robot, arm_name, max_payload = arm, arm.name, MAX_PAYLOAD
-    elif arm in ARMS:
-        robot, arm_name, max_payload = manipcad.load_robot(ARMS[arm][0]), arm, ARMS[arm][1]
-    else:
-        robot, arm_name, max_payload = manipcad.load_robot(arm), str(arm), MAX_PAYLOAD
-    for name in (TURN, LIFT, REACH):
-        try:
-            j = robot.joint_index(name)
-        except ManipcadError:
-            raise InputError(str(arm_name), name, "the claims study needs joints turn, lift, "
-                             "reach") from None
-        if robot.drives[j] is None:
-            raise InputError(str(arm_name), name, "the claims study needs a drive here")
+    robot, arm_name, max_payload = resolve_arm(arm, "claims")
     g = dict(GRIDS[grid])
     targets = [own_load_ratio(robot) if r is None else r for r in g["load_ratio"]]
     g["load_ratio"] = targets

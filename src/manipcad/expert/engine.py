@@ -611,7 +611,9 @@ def recommend(requirements: Requirements | dict | str | Path, robot=None, trajec
     needed, undecided = [], []
     for r, miss in pending:
         live = set(survivors)
-        harmless = (not (set(r.exclude) & live) and not ({m for m, _ in r.prefer} & live)
+        # a preference cannot reorder a single survivor
+        harmless = (not (set(r.exclude) & live)
+                    and (not ({m for m, _ in r.prefer} & live) or len(live) <= 1)
                     and (not r.require or live <= set(r.require)))
         (undecided if harmless else needed).append((r, miss))
     if needed:

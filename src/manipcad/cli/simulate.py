@@ -144,8 +144,8 @@ def simulate(
         "--integrator", help="rk4 (fixed step --dt, the reference), adaptive "
         "(error-controlled Dormand-Prince 5(4); steps never cross a regulator sample; --dt "
         "is then the sample/record grid and the smallest step) or adaptive-exact (the "
-        "same with the armature currents solved exactly: faster with drives, error of "
-        "the back-EMF coupling not controlled).")] = "rk4",
+        "same with the armature currents solved exactly: no step limit from L/R, their "
+        "error controlled too; fastest on drive jobs with stiff currents).")] = "rk4",
     rtol: Annotated[float | None, typer.Option(
         "--rtol", help="Adaptive integrator: relative tolerance of the local error "
         "(default 1e-6).")] = None,

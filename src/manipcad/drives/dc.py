@@ -175,20 +175,124 @@ def static_current(U: float, omega_m: float, p: np.ndarray) -> float:
 
 
 @numba.njit(cache=True)
+def phis(z: float) -> tuple[float, float, float, float, float]:
+    """The exponential integrators' φ_0..φ_4 at z, with one exponential.
+
+    φ_k(z) = (e^z - Σ_{j<k} z^j/j!) / z^k: φ_0 = e^z, φ_k(0) = 1/k!, and
+    t^(k+1)·k!·φ_(k+1)(λt) = ∫_0^t e^(λ(t-τ))·τ^k dτ. For |z| < 1 φ_4 by its Taylor
+    series and φ_k = z·φ_(k+1) + 1/k! downwards (no cancellation); beyond, the
+    recurrence φ_(k+1) = (φ_k - 1/k!)/z upwards from e^z.
+
+    Args:
+        z: argument (λ·t, -).
+
+    Returns:
+        (φ_0, φ_1, φ_2, φ_3, φ_4), -.
+
+    Example:
+        >>> import math
+        >>> from manipcad.drives.dc import phis
+        >>> abs(phis(-2.0)[1] - (1 - math.exp(-2.0)) / 2) < 1e-15
+        True
+        >>> phis(0.0) == (1.0, 1.0, 0.5, 1 / 6, 1 / 24)
+        True
+    """
+    if abs(z) < 1.0:
+        term = 1.0 / 24.0
+        p4 = term
+        for m in range(1, 30):
+            term *= z / (m + 4)
+            p4 += term
+            if abs(term) < 1e-17 * abs(p4):
+                break
+        p3 = z * p4 + 1.0 / 6.0
+        p2 = z * p3 + 0.5
+        p1 = z * p2 + 1.0
+        return z * p1 + 1.0, p1, p2, p3, p4
+    p0 = math.exp(z)
+    p1 = (p0 - 1.0) / z
+    p2 = (p1 - 1.0) / z
+    p3 = (p2 - 0.5) / z
+    return p0, p1, p2, p3, (p3 - 1.0 / 6.0) / z
+
+
+@numba.njit(cache=True)
+def armature_current_poly(i0: float, U: float, omega0: float, w1: float, w2: float,
+                          w3: float, t: float, p: np.ndarray) -> float:
+    """Armature current t s later, U held and the motor speed a cubic in time.
+
+    The exact solution of the armature equation L·di/dt + R·i + k_w·ω_m(τ) = u_a(U)
+    with ω_m(τ) = ω0 + w1·τ + w2·τ² + w3·τ³ over [0, t]: with λ = -R/L, z = λ·t and
+    the functions :func:`phis`,
+
+        i(t) = e^z·i0 + t·φ_1(z)·(u_a - k_w·ω0)/L
+               - (k_w/L)·(w1·t²·φ_2(z) + 2·w2·t³·φ_3(z) + 6·w3·t⁴·φ_4(z)),
+
+    which holds the lag of the current behind a changing back-EMF and is exact for
+    any L/R, however short. The adaptive integrator (:mod:`manipcad.sim.adaptive`)
+    advances the stiff current this way, the speed's polynomial taken from its own
+    stages.
+
+    Args:
+        i0: current at the start, A.
+        U: amplifier input held over the step, V.
+        omega0: motor speed at the start, rad/s.
+        w1, w2, w3: the speed's polynomial coefficients, rad/s², rad/s³, rad/s⁴.
+        t: step length, s (>= 0; 0 returns i0).
+        p: packed drive parameters (L > 0).
+
+    Returns:
+        i(t), A.
+
+    Example:
+        >>> import math
+        >>> from manipcad.drives.dc import armature_current_poly
+        >>> from manipcad.drives.params import pack_drive
+        >>> from manipcad.model.robot import Drive
+        >>> p = pack_drive(Drive(R=2.0, L=1e-3, k_m=.1, k_w=.1, k_u=1.0))
+        >>> i = armature_current_poly(0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 5e-4, p)  # one L/R
+        >>> abs(i - 0.5 * (1 - math.exp(-1.0))) < 1e-15
+        True
+    """
+    if t <= 0.0:
+        return i0
+    p0, p1, p2, p3, p4 = phis(-t * p[P_R] / p[P_L])
+    return armature_current_phis(i0, U, omega0, w1, w2, w3, t, p, p0, p1, p2, p3, p4)
+
+
+@numba.njit(cache=True)
+def armature_current_phis(i0: float, U: float, omega0: float, w1: float, w2: float,
+                          w3: float, t: float, p: np.ndarray, p0: float, p1: float,
+                          p2: float, p3: float, p4: float) -> float:
+    """:func:`armature_current_poly` with φ_0..φ_4 (-R·t/L) given (:func:`phis`).
+
+    For a caller that advances many currents over the same t (the adaptive
+    integrator's stages) and computes the φ once. Arguments and result as
+    :func:`armature_current_poly`; p0..p4: φ_0..φ_4 at z = -R·t/L, -.
+
+    Example:
+        >>> from manipcad.drives.dc import armature_current_phis, armature_current_poly, phis
+        >>> from manipcad.drives.params import pack_drive
+        >>> from manipcad.model.robot import Drive
+        >>> p = pack_drive(Drive(R=2.0, L=1e-3, k_m=.1, k_w=.1, k_u=1.0))
+        >>> i = armature_current_phis(0.3, 1.0, 5.0, 2e2, 0.0, 0.0, 1e-3, p, *phis(-2.0))
+        >>> i == armature_current_poly(0.3, 1.0, 5.0, 2e2, 0.0, 0.0, 1e-3, p)
+        True
+    """
+    L = p[P_L]
+    u_a = amplifier_voltage(U, p[P_KU], p[P_UMAX])
+    return (p0 * i0 + t * p1 * (u_a - p[P_KW] * omega0) / L
+            - p[P_KW] / L * t * t * (w1 * p2 + t * (2.0 * w2 * p3 + 6.0 * w3 * t * p4)))
+
+
+@numba.njit(cache=True)
 def armature_current_step(i0: float, U: float, omega0: float, omega1: float, t: float,
                           p: np.ndarray) -> float:
     """Armature current t s later, U held and the motor speed linear from ω0 to ω1.
 
-    The exact solution of the armature equation L·di/dt + R·i + k_w·ω_m(t) = u_a(U)
-    with ω_m going linearly from ``omega0`` to ``omega1`` over [0, t]: with
-    x = t·R/L, a0 = :func:`static_current` (U, ω0), a1 = static_current(U, ω1)
-    and φ(x) = (1 - e^(-x))/x,
-
-        i(t) = a0 + (i0 - a0)·e^(-x) + (a1 - a0)·(1 - φ(x)),
-
-    which holds the lag of the current behind a changing back-EMF. The adaptive
-    integrator (:mod:`manipcad.sim.adaptive`) advances the stiff current (L/R well
-    below the regulators' period) this way, whatever the step.
+    :func:`armature_current_poly` with the speed's slope (ω1 - ω0)/t: with x = t·R/L,
+    a0 = :func:`static_current` (U, ω0), a1 = static_current(U, ω1) and
+    φ(x) = (1 - e^(-x))/x it reads i(t) = a0 + (i0 - a0)·e^(-x) + (a1 - a0)·(1 - φ(x)).
 
     Args:
         i0: current at the start, A.
@@ -212,11 +316,7 @@ def armature_current_step(i0: float, U: float, omega0: float, omega1: float, t: 
     """
     if t <= 0.0:
         return i0
-    x = t * p[P_R] / p[P_L]
-    phi = -math.expm1(-x) / x
-    a0 = static_current(U, omega0, p)
-    a1 = static_current(U, omega1, p)
-    return a0 + (i0 - a0) * math.exp(-x) + (a1 - a0) * (1.0 - phi)
+    return armature_current_poly(i0, U, omega0, (omega1 - omega0) / t, 0.0, 0.0, t, p)
 
 
 @numba.njit(cache=True)

@@ -202,14 +202,15 @@ def simulate(
             5(4) on the whole state (q, q̇, currents), the step set by ``rtol``, ``atol``
             and the sample instants; "adaptive-exact": the same pair on q, q̇ with the
             armature currents advanced by the exact solution of the armature equation
-            (U held, motor speed linear over the stage) — no step limit from L/R, but
-            the error of that speed assumption is not controlled (measured: 1.8e-7 rad
-            on the PUMA PD job, 7e-4 m on the cylindrical arm's LQR-driven reach; see
-            docs/performance.md). With either adaptive one ``dt`` only sets the grid of
-            the sample and record times and of a time-varying disturbance (held over
-            each ``dt`` as RK4 holds it), and the smallest step: where the tolerance
-            asks for less, e.g. a joint sticking in dry friction, steps of ``dt`` are
-            taken and counted in ``settings``. Elastic gears and backlash
+            (U held, the motor speed a polynomial over the stage): no step limit from
+            L/R, and the currents' error (the speed polynomial's) estimated and held to
+            the same tolerance through its effect on the joint speed (see
+            :mod:`manipcad.sim.adaptive` and docs/performance.md). With either adaptive
+            one ``dt`` only sets the grid of the sample and record times and of a
+            time-varying disturbance (held over each ``dt`` as RK4 holds it), and the
+            smallest step: where the tolerance asks for less, e.g. a joint sticking in
+            dry friction, steps of ``dt`` are taken and counted in ``settings``. Elastic
+            gears and backlash
             (``transmissions``) need "rk4".
         rtol: relative tolerance of the adaptive integrator's local error (-, in
             [1e-12, 0.1]; default 1e-6); only with an adaptive integrator.

@@ -290,6 +290,16 @@ def test_examples_load_and_size(which):
         assert set(req.checks[k].status) == {"pass"}
 
 
+@pytest.mark.parametrize("which, mass", [("ur5", 1.0), ("panda", 0.5)])
+def test_unloaded_examples_match_their_arm(which, mass):
+    """`identify` models the arm without its payload (README there): the *_unloaded file
+    has the same drives and joints, and carries exactly the payload mass less."""
+    arm = manipcad.load_robot(EXAMPLES / which / f"{which}.yaml")
+    bare = manipcad.load_robot(EXAMPLES / which / f"{which}_unloaded.yaml")
+    assert arm.drives == bare.drives and arm.joint_names == bare.joint_names
+    assert arm.mass.sum() - bare.mass.sum() == pytest.approx(mass, abs=1e-12)
+
+
 def test_payload_on_unknown_link_names_links_and_joints(urdf_dir):
     ur5 = manipcad.load_robot(urdf_dir / "ur5_robot.urdf")
     with pytest.raises(ModelError, match="no link or joint named 'tol0'.*links are .*tool0.*"

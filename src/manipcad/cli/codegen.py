@@ -3,12 +3,16 @@
 ::
 
     manipcad codegen ROBOT [--out DIR] [--lang numba|c] [--stats] [--json] [--prefix P]
+                           [--regulators REG.yaml]
 
 Writes ``DIR/<prefix>_dynamics.py`` (numba) or ``DIR/<prefix>.h`` and
 ``DIR/<prefix>.c`` (C99), prefix the robot's name as a C identifier unless
 ``--prefix`` says otherwise; ``--stats`` prints the operation counts of the
 generated code (``--json``: as JSON, ``{"inverse_dynamics": {"mul": N, "add": N,
 "trig": N, "sqrt": N}, "mass_matrix": {...}, ...}``, files written silently).
+With ``--lang c --regulators REG.yaml`` it also writes ``DIR/<prefix>_regulators.h`` and
+``.c``: each regulator's update translated from the law the simulator runs
+(:mod:`manipcad.control.c_code`, API in docs/codegen.md).
 Bad input exits with status 2 and one line on stderr.
 """
 
@@ -41,6 +45,9 @@ def codegen(
     prefix: Annotated[str | None, typer.Option(
         "--prefix", help="C identifier prefix of the file and function names "
                          "(default: the robot's name).")] = None,
+    regulators: Annotated[str | None, typer.Option(
+        "--regulators", help="Regulator file (manipcad synthesize --out): also write each "
+                             "regulator's update as C (needs --lang c).")] = None,
 ) -> None:
     """Customized inverse dynamics, mass matrix, moment components and forward dynamics."""
     from manipcad.codegen import c_identifier, generate
@@ -52,6 +59,9 @@ def codegen(
         raise InputError("--prefix", "", f"must be a C identifier, got {prefix!r}")
     if out is None and not (stats or as_json):
         raise InputError("--out", "", "give a folder to write the code into, or --stats")
+    if regulators is not None and (lang != "c" or out is None):
+        raise InputError("--regulators", "", "needs --lang c and --out DIR (the regulators "
+                                              "are written as C)")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)  # data-set quirks, see robots show
         model = load_robot(robot)
@@ -61,6 +71,13 @@ def codegen(
     if not gen.generated:
         raise ManipcadError(f"cannot customize {robot}: {gen.reason}")
     p = prefix or c_identifier(model.name)
+    reg_code = None
+    if regulators is not None:
+        from manipcad.control.c_code import regulators_c
+        from manipcad.control.files import load_regulators
+
+        regs = load_regulators(regulators, model)
+        reg_code = regulators_c(regs, model, p, source=Path(regulators).name)
     written = []
     if out is not None:
         folder = Path(out)
@@ -73,6 +90,10 @@ def codegen(
                 (folder / f"{p}.h").write_text(hdr)
                 (folder / f"{p}.c").write_text(src)
                 written = [folder / f"{p}.h", folder / f"{p}.c"]
+                if reg_code is not None:
+                    (folder / f"{p}_regulators.h").write_text(reg_code[0])
+                    (folder / f"{p}_regulators.c").write_text(reg_code[1])
+                    written += [folder / f"{p}_regulators.h", folder / f"{p}_regulators.c"]
             else:
                 (folder / f"{p}_dynamics.py").write_text(gen.python_source())
                 written = [folder / f"{p}_dynamics.py"]

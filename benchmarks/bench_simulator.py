@@ -189,6 +189,7 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
     from manipcad.dynamics.aba import ABA_WORK, aba_one
     from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR
     from manipcad.sim.loop import Plant, _rates, regulator_update
+    from manipcad.sim.pickup import no_pickup
 
     dtable = pack_drives(robot.drives, order=3)
     off = state_offsets(dtable)
@@ -273,7 +274,7 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
     rparam[:, PID_KP], rparam[:, PID_KD], rparam[:, PID_ULIM] = KP, KD, U_LIMIT
     plant = Plant(rtable, np.ascontiguousarray(robot.table), g, dtable, off, True, False,
                   np.tile([-np.inf, np.inf], (robot.n, 1)),
-                  *simulation_kernels(robot, rtable, use_generated=False))
+                  *simulation_kernels(robot, rtable, use_generated=False), no_pickup())
 
     def per_call(fn, *args):
         fn(10, *args)  # compile

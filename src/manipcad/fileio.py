@@ -479,6 +479,27 @@ def writable_target(path: str | Path) -> Path:
     return p
 
 
+def writable_folder(path: str | Path) -> Path:
+    """Check that ``path`` may be written as a whole folder (:func:`write_folder`): its
+    parent exists and it is not a file. A study checks this before it computes.
+
+    Raises:
+        InputError: "exists and is not a directory", or "the parent directory ... does
+            not exist".
+
+    Example:
+        >>> import tempfile, pathlib
+        >>> writable_folder(pathlib.Path(tempfile.mkdtemp()) / "out").name
+        'out'
+    """
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise InputError(str(out), "", "exists and is not a directory")
+    if not out.parent.is_dir():
+        raise InputError(str(out), "", f"the parent directory {str(out.parent)!r} does not exist")
+    return out
+
+
 def atomic_write(path: str | Path, write: Callable[[IO[Any]], Any], *,
                  binary: bool = False) -> Path:
     """Write a file atomically: to a temporary file beside it, then renamed over it.

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from numba.extending import register_jitable
 
 from manipcad.errors import ModelError
 
@@ -577,10 +578,15 @@ def _check_finite(robot: Robot) -> None:
                          f"(±inf: none, never nan), got {lim[i].tolist()}", field="limits")
 
 
+@register_jitable
 def combine_bodies(m1: float, c1: np.ndarray, I1: np.ndarray,
                    m2: float, c2: np.ndarray, I2: np.ndarray):
     """Merge two rigid bodies given in one frame (masses kg, centres m, inertias
-    about their own centres kg·m²) into one: (mass, centre, inertia about it)."""
+    about their own centres kg·m²) into one: (mass, centre, inertia about it).
+
+    Plain Python, and callable from compiled (numba) code too: the online payload
+    estimator writes the model's payload link with it each period
+    (:mod:`manipcad.control.estimator`)."""
     m = m1 + m2
     if m <= 0:
         return 0.0, np.zeros(3), I1 + I2
@@ -588,6 +594,7 @@ def combine_bodies(m1: float, c1: np.ndarray, I1: np.ndarray,
     return m, c, I1 + I2 + _shift(m1, c1 - c) + _shift(m2, c2 - c)
 
 
+@register_jitable
 def _shift(m: float, d: np.ndarray) -> np.ndarray:
     """Parallel-axis term m(|d|²E - d dᵀ), kg·m²."""
     return m * (d @ d * np.eye(3) - np.outer(d, d))

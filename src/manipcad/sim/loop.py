@@ -27,6 +27,7 @@ import numba as nb
 import numpy as np
 
 from manipcad.analysis.realtime import components_one
+from manipcad.control.estimator import estimator_update
 from manipcad.control.registry import dispatch
 from manipcad.control.signals import (
     NSIG,
@@ -68,10 +69,16 @@ regulator_update = dispatch()
 #: kernels (manipcad.codegen.simulation_kernels) replace the general ones: forward
 #: dynamics on rtable, links' mass matrix and moment components on ctable
 Plant = namedtuple("Plant", "rtable ctable g dtable off use_drives generic_drives limits "
-                            "gen gen_fd gen_mass gen_comp")
+                            "gen gen_fd gen_mass gen_comp pick")
+#: a payload picked up at step ``step`` (-1: none): the plant's body table becomes ``rtable``
+#: (with the drive terms) and, with ``model``, the regulators' model table ``ctable``;
+#: ``done`` (1,) marks it done
+Pickup = namedtuple("Pickup", "step rtable ctable model done")
 #: the regulators (R of them): kind code (R,), parameters (R, NPARAM), states (R, NSTATE),
-#: joints (R, n) and their count (R,), period in steps (R,), moment constituents needed
-Control = namedtuple("Control", "kind params state joints nj steps need_comp")
+#: joints (R, n) and their count (R,), period in steps (R,), moment constituents needed,
+#: and ``est``: the online payload estimator (:class:`manipcad.control.estimator.Estimator`,
+#: ``on`` false when there is none)
+Control = namedtuple("Control", "kind params state joints nj steps need_comp est")
 #: rows of the steps being run: q*, q̇*, q̈* (m, n) and disturbance torques (m, n)
 Reference = namedtuple("Reference", "q qd qdd dist")
 #: kept samples: t (M,) s; q, q̇, U, i, τ (M, n)
@@ -241,9 +248,16 @@ def sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait):
     """Sample the regulators due at step k (``wait[r] == 0``): fill the signal matrix once,
     run each due regulator through the registry's dispatch (its output held in U) and set
     its ``wait`` to its period in steps. Both integrators call this, so the regulators see
-    the same instants and signals whichever integrates between them."""
+    the same instants and signals whichever integrates between them. Here too: a payload
+    picked up at step ``plant.pick.step`` (:func:`_pick_up`), and the online payload
+    estimator every ``ctrl.est.steps`` steps, after the regulators."""
+    pick = plant.pick
+    if pick.step >= 0 and pick.done[0] == 0 and k >= pick.step:
+        _pick_up(plant)
+    est = ctrl.est
+    est_due = est.on and k % est.steps == 0
     R = ctrl.kind.shape[0]
-    due = False
+    due = est_due
     for r in range(R):
         if wait[r] == 0:
             due = True
@@ -255,6 +269,19 @@ def sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait):
             wait[r] = ctrl.steps[r]
             regulator_update(ctrl.kind[r], ctrl.params[r], ctrl.state[r], sig, H,
                              ctrl.joints[r], ctrl.nj[r], ctrl.steps[r] * dt, U)
+    # the estimator after the regulators: they read its estimate at the next sample
+    if est_due:
+        estimator_update(est, sig, plant.ctable, est.steps * dt)
+
+
+@nb.njit(cache=True)
+def _pick_up(plant):
+    """The payload step: the plant's table (and, if the model follows it, the model's)."""
+    pick = plant.pick
+    pick.done[0] = 1
+    plant.rtable[:, :] = pick.rtable
+    if pick.model:
+        plant.ctable[:, :] = pick.ctable
 
 
 @nb.njit(cache=True)

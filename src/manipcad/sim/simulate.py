@@ -61,7 +61,10 @@ class SimulationResult:
             settling time (of a step), control effort, energy.
         robot: the robot's name; joint_names, joint_types: its joints ("revolute" in rad,
             "prismatic" in m; ``units`` maps each joint to its unit).
-        settings: dt, t_end and the regulators' descriptions.
+        settings: dt, t_end and the regulators' descriptions (and the pickup, the
+            estimator and the model's payload when given).
+        payload_estimate: with ``estimator=``: (M, 2), the time (s) and the online payload
+            estimate (kg) after each of the estimator's samples; else None.
     """
 
     t: np.ndarray
@@ -77,6 +80,7 @@ class SimulationResult:
     settings: dict = field(default_factory=dict)
     metrics: dict = field(default_factory=dict)
     joint_types: tuple[str, ...] = ()
+    payload_estimate: np.ndarray | None = None
 
     @property
     def units(self) -> dict[str, str]:
@@ -154,6 +158,9 @@ def simulate(
     integrator: str = "rk4",
     rtol: float | None = None,
     atol: float | None = None,
+    pickup: dict | None = None,
+    estimator=None,
+    model_payload: str | None = None,
 ) -> SimulationResult:
     """Simulate the closed loop: coupled multibody dynamics, DC drives, sampled regulators.
 
@@ -216,6 +223,17 @@ def simulate(
             [1e-12, 0.1]; default 1e-6); only with an adaptive integrator.
         atol: absolute tolerance on q (rad or m) and q̇ (rad/s or m/s) (> 0; default
             1e-8); only with an adaptive integrator.
+        pickup: an unknown payload gripped mid-run: ``{"mass": kg, "t": s, "com": [x, y,
+            z] m, "inertia": (3, 3) kg·m², "link": ...}`` (com, inertia and link as
+            ``payload``): the plant's link takes it at the step of time t (0 < t < t_end;
+            :mod:`manipcad.sim.pickup`). Needs ``integrator="rk4"``.
+        estimator: a :class:`manipcad.control.estimator.PayloadEstimator`, the online
+            payload estimator, run at its period inside the loop (after the regulators);
+            its estimate is in ``result.payload_estimate``.
+        model_payload: the payload the regulators' model signals (H_ii, c_i, Q_i, H)
+            assume: "true" (the plant's, the pickup known at once; the default without an
+            estimator), "nominal" (the robot as given, the pickup unknown) or "online" (the
+            estimator's estimate; the default with one).
 
     Returns:
         :class:`SimulationResult`.
@@ -246,6 +264,15 @@ def simulate(
     if int(record_every) < 1:
         raise ManipcadError(f"record_every must be >= 1, got {record_every}")
     robot = _with_payload(robot, payload)
+    # the payload picked up mid-run, the online estimator and what the model knows
+    from manipcad.sim import pickup as pk
+
+    model_payload = pk.model_payload_of(model_payload, estimator)
+    picked = None if pickup is None else pk.picked_robot(robot, pickup, t_end, dt)
+    if (picked is not None or estimator is not None) and adaptive:
+        raise ManipcadError(f"integrator={integrator!r}: a pickup or an online estimator "
+                            "needs integrator='rk4' (the adaptive steps do not stop at the "
+                            "pickup and may skip the estimator's samples)")
     from manipcad.budget import check_steps
 
     # the reference is sampled chunk by chunk: memory follows the kept samples (t, q, q̇, U,
@@ -284,16 +311,22 @@ def simulate(
     x0 = np.concatenate([x_q, x_qd, _drive_initial_state(dtable, off, x_q, x_qd)])
     generic = any(int(dtable[j, P_KIND]) not in (KIND_NONE, KIND_RIGID, KIND_RIGID_STATIC)
                   for j in range(n))
-    gen = simulation_kernels(robot, rtable, use_generated=use_generated)
+    gen = simulation_kernels(robot, rtable, use_generated=use_generated and picked is None
+                             and estimator is None)
     limits = (np.tile([-math.inf, math.inf], (n, 1)) if robot.limits is None
               or joint_limits == "ignore" else np.array(robot.limits, dtype=float))
     # excursions below a millionth of the joint's range are rounding, not a limit hit
     span = limits[:, 1] - limits[:, 0]
     tol = np.where(np.isfinite(span), np.maximum(1e-6 * span, 1e-12), 0.0)
     wide = np.column_stack([limits[:, 0] - tol, limits[:, 1] + tol])
-    plant = Plant(rtable, np.ascontiguousarray(robot.table), np.asarray(robot.gravity, float),
-                  dtable, off, bool(drives), generic, wide, *gen)
-    ctrl, described = _pack_regulators(robot, regulators, dt)
+    ctable = np.array(robot.table)  # the regulators' model (a pickup or the estimator edit it)
+    plant = Plant(rtable, ctable, np.asarray(robot.gravity, float),
+                  dtable, off, bool(drives), generic, wide, *gen,
+                  pk.no_pickup() if picked is None else
+                  pk.pickup_part(picked[0], picked[1], dtable, model_payload == "true"))
+    est = pk.estimator_part(estimator, robot, dt, K, ctable, feed=model_payload == "online",
+                            drives=bool(drives))
+    ctrl, described = _pack_regulators(robot, regulators, dt, est)
     if adaptive and generic:
         raise ManipcadError(f"integrator={integrator!r} handles rigid drives only; elastic "
                             "gears and backlash (transmissions=...) need integrator='rk4'")
@@ -323,9 +356,14 @@ def simulate(
         t=t, q=rec.q[:kept], qd=rec.qd[:kept], q_ref=QR, qd_ref=QDR,
         u=rec.u[:kept], current=rec.i[:kept], tau=rec.tau[:kept],
         joint_names=robot.joint_names, joint_types=tuple(robot.joint_types), robot=robot.name,
+        payload_estimate=None if estimator is None else pk.estimate_series(est, dt),
         settings={"dt": dt, "t_end": t_end, "drives": bool(drives), "order": order,
                   "regulators": described, "generated": bool(gen[0]),
                   "integrator": integrator,
+                  **({"pickup": picked[2]} if picked is not None else {}),
+                  **({"estimator": estimator.describe()} if estimator is not None else {}),
+                  **({"model_payload": model_payload}
+                     if picked is not None or estimator is not None else {}),
                   **({"rtol": rtol, "atol": atol, "steps": int(stats[1]),
                       "rejected": int(stats[2]), "rhs_evaluations": int(stats[3]),
                       "steps_at_dt_above_tolerance": int(stats[4])}
@@ -558,7 +596,7 @@ def _flatten(regulators) -> list[Regulator]:
     return out
 
 
-def _pack_regulators(robot: Robot, regulators, dt: float):
+def _pack_regulators(robot: Robot, regulators, dt: float, est=None):
     """The regulators as a :class:`~manipcad.sim.loop.Control` (parameters packed once)."""
     n = robot.n
     regs = _flatten(regulators)
@@ -597,7 +635,11 @@ def _pack_regulators(robot: Robot, regulators, dt: float):
         steps[r] = int(round(s))
         need_comp = need_comp or any(s_ in MODEL_SIGNALS for s_ in reg.needs)
         described[", ".join(robot.joint_names[j] for j in idx)] = reg.describe()
-    return Control(kind, params, state, joints, nj, steps, need_comp), described
+    if est is None:
+        from manipcad.control.estimator import idle
+
+        est = idle(n)
+    return Control(kind, params, state, joints, nj, steps, need_comp, est), described
 
 
 __all__ = ["simulate", "SimulationResult", "SimulationDiverged", "JointLimitExceeded"]

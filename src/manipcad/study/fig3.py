@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError, ManipcadError
-from manipcad.fileio import json_safe
+from manipcad.fileio import json_safe, writable_folder
 from manipcad.model.robot import Robot
 
 #: the robot of the study (catalog name)
@@ -439,11 +439,7 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
     from manipcad.trajectories import cosine, gripper_speed
 
     t_end = _check_args(dt, t_end, step, step_t_end)
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputError(str(out), "", "exists and is not a directory")
-    if not out.parent.is_dir():
-        raise InputError(str(out), "", f"the parent directory {str(out.parent)!r} does not exist")
+    out = writable_folder(out_dir)
     tracking_v, step_v = _select(methods)
 
     arm = manipcad.load_robot(ROBOT) if robot is None else robot

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -81,3 +83,15 @@ def rel_err(a, b) -> float:
     """Largest difference relative to the largest magnitude (1 when both are tiny)."""
     a, b = np.asarray(a), np.asarray(b)
     return float(np.abs(a - b).max() / max(np.abs(b).max(), 1.0))
+
+
+@pytest.fixture(scope="session")
+def dask_scheduler():
+    """The address of one LocalCluster of 2 worker processes, shared by the tests that
+    compare serial and distributed runs (one cluster start, ~5-15 s, for all of them)."""
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None, memory_limit=0,
+                      silence_logs=logging.ERROR) as cluster:
+        yield cluster.scheduler_address

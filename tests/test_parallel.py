@@ -7,7 +7,7 @@ import pytest
 
 import manipcad
 from manipcad.errors import InputError, ManipcadError
-from manipcad.parallel import TaskFailed, run_tasks, task_key
+from manipcad.parallel import Pool, TaskFailed, run_tasks, task_key
 from manipcad.sizing import ratio_sweep
 from manipcad.trajectories import cosine
 
@@ -153,3 +153,22 @@ def test_existing_cluster_by_address():
         remote = run_tasks(_square, tasks, common={"offset": 0.25},
                            scheduler=cluster.scheduler_address, chunk=2, progress=False)
     assert list(remote) == list(serial) and remote.computed == 6
+
+
+def test_pool_started_ahead_longest_first(dask_scheduler, monkeypatch):
+    """A Pool (the client started in a background thread, a warm-up run on every worker)
+    gives the serial results in task order, whatever order the costs hand the tasks out."""
+    tasks = [{"base": 2, "exp": k} for k in range(8)]
+    serial = run_tasks(pow, tasks, workers=1, progress=False)
+    with Pool(scheduler=dask_scheduler, warm=abs) as pool:  # abs(): fails, ignored
+        r = run_tasks(pow, tasks, pool=pool, cost=lambda t: -t["exp"], chunk=3,
+                      progress=False)
+        with pytest.raises(InputError, match="pool"):
+            run_tasks(pow, tasks, pool=pool, workers=2, progress=False)
+    assert list(r) == list(serial) == [2 ** k for k in range(8)]
+    from manipcad.parallel import executor
+
+    monkeypatch.setattr(executor, "CONNECT_TIMEOUT", 0.5)
+    with pytest.raises(InputError, match="cannot connect"), \
+            Pool(scheduler="tcp://127.0.0.1:9") as p:
+        p.client()

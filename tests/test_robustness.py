@@ -42,12 +42,11 @@ def test_perturbed_arm_factors(arm):
     assert np.array_equal(new.mass, again.mass) and not np.array_equal(new.mass, other.mass)
 
 
-@pytest.mark.slow
-def test_serial_equals_two_workers_and_cache(tmp_path, arm):
-    """The same numbers serially and on a 2-worker LocalCluster (about 8 s: the cluster's
-    start and its workers' imports); a rerun computes nothing, more samples only the new."""
+def test_serial_equals_two_workers_and_cache(tmp_path, arm, dask_scheduler):
+    """The same numbers serially and on 2 worker processes (the session's shared cluster);
+    a rerun computes nothing, more samples only the new."""
     serial = run_robustness(tmp_path / "s", arm=arm, workers=1, **SMALL)
-    dist = run_robustness(tmp_path / "d", arm=arm, workers=2, **SMALL)
+    dist = run_robustness(tmp_path / "d", arm=arm, scheduler=dask_scheduler, **SMALL)
     assert serial["max_error"] == dist["max_error"] and serial["nominal"] == dist["nominal"]
     assert all(v is not None and v > 0 for m in ("none_sce", "lqr")
                for v in serial["max_error"][m])

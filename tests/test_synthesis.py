@@ -300,9 +300,10 @@ def test_lqr_table_equals_direct_gains_at_grid_points(arm, lqr_gs_reg):
             np.testing.assert_allclose(table.at(H, h), direct, rtol=1e-10)
 
 
-def test_lqr_table_in_parallel_equals_serial(arm, lqr_gs_reg):
+def test_lqr_table_in_parallel_equals_serial(arm, lqr_gs_reg, dask_scheduler):
+    """The table on 2 worker processes (the session's shared cluster) = the serial one."""
     reg = synthesize(arm, "turn", "lqr_gs", period=DT, h_range=(-40.0, 40.0), grid=(6, 5),
-                     n_jobs=2)
+                     scheduler=dask_scheduler)
     np.testing.assert_array_equal(reg.design["table"].gains, lqr_gs_reg.design["table"].gains)
     np.testing.assert_array_equal(reg.params, lqr_gs_reg.params)
 

@@ -219,6 +219,19 @@ def _check(workers: Any, scheduler: Any, chunk: Any, tasks: Any) -> tuple[int | 
     return workers, items
 
 
+def check_workers(workers: Any, scheduler: Any) -> int | None:
+    """``workers`` checked (a whole number >= 1 or None) and not given with ``scheduler``.
+
+    Raises:
+        InputError: naming the argument and the reason.
+
+    Example:
+        >>> check_workers(2, None)
+        2
+    """
+    return _check(workers, scheduler, 1, [])[0]
+
+
 def default_workers() -> int:
     """Worker processes of the default LocalCluster: one per core.
 
@@ -233,7 +246,8 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
               common: Mapping[str, Any] | None = None, workers: int | None = None,
               scheduler: str | None = None, cache_dir: str | Path | None = None,
               chunk: int = 1, batched: bool = False, progress: bool = True,
-              desc: str = "tasks", version: str = "") -> Results:
+              desc: str = "tasks", version: str = "", cost: Callable | None = None,
+              pool: Pool | None = None) -> Results:
     """Compute ``func`` on every task, serially or on Dask distributed, reusing cached results.
 
     Args:
@@ -253,6 +267,11 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
         progress: show a progress bar of tasks done (rich, on stderr).
         desc: the progress bar's label.
         version: a label of ``func``'s code version, part of the cache key.
+        cost: an estimate of a task's run time (any unit), ``cost(task) -> float``: on a
+            cluster the chunks are handed out longest first, so that the workers finish
+            together (the results do not depend on it).
+        pool: a :class:`Pool` (a cluster started ahead, while the caller prepared its
+            tasks); excludes ``workers`` and ``scheduler``. The pool is not closed.
 
     Returns:
         :class:`Results`: a list of the results in task order, with ``.computed``
@@ -276,6 +295,8 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
         ([9, 32], 1, 1)
     """
     workers, items = _check(workers, scheduler, chunk, tasks)
+    if pool is not None and (workers is not None or scheduler is not None):
+        raise InputError(SOURCE, "pool", "give a pool or workers/scheduler, not both")
     common = dict(common or {})
     results = Results([None] * len(items))
     todo = list(range(len(items)))
@@ -300,6 +321,8 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
     results.cached = len(items) - len(todo)
     results.computed = len(todo)
     chunks = [todo[i:i + chunk] for i in range(0, len(todo), chunk)]
+    if cost is not None:  # longest first (the chunks themselves stay in task order)
+        chunks.sort(key=lambda idx: -sum(float(cost(items[k])) for k in idx))
 
     def done(idx: list[int], values: list) -> None:
         for k, v in zip(idx, values, strict=True):
@@ -311,12 +334,14 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
         bar = _progress(stack, progress, desc, len(items), results.cached)
         if not chunks:
             return results
-        if scheduler is None and (workers or default_workers()) == 1:
+        if pool is None and scheduler is None and (workers or default_workers()) == 1:
             for idx in chunks:
                 done(idx, _guarded(func, batched, common, items, idx))
                 bar(len(idx))
             return results
-        _run_dask(stack, func, batched, common, items, chunks, workers, scheduler, done, bar)
+        client = pool.client() if pool is not None else \
+            _start_client(stack, workers, scheduler)
+        _run_dask(client, func, batched, common, items, chunks, done, bar)
     return results
 
 
@@ -343,29 +368,109 @@ def _progress(stack: ExitStack, show: bool, desc: str, total: int, already: int)
     return lambda k: prog.advance(tid, k)
 
 
-def _run_dask(stack, func, batched, common, items, chunks, workers, scheduler, done, bar):
-    from distributed import Client, LocalCluster, as_completed
+def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None):
+    """A Dask client of a new LocalCluster (``workers`` processes) or of ``scheduler``,
+    closed with ``stack``."""
+    from distributed import Client, LocalCluster
 
+    # not entered as context managers: a Pool starts them in another thread, and a
+    # client entered there could not be left here (its context variable)
     if scheduler is not None:
         try:
-            client = stack.enter_context(Client(scheduler, timeout=CONNECT_TIMEOUT))
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
         except (OSError, TimeoutError) as exc:
             raise InputError(SOURCE, "scheduler", f"cannot connect to {scheduler}: "
                              f"{exc}") from None
     else:
         n = workers or default_workers()
-        cluster = stack.enter_context(LocalCluster(
-            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-            memory_limit=0, silence_logs=logging.ERROR))
-        client = stack.enter_context(Client(cluster))
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=None, memory_limit=0,
+                               silence_logs=logging.ERROR)
+        stack.callback(cluster.close)
+        client = Client(cluster, set_as_default=False)
+    stack.callback(client.close)
+    return client
+
+
+class Pool:
+    """A Dask cluster started in a background thread while the caller prepares its tasks.
+
+    The worker processes start, import their modules and run ``warm`` (e.g. load the
+    compiled kernels) while this process goes on; :func:`run_tasks` (``pool=``) then
+    waits only for what is left of that. Use as a context manager (closes the cluster).
+
+    Args:
+        workers: worker processes of a LocalCluster (default one per core).
+        scheduler: the address of a running scheduler instead.
+        warm: a module-level function run once on every worker at start (its
+            failures are ignored: a task then does the work itself).
+
+    Raises:
+        InputError: bad ``workers`` or ``scheduler`` (at once), or the scheduler cannot be
+            reached (from :meth:`client`).
+
+    Example:
+        >>> with Pool(workers=2) as pool:  # doctest: +SKIP
+        ...     run_tasks(pow, [{"base": 2, "exp": 3}], pool=pool, progress=False)
+        [8]
+    """
+
+    def __init__(self, workers: int | None = None, scheduler: str | None = None,
+                 warm: Callable | None = None) -> None:
+        import threading
+
+        self._workers = check_workers(workers, scheduler)
+        self._scheduler = scheduler
+        self._warm = warm
+        self._stack = ExitStack()
+        self._client = None
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._start, name="manipcad-pool-start",
+                                        daemon=True)
+        self._thread.start()
+
+    def _start(self) -> None:
+        try:
+            self._client = _start_client(self._stack, self._workers, self._scheduler)
+        except BaseException as exc:  # noqa: BLE001 - raised in client()
+            self._error = exc
+            return
+        if self._warm is not None:
+            try:
+                self._client.run(self._warm)
+            except Exception:  # noqa: BLE001 - warming is an optimization only
+                pass
+
+    def client(self):
+        """The started client (waits for the start and the warm-up to finish)."""
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._client
+
+    def close(self) -> None:
+        """Close the client and the cluster."""
+        self._thread.join()
+        self._stack.close()
+
+    def __enter__(self) -> Pool:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _run_dask(client, func, batched, common, items, chunks, done, bar):
+    from distributed import as_completed
+
     [shared] = client.scatter([common], broadcast=True, hash=False)
     futures = {}
-    for idx in chunks:
+    for rank, idx in enumerate(chunks):  # in the order given: the first run first
         fut = client.submit(_run_chunk, func, batched, shared, [items[k] for k in idx],
-                            pure=False)
+                            pure=False, priority=len(chunks) - rank)
         futures[fut] = idx
     try:
-        for fut in as_completed(list(futures)):
+        for fut in as_completed(list(futures), loop=client.loop):
             idx = futures[fut]
             try:
                 values = fut.result()

@@ -10,7 +10,6 @@ gives nan (for example the current of a joint whose motor is unknown).
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import trapezoid
 
 
 def peak(x: np.ndarray, axis: int = 0) -> np.ndarray:
@@ -33,7 +32,7 @@ def time_mean(x: np.ndarray, t: np.ndarray, axis: int = 0) -> np.ndarray:
         1.0
     """
     T = float(t[-1] - t[0])
-    return trapezoid(x, t, axis=axis) / T
+    return np.trapezoid(x, t, axis=axis) / T
 
 
 def time_rms(x: np.ndarray, t: np.ndarray, axis: int = 0) -> np.ndarray:

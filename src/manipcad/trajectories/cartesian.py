@@ -41,7 +41,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from manipcad.errors import InputError
 from manipcad.kinematics.forward import frames, resolve_point
@@ -190,6 +189,8 @@ class CartesianTrajectory(Trajectory):
                     f"the {self.kind} path of {self.robot.name!r} meets a singularity at "
                     f"t = {t:.4g} s (q = {np.array2string(q, precision=4)})", q=q.copy())
             return qd
+
+        from scipy.integrate import solve_ivp  # lazy: 1-3 s of import, rarely needed
 
         sol = solve_ivp(rates, (0.0, T), self.q_start, method="DOP853", rtol=_RTOL,
                         atol=_ATOL, dense_output=True, max_step=T / 50.0)

@@ -161,6 +161,10 @@ def test_study_writes_the_files_the_issue_asks(study):
         assert set(e) == {"true_mass", "online", "nominal"}
         assert all(v > 0 for v in e.values())
     assert data["estimator"]["operations_per_period"]["rls"]["mul"] == 14
+    # whatever regulator moves the arm, the sliding-mode one with its switching currents
+    # included (the window-averaged torque keeps its ripple from biasing the estimate)
+    for meth, v in data["estimate_by_method"].items():
+        assert abs(v["final"] - MASS) <= 0.02 * MASS and v["settling_time"] is not None, meth
 
 
 def test_study_online_estimate_helps_where_the_model_matters(study):

@@ -19,9 +19,13 @@ Per period T (sample s, time s·T):
 1. the joint torques from the currents, τ_j = i_r·k_m·(i_j + ν_j)
    (:func:`manipcad.drives.dc.rigid_joint_torque`; ν: an optional simulated current
    noise, A);
-2. the acceleration of the previous sample by the central difference
-   q̈_{s−1} = (q̇_s − q̇_{s−2})/(2T) (no accelerometer; exact to O(T²));
-3. one step of recursive least squares with forgetting on the sample s−1
+2. the mean acceleration over the two periods about the previous sample,
+   q̈_{s−1} = (q̇_s − q̇_{s−2})/(2T) (no accelerometer; exact for that mean), and the
+   joint torques averaged over the same window by the trapezoid rule,
+   τ̄_{s−1} = (τ_{s−2} + 2·τ_{s−1} + τ_s)/4 (the current is smooth between samples and
+   kinks at them, where U steps: a switching regulator's ripple would otherwise bias the
+   estimate, since the instantaneous current and the mean acceleration disagree);
+3. one step of recursive least squares with forgetting on that window (q, q̇ at s−1)
    (:func:`manipcad.dynamics.rls.payload_rls_step`: y = τ − τ_0(q, q̇, q̈) =
    m·g(q, q̇, q̈), two inverse-dynamics passes and 4k + 2 multiplications);
 4. with ``feed``: the model's payload link rewritten as the nominal link plus a point
@@ -50,7 +54,7 @@ from manipcad.model.robot import COL_COM, COL_IC, COL_MASS, TABLE_COLS, Robot, c
 #: the compiled component (numba-typed): see :func:`PayloadEstimator.pack`. ``on``: the
 #: component runs; ``steps``: its period in integration steps; ``feed``: the model's payload
 #: link follows the estimate; ``state``: the RLS state [m̂ kg, S, periods]; ``aux``:
-#: [samples taken]; ``hist`` (4, n): q, q̇, τ of the previous sample and q̇ of the one
+#: [samples taken]; ``hist`` (5, n): q, q̇, τ of the previous sample, q̇ and τ of the one
 #: before; ``log`` (M,): m̂ after each sample, kg; ``noise`` (M, n): current noise, A
 Estimator = namedtuple(
     "Estimator", "on steps feed state aux hist log noise dtable table0 table_unit gravity "
@@ -98,10 +102,12 @@ def estimator_update(est, sig, ctable, Ts):
     if s >= 2:
         for j in range(n):
             qdd[j] = (sig[j, S_QD] - h[3, j]) / (2.0 * Ts)
+            h[4, j] = 0.25 * (h[4, j] + 2.0 * h[2, j] + tau[j])  # τ̄ of the window
         payload_rls_step(est.state, est.table0, est.table_unit, est.gravity, h[0], h[1], qdd,
-                         h[2], est.sel, est.w, est.vmin, est.lam, est.info_min, est.drives,
+                         h[4], est.sel, est.w, est.vmin, est.lam, est.info_min, est.drives,
                          zero_fext, work, tmp, tau0, gunit, y, gs, ws)
     for j in range(n):
+        h[4, j] = h[2, j]
         h[3, j] = h[1, j]
         h[0, j] = sig[j, S_Q]
         h[1, j] = sig[j, S_QD]
@@ -240,7 +246,7 @@ class PayloadEstimator:
         body = self.body
         return Estimator(
             True, int(round(s)), bool(feed), c.state.copy(), np.zeros(1, dtype=np.int64),
-            np.zeros((4, n)), np.full(samples, np.nan), noise, dtable, _own(c.table0),
+            np.zeros((5, n)), np.full(samples, np.nan), noise, dtable, _own(c.table0),
             _own(c.table_unit), _own(c.gravity), _own(c.sel), _own(c.w), _own(c.vmin),
             float(c.lam), float(c.info_min), bool(c.drives),
             int(body), np.ascontiguousarray(self.com_in_body),
@@ -261,7 +267,7 @@ class PayloadEstimator:
         fields = est._asdict()
         for key in ("state", "hist", "table0", "table_unit", "gravity", "w", "vmin", "dtable"):
             fields[key] = _counted(np.asarray(fields[key], dtype=float))
-        fields["hist"] = _counted(rng.uniform(0.2, 1.0, (4, n)))
+        fields["hist"] = _counted(rng.uniform(0.2, 1.0, (5, n)))
         fields["state"] = _counted([0.3, 5.0, 10.0])
         fields["lam"] = Counted(est.lam)
         fields["info_min"] = Counted(est.info_min)
@@ -284,7 +290,7 @@ def idle(n: int) -> Estimator:
     """The compiled component of a run without an estimator (``on`` false; same types)."""
     z = np.zeros((1, TABLE_COLS))
     return Estimator(False, 1, False, np.zeros(STATE_SIZE), np.zeros(1, dtype=np.int64),
-                     np.zeros((4, n)), np.zeros(0), np.zeros((0, n)),
+                     np.zeros((5, n)), np.zeros(0), np.zeros((0, n)),
                      pack_drives([None] * n), np.zeros((n, TABLE_COLS)),
                      np.zeros((n, TABLE_COLS)), np.zeros(3), np.zeros(0, dtype=np.int64),
                      np.zeros(0), np.zeros(0), 1.0, 0.0, True, 0, np.zeros(3), z[0].copy(),

@@ -157,3 +157,28 @@ def test_lower_bound_is_a_bound():
         r = required_drive(_one_joint(eta, 1e-3), traj)
         assert r.rms_motor_torque[0] >= rms_lb * (1 - 1e-12)
         assert r.peak_motor_torque[0] >= peak_lb * (1 - 1e-12)
+
+
+def test_cli_size_says_why_unknown(tmp_path):
+    """`manipcad size` on a drive through a CSG gear: exit 1 (unknown), and it names the
+    unknown gear efficiency as the reason; --allow-unknown exits 0."""
+    from typer.testing import CliRunner
+
+    from manipcad.cli import app
+    from manipcad.trajectories import save_trajectory
+
+    doc = {"name": "one", "joints": [{
+        "name": "j1", "type": "revolute", "dh": {"a": 0, "alpha": "pi/2", "d": 0, "theta": 0},
+        "link": {"mass": 1.0, "com": [0.1, 0, 0], "inertia": {"ixx": 0.01, "iyy": 0.01,
+                                                               "izz": 0.01}},
+        "drive": {"motor": "maxon_ec45flat_411812", "gear": "harmonic_csg14_100"}}]}
+    robot = tmp_path / "one.yaml"
+    robot.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
+    traj = tmp_path / "t.yaml"
+    save_trajectory(cosine([0.5], [2.0], 2.0), traj)
+    runner = CliRunner()
+    res = runner.invoke(app, ["size", str(robot), "-t", str(traj)], env={"COLUMNS": "200"})
+    assert res.exit_code == 1, res.output
+    assert "gear efficiency unknown" in res.stdout and "not taken as 1" in res.stdout
+    res = runner.invoke(app, ["size", str(robot), "-t", str(traj), "--allow-unknown"])
+    assert res.exit_code == 0, res.output

@@ -238,6 +238,13 @@ def _print_tables(req, source: str) -> None:
     if unknown:
         console.print(f"[yellow]not fully checked (a rating or the motor's electrical data "
                       f"unknown; exit 1 unless --allow-unknown):[/] {escape(', '.join(unknown))}")
+        eta = [req.joint_names[j] for j in range(req.n) if req.drives[j] is not None
+               and math.isnan(req.drives[j].efficiency)]
+        if eta:
+            console.print(f"[yellow]gear efficiency unknown (its source gives none; not "
+                          f"taken as 1): motor torque and voltage checks unknown unless "
+                          f"even a lossless gear fails them (docs/sizing.md):[/] "
+                          f"{escape(', '.join(eta))}")
     if not fails and not unknown:
         console.print("[green]every motor and gear meets every limit[/]")
 

@@ -265,7 +265,8 @@ def count_ops(source: str, function: str) -> dict[str, int]:
 
     Returns:
         ``{"mul": ..., "add": ..., "trig": ..., "sqrt": ...}`` (divisions count as
-        multiplications, subtractions as additions; unary minus is not counted).
+        multiplications, subtractions as additions; unary minus is not counted;
+        ``s, c = sincos(x)`` counts as the trigonometric values it gives, ``_`` not).
 
     Example:
         >>> count_ops("def f(a, b):\\n    return a*b - a/b + math.sin(a)\\n", "f")
@@ -298,6 +299,12 @@ def _count(nodes) -> dict[str, int]:
                 c["mul"] += 1
             elif isinstance(node.op, (ast.Add, ast.Sub)):
                 c["add"] += 1
+        elif isinstance(node, ast.Assign) and isinstance(node.value, ast.Call) \
+                and isinstance(node.value.func, ast.Name) and node.value.func.id == "sincos":
+            # s, c = sincos(x): counted as the sin and the cos it gives that are used
+            c["trig"] += sum(1 for t in node.targets[0].elts if t.id != "_")
+            merge(_count(node.value.args))
+            continue
         elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
             if node.func.attr in ("sin", "cos"):
                 c["trig"] += 1

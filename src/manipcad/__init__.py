@@ -9,6 +9,7 @@ _configure_numba_cache()
 
 from manipcad.analysis import coupling_analysis, moment_components
 from manipcad.control import Regulator, load_regulators, save_regulators, synthesize
+from manipcad.control.estimator import PayloadEstimator
 from manipcad.dynamics import (
     forward_dynamics,
     inverse_dynamics,
@@ -30,7 +31,8 @@ __all__ = [
     "Robot", "Drive", "load_robot", "catalog_names",
     "inverse_dynamics", "mass_matrix", "forward_dynamics", "torque_components",
     "operation_counts", "load_trajectory", "save_trajectory",
-    "identify_payload", "PayloadEstimate", "coupling_analysis", "moment_components",
+    "identify_payload", "PayloadEstimate", "PayloadEstimator", "coupling_analysis",
+    "moment_components",
     "synthesize", "Regulator", "load_regulators", "save_regulators", "simulate",
     "SimulationResult", "Requirements", "recommend",
     "required_drive", "DriveRequirements", "ratio_sweep", "torque_speed_plot",

@@ -105,14 +105,22 @@ def puma_part(rounds: int, t_end: float) -> dict:
         return [pid(j, kp=KP[j], kd=KD[j], kff=KFF[j], u_limit=U_LIMIT, period=1e-3)
                 for j in range(6)]
 
-    cases = {"RK4 dt 1e-4": dict(dt=1e-4, record_every=10),
-             "adaptive (rtol 1e-6, atol 1e-8)": dict(dt=1e-4, record_every=10,
-                                                     integrator="adaptive", rtol=1e-6,
-                                                     atol=1e-8),
-             "adaptive-exact (rtol 1e-6, atol 1e-8)": dict(dt=1e-4, record_every=10,
+    general = dict(dt=1e-4, record_every=10, use_generated=False)
+    cases = {"RK4 dt 1e-4": general,
+             "adaptive (rtol 1e-6, atol 1e-8)": dict(general, integrator="adaptive",
+                                                     rtol=1e-6, atol=1e-8),
+             "adaptive-exact (rtol 1e-6, atol 1e-8)": dict(general,
                                                            integrator="adaptive-exact",
-                                                           rtol=1e-6, atol=1e-8)}
+                                                           rtol=1e-6, atol=1e-8),
+             # the robot's customized kernels (manipcad codegen, issue 14)
+             "RK4 dt 1e-4, generated kernels": dict(general, use_generated=True),
+             "adaptive-exact, generated kernels": dict(general, use_generated=True,
+                                                       integrator="adaptive-exact",
+                                                       rtol=1e-6, atol=1e-8)}
+    from manipcad.codegen import generate
+
     for vname, robot in variants.items():
+        generate(robot)
         def run(robot=robot, **kw):
             return simulate(robot, t_end=t_end, trajectory=traj, regulators=regs(), **kw)
 
@@ -171,6 +179,7 @@ def ur5_manipcad(robot, t_end, dt, period, integrator="rk4", **kw):
             return np.tile(UR5_Q1, (len(t), 1)), z, z.copy()
 
     every = max(1, int(round(1e-3 / dt)))
+    kw.setdefault("use_generated", False)
     res = simulate(robot, t_end=t_end, dt=dt, trajectory=Hold(), q0=UR5_Q0,
                    regulators=regs, drives=False, record_every=every,
                    integrator=integrator, joint_limits="ignore", **kw)
@@ -272,6 +281,9 @@ def ur5_part(rounds: int, t_end: float) -> dict:
     except ImportError:
         have_drake = False
         print("Drake (pip install drake) is not installed: MuJoCo only")
+    from manipcad.codegen import generate
+
+    generate(robot)      # the customized kernels, used only where a case asks for them
     # truths
     truth_ours_1k = ur5_manipcad(robot, t_end, 1e-5, 1e-3)[0]
     truth_cont = (ur5_drake(t_end, 1e-10)[0] if have_drake
@@ -292,6 +304,9 @@ def ur5_part(rounds: int, t_end: float) -> dict:
         "manipcad adaptive, PD at 1 kHz (rtol 1e-4, atol 1e-6)": (
             lambda: ur5_manipcad(robot, t_end, 1e-4, 1e-3, "adaptive", rtol=1e-4,
                                  atol=1e-6), truth_ours_1k),
+        "manipcad adaptive, PD at 1 kHz, generated kernels": (
+            lambda: ur5_manipcad(robot, t_end, 1e-4, 1e-3, "adaptive", use_generated=True),
+            truth_ours_1k),
         "MuJoCo RK4 dt 1e-4, PD in Python": (lambda: ur5_mujoco(t_end, 1e-4), truth_cont),
         "MuJoCo Euler dt 1e-4, own actuators": (
             lambda: ur5_mujoco(t_end, 1e-4, own_actuators=True), truth_cont),

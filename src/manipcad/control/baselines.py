@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import math
 
-import control as ct
 import numba as nb
 
+from manipcad._lazy import ct
 from manipcad.control.design import (
     DEFAULT_PERIOD,
     check_period,

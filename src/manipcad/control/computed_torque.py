@@ -8,9 +8,9 @@ is not measured (decentralized) and the current's lag T_e = L/R is not compensat
 
 from __future__ import annotations
 
-import control as ct
 import numba as nb
 
+from manipcad._lazy import ct
 from manipcad.control.design import (
     DEFAULT_PERIOD,
     check_period,

@@ -10,10 +10,10 @@ One regulator spans the joints; its parameters hold one packed drive per joint.
 
 from __future__ import annotations
 
-import control as ct
 import numba as nb
 import numpy as np
 
+from manipcad._lazy import ct
 from manipcad.control.computed_torque import joint_torque_to_input, outer_gains
 from manipcad.control.design import DEFAULT_PERIOD, check_period, joint_drive
 from manipcad.control.regulator import Method, Regulator, u_limit

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import math
 
-import control as ct
 import numpy as np
 
+from manipcad._lazy import ct
 from manipcad.control.signals import NPARAM
 from manipcad.drives.params import check_electrics, pack_drive
 from manipcad.errors import ManipcadError, ModelError

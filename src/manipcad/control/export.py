@@ -10,9 +10,9 @@ linear time-invariant give a state-space system instead where their module says 
 
 from __future__ import annotations
 
-import control as ct
 import numpy as np
 
+from manipcad._lazy import ct
 from manipcad.control.regulator import Regulator
 from manipcad.control.signals import NSIG, NSTATE, SIGNALS
 from manipcad.errors import ManipcadError

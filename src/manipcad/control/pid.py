@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import math
 
-import control as ct
 import numba as nb
 import numpy as np
 
+from manipcad._lazy import ct
 from manipcad.control.design import (
     DEFAULT_PERIOD,
     check_finite,

@@ -18,7 +18,6 @@ outside this check.
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import expm
 
 from manipcad.control.regulator import Regulator
 from manipcad.control.signals import (
@@ -42,6 +41,8 @@ def _discrete(drive, H: float, T: float) -> tuple[np.ndarray, np.ndarray]:
     M = np.zeros((n + 1, n + 1))
     M[:n, :n] = A * T
     M[:n, n:] = B * T
+    from scipy.linalg import expm  # scipy.linalg on first use
+
     E = expm(M)
     return E[:n, :n], E[:n, n:]
 

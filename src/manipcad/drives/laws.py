@@ -25,10 +25,10 @@ from __future__ import annotations
 
 import math
 
-import control as ct
 import numba
 import numpy as np
 
+from manipcad._lazy import ct
 from manipcad.drives.params import (
     P_J,
     P_KM,

@@ -23,9 +23,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import control as ct
 import numpy as np
 
+from manipcad._lazy import ct
 from manipcad.drives.params import Transmission, as_transmission, check_electrics
 from manipcad.errors import ModelError
 from manipcad.model.robot import Drive

@@ -38,7 +38,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from manipcad.errors import InputError, ModelError
 from manipcad.model.robot import Drive, Robot
@@ -247,6 +246,8 @@ def _refine_min(ev: _Evaluator, key: str, lo: float, hi: float, x0: float, v0: f
         if need_feasible and not val["feasible"][0]:
             return math.inf
         return float(val[key][0])
+
+    from scipy.optimize import minimize_scalar  # on first use
 
     res = minimize_scalar(f, bounds=(math.log(lo), math.log(hi)), method="bounded",
                           options={"xatol": 1e-10})

@@ -13,7 +13,6 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from manipcad.errors import InputError
 from manipcad.trajectories.base import Trajectory, floats, vector
@@ -36,6 +35,8 @@ class SplineTrajectory(Trajectory):
 
     def __init__(self, times: np.ndarray, points: np.ndarray) -> None:
         self.times, self.points = times, points
+        from scipy.interpolate import CubicSpline  # 1 s to import: on first use
+
         self._q = CubicSpline(times, points, axis=0, bc_type="clamped")
         self._qd = self._q.derivative(1)
         self._qdd = self._q.derivative(2)

@@ -42,9 +42,11 @@ def test_perturbed_arm_factors(arm):
     assert np.array_equal(new.mass, again.mass) and not np.array_equal(new.mass, other.mass)
 
 
+@pytest.mark.slow
 def test_serial_equals_two_workers_and_cache(tmp_path, arm, dask_scheduler):
     """The same numbers serially and on 2 worker processes (the session's shared cluster);
-    a rerun computes nothing, more samples only the new."""
+    a rerun computes nothing, more samples only the new. Slow (2-20 s) only when it is the
+    first test to use the shared cluster: its workers then import manipcad."""
     serial = run_robustness(tmp_path / "s", arm=arm, workers=1, **SMALL)
     dist = run_robustness(tmp_path / "d", arm=arm, scheduler=dask_scheduler, **SMALL)
     assert serial["max_error"] == dist["max_error"] and serial["nominal"] == dist["nominal"]

@@ -173,7 +173,7 @@ STEP, STEP_T_END = 0.1, 0.4
 #: |i_r of the arm| / |i_r of the cell| (the joint's torque is that much smaller), up to
 STEP_T_END_MAX = 4.0
 #: a cell's code version (part of its cache key)
-CELL_VERSION = "6"
+CELL_VERSION = "7"
 #: an amplifier counts as saturated within this fraction of its limit
 SATURATION_TOL = 1e-6
 
@@ -559,7 +559,11 @@ def _ratio(a, b):
 
 
 def _where(claim: str, grid: dict, ratio: list[list], threshold: float) -> str:
-    holds = [(rho, s) for i, rho in enumerate(grid["load_ratio"])
+    """One sentence: the cells (ρ achieved, speed scale run) where the ratio reaches the
+    threshold."""
+    runs = grid.get("speed_scale_run")
+    holds = [(rho, s if runs is None else runs[i][k])
+             for i, rho in enumerate(grid["load_ratio"])
              for k, s in enumerate(grid["speed_scale"])
              if ratio[i][k] is not None and ratio[i][k] >= threshold]
     total = sum(1 for row in ratio for v in row if v is not None)
@@ -567,8 +571,9 @@ def _where(claim: str, grid: dict, ratio: list[list], threshold: float) -> str:
         return f"nowhere on this grid (0 of {total} cells reach {threshold:g})"
     rhos = sorted({r for r, _ in holds})
     speeds = sorted({s for _, s in holds})
-    return (f"in {len(holds)} of {total} cells: load ratios {', '.join(f'{r:g}' for r in rhos)}"
-            f" at speed scales {', '.join(f'{s:g}' for s in speeds)}")
+    return (f"in {len(holds)} of {total} cells: load ratios "
+            f"{', '.join(f'{r:.3g}' for r in rhos)} at speed scales (as run) "
+            f"{', '.join(f'{s:.3g}' for s in speeds)}")
 
 
 def resolve_arm(arm: str | Robot, study: str = "claims") -> tuple[Robot, str, float]:
@@ -702,6 +707,9 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
     def table(fn):
         return [[fn(cells[i * S + k]) for k in range(S)] for i in range(R)]
 
+    # the where-sentences name the load ratios achieved and the speed scales run
+    g_run = {"speed_scale": g["speed_scale"], "speed_scale_run": runs,
+             "load_ratio": [info["load_ratio"] for info in rows]}
     claims = {}
     for cid, (paper, threshold) in CLAIMS.items():
         ratio = table(lambda c, cid=cid: c["ratio"].get(cid))
@@ -709,7 +717,7 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
             "paper": paper, "threshold": threshold, "ratio": ratio,
             "holds": [[None if v is None else bool(v >= threshold) for v in row]
                       for row in ratio],
-            "where_it_holds": _where(cid, g, ratio, threshold),
+            "where_it_holds": _where(cid, g_run, ratio, threshold),
         }
     for cid, label, what in (("asvs_overshoot", "asvs", "overshoot of asvs at the lightest "
                               "load, fraction of the step (paper: none)"),

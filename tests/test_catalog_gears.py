@@ -44,6 +44,25 @@ def test_csg_entry_loads_ordered_and_sourced(size, ratio):
     assert "transcription" in g.source and "efficiency" in g.source
 
 
+@pytest.mark.parametrize("name, ratings", [
+    ("harmonic_csf17_50", (16, 34, 70)), ("harmonic_csf25_50", (39, 98, 186)),
+    ("harmonic_csf17_100", (24, 54, 108))])
+def test_csf_units_from_the_product_pages(name, ratings):
+    """The CSF entries sourced from (a transcription of) Harmonic Drive's product pages:
+    rated / repeated peak / momentary torque as printed; what the pages do not give (the
+    average-torque limit, and for the new two the maximum input speed and efficiency)
+    is unknown, not guessed."""
+    g = load_gear(name)
+    assert (g.max_continuous_torque, g.max_intermittent_torque, g.max_momentary_torque) \
+        == ratings
+    assert g.max_average_torque is None
+    assert g.max_average_input_speed == pytest.approx(3500 * RPM, rel=1e-15)
+    if name != "harmonic_csf17_100":
+        assert g.max_input_speed is None and g.efficiency is None and g.stiffness is None
+    else:
+        assert "NOT CONFIRMED" in g.source      # its efficiency and max speed
+
+
 def test_csg_25_100_cross_check():
     """The row two further independent public notes confirm: 87 / 204 / 369 N·m."""
     g = load_gear("harmonic_csg25_100")

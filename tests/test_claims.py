@@ -91,8 +91,14 @@ def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm):
     on_disk = json.loads((tmp_path / "c" / "claims.json").read_text())
     assert set(on_disk) >= {"arm", "grid", "claims", "saturation", "peak_gripper_speed",
                             "diverged"}
+    # every claim the issue lists, with its paper words, threshold, ratio, verdict, sentence
+    assert set(on_disk["claims"]) == {
+        "ace_tf_observable", "ace_tf_controllable", "law3", "law3_no_friction", "asvs_rise",
+        "asvs_sliding_rate", "asvs_overshoot", "vss_light_overshoot", "lqr_gs",
+        "lqr_gs_gains_only", "lqr_gs_feedforward", "lqr_equal_information"}
     for c in on_disk["claims"].values():
         assert set(c) >= {"paper", "threshold", "ratio", "holds", "where_it_holds"}
+        assert c["paper"] and isinstance(c["threshold"], float)
         assert np.shape(c["ratio"]) == (1, 1)
     fig3 = run_fig3(tmp_path / "f", methods=["none_sce", "ace_tf", "ace_de", "lqr", "lqr_gs",
                                              "vss", "asvs"], progress=False,

@@ -219,8 +219,12 @@ def _check(workers: Any, scheduler: Any, chunk: Any, tasks: Any) -> tuple[int | 
     return workers, items
 
 
-def check_workers(workers: Any, scheduler: Any) -> int | None:
+def check_workers(workers: Any, scheduler: Any, source: str = SOURCE) -> int | None:
     """``workers`` checked (a whole number >= 1 or None) and not given with ``scheduler``.
+
+    Args:
+        workers, scheduler: as :func:`run_tasks`.
+        source: the name errors give as their source (e.g. a command's name).
 
     Raises:
         InputError: naming the argument and the reason.
@@ -229,7 +233,12 @@ def check_workers(workers: Any, scheduler: Any) -> int | None:
         >>> check_workers(2, None)
         2
     """
-    return _check(workers, scheduler, 1, [])[0]
+    try:
+        return _check(workers, scheduler, 1, [])[0]
+    except InputError as exc:
+        if source == SOURCE:
+            raise
+        raise InputError(source, f"--{exc.field}" if exc.field else "", exc.reason) from None
 
 
 def default_workers() -> int:

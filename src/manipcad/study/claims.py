@@ -638,14 +638,12 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
     from manipcad.parallel import Pool
     from manipcad.parallel.executor import check_workers, default_workers
 
-    check_workers(workers, scheduler)
+    check_workers(workers, scheduler, "study claims")
     if grid not in GRIDS:
         raise InputError("--grid", "", f"{grid!r}: expected one of {', '.join(GRIDS)}")
     if not (isinstance(dt, int | float) and math.isfinite(dt) and 0 < dt <= 1e-3):
         raise InputError("dt", "", f"must be in (0, 1e-3] s, got {dt!r}")
     out = Path(out_dir)
-    if workers is not None and scheduler is not None:
-        raise InputError("--scheduler", "", "give either --workers or --scheduler, not both")
     if out.exists() and not out.is_dir():
         raise InputError(str(out), "", "exists and is not a folder")
     if not out.parent.is_dir():

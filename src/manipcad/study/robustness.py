@@ -219,8 +219,9 @@ def run_robustness(out_dir: str | Path, *, arm: str | Robot = "light", samples: 
     from manipcad.parallel import run_tasks
 
     methods = _check(samples, uncertainty, methods, speed_scale, seed, dt, t_end)
-    if workers is not None and scheduler is not None:
-        raise InputError("--scheduler", "", "give either --workers or --scheduler, not both")
+    from manipcad.parallel.executor import check_workers
+
+    check_workers(workers, scheduler, "study robustness")
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError(str(out), "", "exists and is not a folder")

@@ -651,15 +651,20 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
     robot, arm_name, max_payload = resolve_arm(arm, "claims")
     with ExitStack() as stack:
         # the workers start (and load their kernels) while the rows are prepared here
+        # (a fresh run only: with cached cells the cluster is started, by run_tasks, only
+        # if some cell is missing)
         pool = None
-        if scheduler is not None or (workers or default_workers()) > 1:
+        fresh = not any((out / "cache").glob("*/*.pkl"))
+        if fresh and (scheduler is not None or (workers or default_workers()) > 1):
             pool = stack.enter_context(Pool(workers=workers, scheduler=scheduler,
                                             warm=warm_worker))
-        return _run_claims(out, robot, arm_name, max_payload, grid, dt, pool, progress)
+        return _run_claims(out, robot, arm_name, max_payload, grid, dt, pool, progress,
+                           workers, scheduler)
 
 
 def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid: str,
-                dt: float, pool, progress: bool) -> dict:
+                dt: float, pool, progress: bool, workers: int | None,
+                scheduler: str | None) -> dict:
     from manipcad.parallel import run_tasks
 
     g = dict(GRIDS[grid])
@@ -690,7 +695,9 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
     out.mkdir(exist_ok=True)
     done = run_tasks(claims_cell, tasks, common={"arm": robot, "dt": dt,
                                                  "max_payload": max_payload},
-                     workers=1 if pool is None else None, pool=pool, cache_dir=out / "cache",
+                     workers=None if pool is not None else workers,
+                     scheduler=None if pool is not None else scheduler, pool=pool,
+                     cache_dir=out / "cache",
                      progress=progress, desc="claims cells", version=CELL_VERSION,
                      cost=cell_cost)
     cells = []

@@ -117,11 +117,28 @@ def test_estimator_complexity_is_counted(arm):
     ({"pickup": 2.0}, "must be a dict"),
     ({"model_payload": "online"}, "needs an estimator"),
     ({"model_payload": "guess"}, "model_payload must be one of"),
-    ({"pickup": {"mass": 1.0, "t": 0.05}, "integrator": "adaptive"}, "needs integrator='rk4'"),
+    ({"pickup": {"mass": 1.0, "t": 0.05}, "integrator": "adaptive"}, "sample instant"),
+    ({"pickup": {"mass": 1.0, "t": 0.05}, "integrator": "adaptive-exact"}, "cannot take"),
 ])
 def test_bad_arguments(arm, kwargs, match):
     with pytest.raises(ManipcadError, match=match):
         manipcad.simulate(arm, t_end=0.1, dt=1e-3, **kwargs)
+
+
+def test_adaptive_integrator_takes_the_pickup_and_estimator(arm, setup, runs):
+    """integrator="adaptive" stops at the regulators' sample instants, where the pickup and
+    the estimator run (the same shared sampling step): the estimate and the error after the
+    pickup agree with RK4's."""
+    com, regs, traj = setup
+    est = PayloadEstimator(arm, period=DT, com=com, forgetting=0.998, current_noise=0.02)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", manipcad.errors.ManipcadWarning)
+        ada = manipcad.simulate(arm, t_end=T_END, dt=DT, trajectory=traj, regulators=regs,
+                                pickup={"mass": MASS, "t": T_PICK, "com": com}, estimator=est,
+                                integrator="adaptive")
+    rk = runs["online"]
+    np.testing.assert_allclose(ada.payload_estimate, rk.payload_estimate, rtol=0, atol=2e-4)
+    assert np.abs(ada.q - rk.q).max() < 1e-6
 
 
 def test_bad_estimators(arm):
@@ -130,6 +147,10 @@ def test_bad_estimators(arm):
                           estimator=PayloadEstimator(arm, period=1.5e-3))
     with pytest.raises(ManipcadError, match="drives=True"):
         manipcad.simulate(arm, t_end=0.01, dt=1e-3, drives=False,
+                          estimator=PayloadEstimator(arm, period=1e-3))
+    pid = manipcad.control.pid("turn", kp=10.0, period=2e-3)
+    with pytest.raises(ManipcadError, match="multiple of a regulator"):
+        manipcad.simulate(arm, t_end=0.01, dt=1e-3, regulators=[pid], integrator="adaptive",
                           estimator=PayloadEstimator(arm, period=1e-3))
     with pytest.raises(ManipcadError, match="current_noise"):
         PayloadEstimator(arm, current_noise=-1.0)

@@ -54,8 +54,9 @@ from manipcad.model.robot import COL_COM, COL_IC, COL_MASS, TABLE_COLS, Robot, c
 #: the compiled component (numba-typed): see :func:`PayloadEstimator.pack`. ``on``: the
 #: component runs; ``steps``: its period in integration steps; ``feed``: the model's payload
 #: link follows the estimate; ``state``: the RLS state [m̂ kg, S, periods]; ``aux``:
-#: [samples taken]; ``hist`` (5, n): q, q̇, τ of the previous sample, q̇ and τ of the one
-#: before; ``log`` (M,): m̂ after each sample, kg; ``noise`` (M, n): current noise, A
+#: [samples taken, 1 + the step last sampled (0: none)]; ``hist`` (5, n): q, q̇, τ of
+#: the previous sample, q̇ and τ of the one before; ``log`` (M,): m̂ after each sample,
+#: kg; ``noise`` (M, n): current noise, A
 Estimator = namedtuple(
     "Estimator", "on steps feed state aux hist log noise dtable table0 table_unit gravity "
                  "sel w vmin lam info_min drives body cp base scratch")
@@ -245,7 +246,7 @@ class PayloadEstimator:
         dtable = pack_drives(self.robot.drives)
         body = self.body
         return Estimator(
-            True, int(round(s)), bool(feed), c.state.copy(), np.zeros(1, dtype=np.int64),
+            True, int(round(s)), bool(feed), c.state.copy(), np.zeros(2, dtype=np.int64),
             np.zeros((5, n)), np.full(samples, np.nan), noise, dtable, _own(c.table0),
             _own(c.table_unit), _own(c.gravity), _own(c.sel), _own(c.w), _own(c.vmin),
             float(c.lam), float(c.info_min), bool(c.drives),
@@ -271,7 +272,7 @@ class PayloadEstimator:
         fields["state"] = _counted([0.3, 5.0, 10.0])
         fields["lam"] = Counted(est.lam)
         fields["info_min"] = Counted(est.info_min)
-        fields["aux"] = np.array([5])
+        fields["aux"] = np.array([5, 0])
         fields["log"] = np.empty(8, dtype=object)
         fields["scratch"] = tuple(np.empty(a.shape, dtype=object) for a in est.scratch)
         fields["scratch"][0][:] = Counted(0.0)
@@ -289,7 +290,7 @@ class PayloadEstimator:
 def idle(n: int) -> Estimator:
     """The compiled component of a run without an estimator (``on`` false; same types)."""
     z = np.zeros((1, TABLE_COLS))
-    return Estimator(False, 1, False, np.zeros(STATE_SIZE), np.zeros(1, dtype=np.int64),
+    return Estimator(False, 1, False, np.zeros(STATE_SIZE), np.zeros(2, dtype=np.int64),
                      np.zeros((5, n)), np.zeros(0), np.zeros((0, n)),
                      pack_drives([None] * n), np.zeros((n, TABLE_COLS)),
                      np.zeros((n, TABLE_COLS)), np.zeros(3), np.zeros(0, dtype=np.int64),

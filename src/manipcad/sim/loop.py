@@ -255,7 +255,10 @@ def sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait):
     if pick.step >= 0 and pick.done[0] == 0 and k >= pick.step:
         _pick_up(plant)
     est = ctrl.est
-    est_due = est.on and k % est.steps == 0
+    # (the adaptive integrator samples a chunk's last step again as the next one's first)
+    est_due = est.on and k % est.steps == 0 and est.aux[1] != k + 1
+    if est_due:
+        est.aux[1] = k + 1
     R = ctrl.kind.shape[0]
     due = est_due
     for r in range(R):

@@ -114,6 +114,37 @@ def estimator_part(estimator, robot: Robot, dt: float, K: int, ctable, *, feed: 
     return estimator.pack(dt, K // steps + 1, ctable, feed=feed)
 
 
+def check_adaptive(integrator: str, pick_step: int | None, ctrl, dt: float) -> None:
+    """With an adaptive integrator, the pickup and the estimator's samples must fall on
+    instants the integrator stops at: the regulators' sample instants (multiples of
+    their periods, :func:`manipcad.sim.loop.sample_due` runs there).
+
+    ``"adaptive-exact"`` reuses the derivative at the end of a held interval as the next
+    one's start, which a mass step changes: it refuses a pickup.
+
+    Raises:
+        ManipcadError: naming the pickup time or the estimator's period and the
+            regulators' periods.
+    """
+    periods = [int(s) for s in ctrl.steps]
+    shown = ", ".join(f"{p * dt:g}" for p in sorted(set(periods))) or "none"
+    if pick_step is not None:
+        if integrator == "adaptive-exact":
+            raise ManipcadError("integrator='adaptive-exact' cannot take a pickup (it carries "
+                                "the derivative over a sample instant, which the mass step "
+                                "changes); use integrator='adaptive' or 'rk4'")
+        if not any(pick_step % p == 0 for p in periods):
+            raise ManipcadError(f"integrator={integrator!r}: pickup t = {pick_step * dt:g} s "
+                                f"must be a sample instant of a regulator (periods {shown} s), "
+                                "where the adaptive steps stop; or use integrator='rk4'")
+    est = ctrl.est
+    if est.on and not any(int(est.steps) % p == 0 for p in periods):
+        raise ManipcadError(f"integrator={integrator!r}: the estimator's period "
+                            f"{est.steps * dt:g} s must be a multiple of a regulator's period "
+                            f"({shown} s), whose instants the adaptive steps stop at; or use "
+                            "integrator='rk4'")
+
+
 def estimate_series(est: Estimator, dt: float) -> np.ndarray:
     """(M, 2): time s and the payload estimate kg after each of the estimator's samples."""
     m = int(est.aux[0])

@@ -226,10 +226,12 @@ def simulate(
         pickup: an unknown payload gripped mid-run: ``{"mass": kg, "t": s, "com": [x, y,
             z] m, "inertia": (3, 3) kg·m², "link": ...}`` (com, inertia and link as
             ``payload``): the plant's link takes it at the step of time t (0 < t < t_end;
-            :mod:`manipcad.sim.pickup`). Needs ``integrator="rk4"``.
+            :mod:`manipcad.sim.pickup`). With ``integrator="adaptive"`` t must be a
+            sample instant of a regulator; ``"adaptive-exact"`` refuses it.
         estimator: a :class:`manipcad.control.estimator.PayloadEstimator`, the online
             payload estimator, run at its period inside the loop (after the regulators);
-            its estimate is in ``result.payload_estimate``.
+            its estimate is in ``result.payload_estimate``. With an adaptive integrator
+            its period must be a multiple of a regulator's.
         model_payload: the payload the regulators' model signals (H_ii, c_i, Q_i, H)
             assume: "true" (the plant's, the pickup known at once; the default without an
             estimator), "nominal" (the robot as given, the pickup unknown) or "online" (the
@@ -269,10 +271,6 @@ def simulate(
 
     model_payload = pk.model_payload_of(model_payload, estimator)
     picked = None if pickup is None else pk.picked_robot(robot, pickup, t_end, dt)
-    if (picked is not None or estimator is not None) and adaptive:
-        raise ManipcadError(f"integrator={integrator!r}: a pickup or an online estimator "
-                            "needs integrator='rk4' (the adaptive steps do not stop at the "
-                            "pickup and may skip the estimator's samples)")
     from manipcad.budget import check_steps
 
     # the reference is sampled chunk by chunk: memory follows the kept samples (t, q, q̇, U,
@@ -327,6 +325,8 @@ def simulate(
     est = pk.estimator_part(estimator, robot, dt, K, ctable, feed=model_payload == "online",
                             drives=bool(drives))
     ctrl, described = _pack_regulators(robot, regulators, dt, est)
+    if adaptive:
+        pk.check_adaptive(integrator, None if picked is None else picked[1], ctrl, dt)
     if adaptive and generic:
         raise ManipcadError(f"integrator={integrator!r} handles rigid drives only; elastic "
                             "gears and backlash (transmissions=...) need integrator='rk4'")

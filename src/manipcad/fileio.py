@@ -767,6 +767,38 @@ def _install(tmp: Path, out: Path, replace: bool) -> Path | None:
 # --------------------------------------------------------------------------- JSON
 
 
+def file_number(source: str, where: str, v: Any, *, positive: bool = False,
+                allow_inf: bool = False) -> float:
+    """A number read from a file: one InputError naming the file, the field and why.
+
+    Args:
+        source: the file (or what was read).
+        where: the dotted field.
+        v: the value read (bools and non-numbers are refused).
+        positive: require > 0.
+        allow_inf: let ±inf through (NaN never).
+
+    Returns:
+        float(v).
+
+    Example:
+        >>> from manipcad.fileio import file_number
+        >>> file_number("reg.yaml", "groups[0].period_s", "1e-3", positive=True)
+        0.001
+    """
+    if isinstance(v, bool) or not isinstance(v, int | float | str):
+        raise InputError(source, where, f"expected a number, got {type(v).__name__}")
+    try:
+        x = float(v)
+    except ValueError:
+        raise InputError(source, where, f"expected a number, got {v!r}") from None
+    if math.isnan(x) or (math.isinf(x) and not allow_inf):
+        raise InputError(source, where, f"must be finite, got {v}")
+    if positive and not x > 0:
+        raise InputError(source, where, f"must be > 0, got {v}")
+    return x
+
+
 def json_safe(x: Any) -> Any:
     """Plain JSON values for ``json.dumps`` (with ``allow_nan=False`` if wanted).
 

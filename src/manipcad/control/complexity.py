@@ -92,12 +92,8 @@ def count(reg: Regulator) -> dict:
         if rep == 1:
             p_log, s_log = p.log, sig.log
     stored = set(p_log)
-    if m.table:
-        from manipcad.control.lqr import LQ_NG, LQ_NH, LQ_NV, LQ_TAB
-
-        pv = reg.params
-        stored = {k for k in stored if k < LQ_TAB}
-        stored |= set(range(LQ_TAB, LQ_TAB + int(pv[LQ_NH] * pv[LQ_NV] * pv[LQ_NG])))
+    if m.table:   # a gain table counts whole
+        stored |= set(m.table.entries(np.asarray(reg.params)))
     cols = {c for (_, c) in s_log}
     names = [name for name, (c, _, _) in SIGNALS.items() if c in cols]
     if m.spans:

@@ -36,7 +36,6 @@ not cover the robot's load range, a file made for another robot (``allow_other_r
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -66,7 +65,7 @@ from manipcad.drives.params import (
     P_WEPS,
 )
 from manipcad.errors import InputError, ManipcadError
-from manipcad.fileio import atomic_write_text, json_safe, read_yaml
+from manipcad.fileio import atomic_write_text, file_number, json_safe, read_yaml
 from manipcad.model.robot import Robot
 
 #: the packed drive in files: key (with unit) -> index
@@ -109,38 +108,10 @@ def regulator_to_dict(reg: Regulator) -> dict[str, Any]:
             for a, nm in enumerate(names)}
     g["gains"] = {k: float(p[i]) for k, i in m.fields.items()}
     if m.table:
-        g["table"] = _table_to_dict(p)
+        g["table"] = m.table.to_file(p)
     g["design"] = json_safe({k: v for k, v in reg.design.items()
                              if k not in ("table", "weights", "transmission")})
     return g
-
-
-def _table_to_dict(p: np.ndarray) -> dict[str, Any]:
-    from manipcad.control.lqr import (
-        GAIN_NAMES,
-        LQ_DH,
-        LQ_DV,
-        LQ_H0,
-        LQ_NG,
-        LQ_NH,
-        LQ_NV,
-        LQ_TAB,
-        LQ_V0,
-    )
-
-    nH, nV, ng = int(p[LQ_NH]), int(p[LQ_NV]), int(p[LQ_NG])
-    out: dict[str, Any] = {
-        "H_ii_grid_kgm2": [float(p[LQ_H0] + a * p[LQ_DH]) if a else float(p[LQ_H0])
-                           for a in range(nH)],
-        "H_ii_step_kgm2": float(p[LQ_DH]),
-        "h_grid_Nms_per_rad": [float(p[LQ_V0] + b * p[LQ_DV]) if b else float(p[LQ_V0])
-                               for b in range(nV)],
-        "h_step_Nms_per_rad": float(p[LQ_DV]),
-    }
-    for k in range(ng):
-        vals = p[LQ_TAB + k * nH * nV: LQ_TAB + (k + 1) * nH * nV].reshape(nH, nV)
-        out[GAIN_NAMES[k]] = [[float(v) for v in row] for row in vals]
-    return out
 
 
 def save_regulators(regs: Sequence[Regulator], path: str | Path, *,
@@ -289,21 +260,6 @@ def _check_robot(rob: Any, robot: Robot, source: str, allow: bool) -> None:
                          "re-synthesize, or allow it (--allow-other-robot)")
 
 
-def _num(source: str, where: str, v: Any, *, positive: bool = False,
-         allow_inf: bool = False) -> float:
-    if isinstance(v, bool) or not isinstance(v, int | float | str):
-        raise InputError(source, where, f"expected a number, got {type(v).__name__}")
-    try:
-        x = float(v)
-    except ValueError:
-        raise InputError(source, where, f"expected a number, got {v!r}") from None
-    if math.isnan(x) or (math.isinf(x) and not allow_inf):
-        raise InputError(source, where, f"must be finite, got {v}")
-    if positive and not x > 0:
-        raise InputError(source, where, f"must be > 0, got {v}")
-    return x
-
-
 def _mapping(source: str, where: str, v: Any, keys: dict[str, int], *,
              inf_ok: Sequence[str] = ()) -> dict[str, float]:
     if not isinstance(v, dict):
@@ -315,7 +271,7 @@ def _mapping(source: str, where: str, v: Any, keys: dict[str, int], *,
     missing = [k for k in keys if k not in v]
     if missing:
         raise InputError(source, f"{where}.{missing[0]}", "missing")
-    return {k: _num(source, f"{where}.{k}", v[k], allow_inf=k in inf_ok) for k in keys}
+    return {k: file_number(source, f"{where}.{k}", v[k], allow_inf=k in inf_ok) for k in keys}
 
 
 _INF_OK = ("u_limit_V", "u_max_V", "H_ii_feedforward_kgm2")
@@ -337,7 +293,7 @@ def _group(group: Any, robot: Robot, source: str, where: str,
         raise InputError(source, f"{where}.method",
                          f"unknown method {name!r}; expected one of {', '.join(METHODS)}")
     m = METHODS[name]
-    period = _num(source, f"{where}.period_s", group.get("period_s"), positive=True)
+    period = file_number(source, f"{where}.period_s", group.get("period_s"), positive=True)
     if dt is not None:
         steps = period / dt
         if round(steps) < 1 or abs(steps - round(steps)) > 1e-6 * steps:
@@ -373,7 +329,7 @@ def _group(group: Any, robot: Robot, source: str, where: str,
         if k in gains and not gains[k] > 0:
             raise InputError(source, f"{where}.gains.{k}", f"must be > 0, got {gains[k]}")
     if m.table:
-        _table(group.get("table"), p, robot, joints[0], source, f"{where}.table")
+        m.table.from_file(group.get("table"), p, robot, joints[0], source, f"{where}.table")
     for key in ("spec", "options", "design"):
         if not isinstance(group.get(key, {}), dict):
             raise InputError(source, f"{where}.{key}", "expected a mapping")
@@ -432,79 +388,6 @@ def _check_drive(source: str, where: str, p: np.ndarray, o: int) -> None:
         raise InputError(source, f"{where}.ratio", "must be nonzero")
     if p[o + P_KIND] not in (0, 1, 2, 3, 4):
         raise InputError(source, f"{where}.kind", f"must be one of 0..4, got {p[o + P_KIND]}")
-
-
-def _table(t: Any, p: np.ndarray, robot: Robot, j: int, source: str, where: str) -> None:
-    from manipcad.control.design import inertia_range
-    from manipcad.control.lqr import (
-        GAIN_NAMES,
-        LQ_DH,
-        LQ_DV,
-        LQ_H0,
-        LQ_MAXCELLS,
-        LQ_MAXCELLS_EL,
-        LQ_NG,
-        LQ_NH,
-        LQ_NV,
-        LQ_TAB,
-        LQ_V0,
-    )
-
-    if not isinstance(t, dict):
-        raise InputError(source, where, "missing: the gain table (H_ii_grid_kgm2, "
-                         "h_grid_Nms_per_rad, D_e_V_per_rad, ...)")
-    axes = {}
-    for key in ("H_ii_grid_kgm2", "h_grid_Nms_per_rad"):
-        ax = t.get(key)
-        if not isinstance(ax, list) or not ax:
-            raise InputError(source, f"{where}.{key}", "missing or empty: a list of numbers")
-        axes[key] = np.array([_num(source, f"{where}.{key}[{k}]", v)
-                              for k, v in enumerate(ax)])
-        a = axes[key]
-        if len(a) > 1 and not np.all(np.diff(a) > 0):
-            raise InputError(source, f"{where}.{key}", "must be strictly increasing")
-    steps = {}
-    for key, ax in (("H_ii_step_kgm2", "H_ii_grid_kgm2"), ("h_step_Nms_per_rad",
-                                                          "h_grid_Nms_per_rad")):
-        a = axes[ax]
-        st = _num(source, f"{where}.{key}", t.get(key, a[1] - a[0] if len(a) > 1 else 1.0),
-                  positive=True)
-        if len(a) > 1 and not np.allclose(np.diff(a), st, rtol=1e-9,
-                                          atol=1e-12 * np.abs(a).max()):
-            raise InputError(source, f"{where}.{ax}", f"must be uniform with step {st:g}")
-        steps[key] = st
-    H, h = axes["H_ii_grid_kgm2"], axes["h_grid_Nms_per_rad"]
-    nH, nV = len(H), len(h)
-    present = [k for k in GAIN_NAMES if k in t]
-    ng = len(present)
-    if present != list(GAIN_NAMES[:3]) and present != list(GAIN_NAMES):
-        raise InputError(source, where, f"expected the gains {', '.join(GAIN_NAMES[:3])} "
-                         f"(and {', '.join(GAIN_NAMES[3:])} on the elastic model)")
-    unknown = sorted(set(t) - set(GAIN_NAMES) - set(axes) - set(steps))
-    if unknown:
-        raise InputError(source, f"{where}.{unknown[0]}", "unknown field")
-    if nH * nV > (LQ_MAXCELLS if ng == 3 else LQ_MAXCELLS_EL):
-        raise InputError(source, where, f"{nH}×{nV} grid points: too many for the compiled "
-                         "table")
-    p[LQ_NH], p[LQ_NV], p[LQ_NG] = nH, nV, ng
-    p[LQ_H0], p[LQ_DH] = H[0], steps["H_ii_step_kgm2"]
-    p[LQ_V0], p[LQ_DV] = h[0], steps["h_step_Nms_per_rad"]
-    for k, key in enumerate(present):
-        rows = t[key]
-        if not isinstance(rows, list) or len(rows) != nH or any(
-                not isinstance(r, list) or len(r) != nV for r in rows):
-            raise InputError(source, f"{where}.{key}", f"expected {nH} rows of {nV} numbers "
-                             "(one row per H_ii grid point)")
-        vals = [_num(source, f"{where}.{key}[{a}][{b}]", v)
-                for a, r in enumerate(rows) for b, v in enumerate(r)]
-        p[LQ_TAB + k * nH * nV: LQ_TAB + (k + 1) * nH * nV] = vals
-    lo, hi = inertia_range(robot, j)
-    tol = 1e-6 * max(hi, 1e-12)
-    if nH > 1 and (H[0] > lo + tol or H[-1] < hi - tol):
-        raise InputError(source, f"{where}.H_ii_grid_kgm2",
-                         f"the table covers H_ii in [{H[0]:.6g}, {H[-1]:.6g}] kg·m², but "
-                         f"joint {robot.joint_names[j]!r} of {robot.name!r} spans "
-                         f"[{lo:.6g}, {hi:.6g}]; re-synthesize for this robot")
 
 
 __all__ = ["load_regulators", "save_regulators", "regulators_from_dict", "regulator_to_dict",

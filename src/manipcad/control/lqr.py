@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numba as nb
 import numpy as np
@@ -51,7 +52,7 @@ from manipcad.control.design import (
 )
 from manipcad.control.export import nonlinear_system
 from manipcad.control.kernels import load_rates, table_lookup
-from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.regulator import Method, Regulator, TableLayout, u_limit
 from manipcad.control.signals import (
     NPARAM,
     S_CI,
@@ -76,7 +77,8 @@ from manipcad.drives.params import (
     Transmission,
     as_transmission,
 )
-from manipcad.errors import ManipcadError, ModelError
+from manipcad.errors import InputError, ManipcadError, ModelError
+from manipcad.fileio import file_number
 from manipcad.model.robot import Drive, Robot
 
 # grid sizes and axes of the gain table (H_ii kg·m², h = Ḣ_ii N·m·s/rad), output limit (V),
@@ -568,14 +570,107 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
                 "weights": w, "transmission": tr})
 
 
+def gain_table_to_file(p: np.ndarray) -> dict[str, Any]:
+    """The gain table of a parameter vector as its regulator-file mapping: the H_ii and
+    h grids (kg·m², N·m·s/rad) and one rows-over-H_ii matrix per gain."""
+    nH, nV, ng = int(p[LQ_NH]), int(p[LQ_NV]), int(p[LQ_NG])
+    out: dict[str, Any] = {
+        "H_ii_grid_kgm2": [float(p[LQ_H0] + a * p[LQ_DH]) if a else float(p[LQ_H0])
+                           for a in range(nH)],
+        "H_ii_step_kgm2": float(p[LQ_DH]),
+        "h_grid_Nms_per_rad": [float(p[LQ_V0] + b * p[LQ_DV]) if b else float(p[LQ_V0])
+                               for b in range(nV)],
+        "h_step_Nms_per_rad": float(p[LQ_DV]),
+    }
+    for k in range(ng):
+        vals = p[LQ_TAB + k * nH * nV: LQ_TAB + (k + 1) * nH * nV].reshape(nH, nV)
+        out[GAIN_NAMES[k]] = [[float(v) for v in row] for row in vals]
+    return out
+
+
+def gain_table_from_file(t: Any, p: np.ndarray, robot: Robot, j: int, source: str,
+                         where: str) -> None:
+    """Check a regulator file's gain table and write it into the parameter vector p.
+
+    One :class:`~manipcad.errors.InputError` naming ``source``, the dotted field
+    (``where`` ...) and why: missing, non-increasing or non-uniform grids, the wrong
+    gains or shapes, too many cells, or an H_ii range that does not cover joint j's.
+    """
+    if not isinstance(t, dict):
+        raise InputError(source, where, "missing: the gain table (H_ii_grid_kgm2, "
+                         "h_grid_Nms_per_rad, D_e_V_per_rad, ...)")
+    axes = {}
+    for key in ("H_ii_grid_kgm2", "h_grid_Nms_per_rad"):
+        ax = t.get(key)
+        if not isinstance(ax, list) or not ax:
+            raise InputError(source, f"{where}.{key}", "missing or empty: a list of numbers")
+        axes[key] = np.array([file_number(source, f"{where}.{key}[{k}]", v)
+                              for k, v in enumerate(ax)])
+        a = axes[key]
+        if len(a) > 1 and not np.all(np.diff(a) > 0):
+            raise InputError(source, f"{where}.{key}", "must be strictly increasing")
+    steps = {}
+    for key, ax in (("H_ii_step_kgm2", "H_ii_grid_kgm2"), ("h_step_Nms_per_rad",
+                                                          "h_grid_Nms_per_rad")):
+        a = axes[ax]
+        st = file_number(source, f"{where}.{key}", t.get(key, a[1] - a[0] if len(a) > 1 else 1.0),
+                  positive=True)
+        if len(a) > 1 and not np.allclose(np.diff(a), st, rtol=1e-9,
+                                          atol=1e-12 * np.abs(a).max()):
+            raise InputError(source, f"{where}.{ax}", f"must be uniform with step {st:g}")
+        steps[key] = st
+    H, h = axes["H_ii_grid_kgm2"], axes["h_grid_Nms_per_rad"]
+    nH, nV = len(H), len(h)
+    present = [k for k in GAIN_NAMES if k in t]
+    ng = len(present)
+    if present != list(GAIN_NAMES[:3]) and present != list(GAIN_NAMES):
+        raise InputError(source, where, f"expected the gains {', '.join(GAIN_NAMES[:3])} "
+                         f"(and {', '.join(GAIN_NAMES[3:])} on the elastic model)")
+    unknown = sorted(set(t) - set(GAIN_NAMES) - set(axes) - set(steps))
+    if unknown:
+        raise InputError(source, f"{where}.{unknown[0]}", "unknown field")
+    if nH * nV > (LQ_MAXCELLS if ng == 3 else LQ_MAXCELLS_EL):
+        raise InputError(source, where, f"{nH}×{nV} grid points: too many for the compiled "
+                         "table")
+    p[LQ_NH], p[LQ_NV], p[LQ_NG] = nH, nV, ng
+    p[LQ_H0], p[LQ_DH] = H[0], steps["H_ii_step_kgm2"]
+    p[LQ_V0], p[LQ_DV] = h[0], steps["h_step_Nms_per_rad"]
+    for k, key in enumerate(present):
+        rows = t[key]
+        if not isinstance(rows, list) or len(rows) != nH or any(
+                not isinstance(r, list) or len(r) != nV for r in rows):
+            raise InputError(source, f"{where}.{key}", f"expected {nH} rows of {nV} numbers "
+                             "(one row per H_ii grid point)")
+        vals = [file_number(source, f"{where}.{key}[{a}][{b}]", v)
+                for a, r in enumerate(rows) for b, v in enumerate(r)]
+        p[LQ_TAB + k * nH * nV: LQ_TAB + (k + 1) * nH * nV] = vals
+    lo, hi = inertia_range(robot, j)
+    tol = 1e-6 * max(hi, 1e-12)
+    if nH > 1 and (H[0] > lo + tol or H[-1] < hi - tol):
+        raise InputError(source, f"{where}.H_ii_grid_kgm2",
+                         f"the table covers H_ii in [{H[0]:.6g}, {H[-1]:.6g}] kg·m², but "
+                         f"joint {robot.joint_names[j]!r} of {robot.name!r} spans "
+                         f"[{lo:.6g}, {hi:.6g}]; re-synthesize for this robot")
+
+
+def gain_table_entries(p: np.ndarray) -> range:
+    """The parameter indices the gain table of p occupies (all stored, read or not)."""
+    return range(LQ_TAB, LQ_TAB + int(p[LQ_NH] * p[LQ_NV] * p[LQ_NG]))
+
+
+#: the LQR gain table's place in the regulator file and in the parameters
+GAIN_TABLE = TableLayout(to_file=gain_table_to_file, from_file=gain_table_from_file,
+                         entries=gain_table_entries)
+
+
 LQR = Method(
     name="lqr", synthesize=synthesize_lqr, update=lqr_update, section="3.3 (7), fixed",
     summary="LQR gains at the nominal load (no scheduling), with feed-forward",
-    fields=FIELDS, table=True, export=nonlinear_system,
+    fields=FIELDS, table=GAIN_TABLE, export=nonlinear_system,
     linear=True)
 
 LQR_GS = Method(
     name="lqr_gs", synthesize=synthesize_lqr_gs, update=lqr_update, section="3.3 (6)-(7)",
     summary="LQR gains scheduled on H_ii (and Ḣ_ii) from a table computed ahead",
-    fields=FIELDS, table=True, export=nonlinear_system,
+    fields=FIELDS, table=GAIN_TABLE, export=nonlinear_system,
     linear=True)

@@ -23,6 +23,24 @@ from manipcad.control.signals import NPARAM, NSTATE
 
 
 @dataclass(frozen=True)
+class TableLayout:
+    """A gain table held in a method's parameter vector (e.g. the LQR-GS table).
+
+    Attributes:
+        to_file: ``f(p) -> dict``: the table's regulator-file mapping.
+        from_file: ``f(t, p, robot, joint, source, where) -> None``: check a file's
+            mapping ``t`` (one InputError naming ``source``, field and reason) and
+            write it into ``p``.
+        entries: ``f(p) -> range``: the parameter indices the table occupies (stored
+            whole, whatever one period reads).
+    """
+
+    to_file: Callable
+    from_file: Callable
+    entries: Callable
+
+
+@dataclass(frozen=True)
 class Method:
     """One synthesis method of the registry.
 
@@ -38,7 +56,8 @@ class Method:
         fields: file layout of the method's own parameters: key (with its unit) -> index
             in the parameter vector.
         spans: one regulator controls several joints (needs the whole H(q)).
-        table: the parameters hold an LQR gain table (see :mod:`manipcad.control.lqr`).
+        table: the parameters hold a gain table: its :class:`TableLayout` (the file
+            mapping and the parameter entries it occupies), or None.
         export: ``f(reg, robot=None) -> python-control system`` (see :meth:`Regulator.to_control`).
         drive_blocks: packed drives the parameters hold: 1 at index 0 (single-joint
             methods), or ``"per_joint"`` (spanning methods, see the method), or 0.
@@ -58,7 +77,7 @@ class Method:
     summary: str
     fields: dict[str, int]
     spans: bool = False
-    table: bool = False
+    table: TableLayout | None = None
     export: Callable | None = None
     drive_blocks: int | str = 1
     joint_fields: dict[str, int] = field(default_factory=dict)

@@ -127,7 +127,7 @@ def check_adaptive(integrator: str, pick_step: int | None, ctrl, dt: float) -> N
             regulators' periods.
     """
     periods = [int(s) for s in ctrl.steps]
-    shown = ", ".join(f"{p * dt:g}" for p in sorted(set(periods))) or "none"
+    shown = ", ".join(f"{p * dt:g}" for p in sorted(set(periods))) or "(no regulator)"
     if pick_step is not None:
         if integrator == "adaptive-exact":
             raise ManipcadError("integrator='adaptive-exact' cannot take a pickup (it carries "

@@ -226,7 +226,7 @@ def _simulate_user(ws_dir, script) -> None:
     from manipcad.ui import pages
 
     async def main():
-        pages.STATE.update(ws=str(ws_dir), robot="puma560", trajectory=None, method=None)
+        pages.SERVER["ws"] = str(ws_dir)
         async with user_simulation(root=lambda: None) as user:
             pages.register()
             await script(user)
@@ -234,8 +234,23 @@ def _simulate_user(ws_dir, script) -> None:
     asyncio.run(main())
 
 
-def _error(user) -> str:
-    """The page's error line (visible), as the designer reads it."""
+async def _open(user, path: str) -> None:
+    """Open a page and wait until it is built (pages build once their tab is connected)."""
+    await user.open(path)
+    await user.should_see(marker="page-title")
+
+
+def _field(user, kind, label: str):
+    """The one form field of ``kind`` whose label is ``label`` or starts with it."""
+    (el,) = [e for e in user.find(kind=kind).elements
+             if e.props.get("label") == label or (" " in label and str(
+                 e.props.get("label", "")).startswith(label))]
+    return el
+
+
+async def _error(user) -> str:
+    """The page's error line (once visible), as the designer reads it."""
+    await user.should_see(marker="error")
     (lab,) = user.find(marker="error").elements
     assert lab.visible
     return lab.text
@@ -246,27 +261,28 @@ def test_pages_in_the_simulated_user(tmp_path):
     from nicegui import ui
 
     async def script(user):
-        await user.open("/")
+        await _open(user, "/")
         await user.should_see("Requirements → method")
-        await user.open("/trajectories")
+        await _open(user, "/trajectories")
         user.find(kind=ui.input, content="duration").clear().type("abc")
         user.find("Preview").click()
-        assert _error(user).startswith("trajectory form: duration")   # field and reason
+        assert (await _error(user)).startswith("trajectory form: duration")   # field and reason
         user.find(kind=ui.input, content="duration").clear().type("1.0")
         user.find("Save to workspace").click()
         await user.should_see("saved trajectories/move")
-        await user.open("/requirements")
+        await _open(user, "/requirements")
         user.find("Recommend").click()
         await user.should_see("Recommended, best first: asvs")
         await user.should_see("Rules that fired")
-        await user.open("/synthesis")
+        await _open(user, "/synthesis")
         user.find(kind=ui.input, content="spec").type("bandwidth=-3")
         user.find("Synthesize and save").click()
-        assert _error(user).startswith("unknown spec keys ['bandwidth']")  # ASVS preselected
-        await user.open("/results")
+        # ASVS preselected: its spec has no bandwidth
+        assert (await _error(user)).startswith("unknown spec keys ['bandwidth']")
+        await _open(user, "/results")
         user.find(kind=ui.input, content="filter").type("max_errr<1")
         user.find("Filter").click()
-        assert "unknown metric 'max_errr'" in _error(user)
+        assert "unknown metric 'max_errr'" in await _error(user)
 
     _simulate_user(tmp_path / "ws", script)
 
@@ -327,27 +343,33 @@ def test_study_reports_are_served_only_from_the_study(ws, tmp_path):
 
 
 @pytest.mark.slow
-def test_via_points_and_gripper_line_from_the_page(tmp_path):
-    """The Trajectories page makes a via-point spline and a gripper line (through the
-    trajectory schema and inverse kinematics) and saves them; the line's tool path is
-    straight and moves by the given displacement."""
+def test_via_points_and_gripper_line_and_circle_from_the_page(tmp_path):
+    """The Trajectories page makes a via-point spline, a gripper line and a gripper circle
+    (through the trajectory schema and inverse kinematics) and saves them; the line's tool
+    path is straight and moves by the given displacement, the circle's stays on its circle."""
     from nicegui import ui
 
     from manipcad.ui import pages
 
     async def script(user):
-        await user.open("/trajectories")
+        await _open(user, "/trajectories")
         (law,) = [e for e in user.find(kind=ui.select).elements if e.props.get("label") == "Law"]
         forms = {"via": ("spline", {"times of the via": "0, 0.5, 1",
                                     "one row per time": "0; 0.2; 0.1"}),
                  "line": ("line", {"start pose": "0, -0.5, 0.5, 0, 0.5, 0",
-                                   "displacement": "0.05, 0, 0"})}
+                                   "displacement": "0.05, 0, 0"}),
+                 "circle": ("circle", {"start pose": "0, -0.5, 0.5, 0, 0.5, 0",
+                                       "centre from": "0, 0.05, 0", "radius": "0.05",
+                                       "normal": "1, 0, 0", "angle": "3.14159",
+                                       "duration": "1"})}
         for name, (kind, fields) in forms.items():
             law.value = kind
             for label, text in {**fields, "Name": name}.items():
                 user.find(kind=ui.input, content=label).clear().type(text)
             user.find("Save to workspace").click()
             await user.should_see(f"saved trajectories/{name}")
+        with user:
+            assert pages.state()["trajectory"] == "circle"      # this tab's current one
 
     _simulate_user(tmp_path / "ws", script)
     ws = logic.open_workspace(tmp_path / "ws")
@@ -360,7 +382,14 @@ def test_via_points_and_gripper_line_from_the_page(tmp_path):
     p = np.array([logic.tool_position(arm, qk) for qk in q])
     np.testing.assert_allclose(p[0], logic.tool_position(arm, q0), atol=1e-6)
     np.testing.assert_allclose(p[-1] - p[0], [0.05, 0, 0], atol=1e-6)
-    assert pages.STATE["trajectory"] == "line"
+    # the circle: every tool point at 0.05 m from the centre, in the plane x = x0
+    circ = logic.load_trajectory_ref(ws, "circle", arm)
+    q, _, _ = circ.sample(np.linspace(0.0, 1.0, 11))
+    p = np.array([logic.tool_position(arm, qk) for qk in q])
+    centre = logic.tool_position(arm, q0) + [0, 0.05, 0]
+    np.testing.assert_allclose(np.linalg.norm(p - centre, axis=1), 0.05, atol=1e-6)
+    np.testing.assert_allclose(p[:, 0], centre[0], atol=1e-6)
+    np.testing.assert_allclose(p[-1], 2 * centre - p[0], atol=1e-4)     # half a turn
 
 
 @pytest.mark.slow
@@ -379,3 +408,166 @@ def test_verify_by_simulation_from_names(ws, puma):
     assert doc["recommendations"][0]["max_error"] == direct[0].max_error
     assert "may not contain" in logic.verify_by_names(form, str(ws.root), "puma560",
                                                       "../short")["error"]
+
+
+# ----------------------------------------------------------------- drives, libraries, studies
+def test_motor_and_gear_libraries_and_attach(ws):
+    """Own motors and gears are validated by the motor/gear file loader; attaching a catalog
+    motor + gear composes the drive as a robot file naming them does."""
+    from manipcad.model.yaml_robot import load_motor
+
+    rows = {r["ref"]: r for r in logic.library_rows(ws, "motors")}
+    re40 = load_motor("maxon_re40_148877")
+    assert rows["maxon_re40_148877"]["origin"] == "catalog"
+    assert float(rows["maxon_re40_148877"]["R"]) == pytest.approx(re40.R, rel=1e-3)
+    good = {"J": 1e-5, "R": 1.2, "L": 2e-4, "k_m": 0.05, "k_w": 0.05, "M_f": [0.01, 0.02],
+            "rated_torque": 0.2, "rated_voltage": 24.0}
+    with pytest.raises(InputError, match=r"^motors/bad: J: must be >= 0"):
+        logic.add_part(ws, "motors", "bad", {**good, "J": -1.0}, source="sheet")
+    with pytest.raises(InputError, match=r"^motors/bad: k_m: required field is missing"):
+        logic.add_part(ws, "motors", "bad", {k: v for k, v in good.items() if k != "k_m"},
+                       source="sheet")
+    with pytest.raises(InputError, match=r"^gears/g: type: unknown value 'worm'"):
+        logic.add_part(ws, "gears", "g", {"type": "worm", "ratio": 10.0}, source="sheet")
+    assert ws.list("motors") == [] and ws.list("gears") == []          # nothing half-saved
+    logic.add_part(ws, "motors", "mine", good, source="sheet")
+    logic.add_part(ws, "gears", "g10", {"type": "planetary", "ratio": 10.0, "J": 1e-6,
+                                        "efficiency": 0.9}, source="sheet")
+    mine = [r for r in logic.library_rows(ws, "motors") if r["ref"] == "motors/mine"]
+    assert mine and mine[0]["origin"] == "workspace" and mine[0]["M_f"] == "0.01, 0.02"
+
+    cyl = manipcad.load_robot("cylindrical")          # turn: RE 40 + CSF-17-100 in its file
+    arm, item = logic.attach_drive(ws, cyl.replace(drives=(None, *cyl.drives[1:])), "turn",
+                                   "maxon_re40_148877", ["harmonic_csf17_100"], name="cyl")
+    d, ref = arm.drives[0], cyl.drives[0]
+    for key in ("J", "ratio", "R", "L", "k_m", "k_w", "k_v", "M_f", "u_max", "efficiency",
+                "gear_rated_torque", "gear_peak_torque", "rated_torque", "max_speed"):
+        assert getattr(d, key) == pytest.approx(getattr(ref, key), rel=1e-12), key
+    back = logic.load_robot_ref(ws, item.ref)[0].drives[0]
+    assert back.J == d.J and back.name == "maxon_re40_148877"
+    own, _ = logic.attach_drive(ws, arm, 1, "motors/mine", ["gears/g10"], name="cyl2")
+    assert own.drives[1].ratio == 10.0 and own.drives[1].J == pytest.approx(1e-5 + 1e-6)
+    assert own.drives[1].efficiency == 0.9 and own.drives[0] == d
+    for bad in (("nope", []), ("maxon_re40_148877", ["gears/../x"]), ("motors/none", [])):
+        with pytest.raises(InputError):
+            logic.attach_drive(ws, arm, 0, *bad, name="x")
+    with pytest.raises(InputError, match="joint"):
+        logic.attach_drive(ws, arm, "elbow", "maxon_re40_148877", [], name="x")
+    assert sorted(i.name for i in ws.list("robots")) == ["cyl", "cyl2"]
+
+
+def test_drive_series_ratio_sweep_and_gain_table(puma):
+    """The Drives figures plot required_drive's series against the motors' limits; the
+    sweep is ratio_sweep on the form's grid; the LQR-GS plot is the regulator's table."""
+    from manipcad.sizing import ratio_sweep
+    from manipcad.sizing.limits import voltage_limit
+
+    traj = logic.make_trajectory({"type": "cosine", "amplitude": [0.2] * 6,
+                                  "omega": [3.0] * 6, "duration": 0.5}, puma)
+    req = manipcad.required_drive(puma, traj)
+    figs = logic.required_series_figures(req)
+    cur = [tr for tr in figs["current"].data if tr.name == "shoulder"][0]
+    np.testing.assert_array_equal(cur.y, req.current[:, 1])
+    vlim = [tr for tr in figs["voltage"].data if tr.name.startswith("shoulder voltage limit")]
+    assert vlim and vlim[0].y[0] == voltage_limit(puma.drives[1])
+    pw = [tr for tr in figs["power"].data if tr.name == "elbow"][0]
+    np.testing.assert_array_equal(pw.y, req.elec_power[:, 2])
+
+    sw = logic.ratio_sweep_for(puma, traj, "shoulder", 10.0, 1000.0, 50)
+    ref = ratio_sweep(puma, traj, 1, np.geomspace(10.0, 1000.0, 50))
+    assert sw.intervals == ref.intervals and sw.best_ratio == ref.best_ratio
+    assert logic.ratio_sweep_png(sw)[:4] == b"\x89PNG"
+    with pytest.raises(InputError, match="sweep form: ratios"):
+        logic.ratio_sweep_for(puma, traj, "shoulder", 100.0, 10.0, 50)
+
+    cyl = manipcad.load_robot("cylindrical")
+    reg = manipcad.synthesize(cyl, "turn", "lqr_gs", grid=(4, 2), h_range=(-1.0, 1.0))
+    table = reg.design["table"]
+    fig = logic.gain_table_figure(reg)
+    assert len(fig.data) == 3 * 2                       # 3 gains × 2 h_i lines
+    np.testing.assert_array_equal(fig.data[0].x, table.H)
+    np.testing.assert_array_equal(fig.data[5].y, table.gains[:, 1, 2])   # D_i at h_1
+    assert logic.gain_table_figure(manipcad.synthesize(cyl, "turn", "pid")) is None
+
+
+def test_study_runs_through_the_study_functions(ws):
+    """A study from the page: run_fig3 into studies/NAME with the page's progress; bad
+    names and methods are refused with the study functions' own messages."""
+    from manipcad.ui.worker import StudySpec
+
+    seen = []
+    name, info = StudySpec(str(ws.root), "fig3", "f3", t_end=0.02, methods="none").run(
+        seen.append)
+    assert name == "f3" and "report.html" in info["files"] and seen[-1] == 1.0
+    assert "report.html" in logic.study_files(ws, "f3")
+    with pytest.raises(InputError, match="may not contain"):
+        StudySpec(str(ws.root), "fig3", "../f3").run()
+    with pytest.raises(InputError, match="unknown study method"):
+        StudySpec(str(ws.root), "fig3", "g", methods="magic").run()
+    with pytest.raises(InputError, match="studies/f3: name taken"):
+        StudySpec(str(ws.root), "fig3", "f3").run()
+    with pytest.raises(InputError, match="study form: study"):
+        StudySpec(str(ws.root), "robustness", "r").run()
+    assert [i.name for i in ws.list("studies")] == ["f3"]
+
+
+@pytest.mark.slow
+def test_drives_page_and_two_tabs_in_the_simulated_user(tmp_path):
+    """The Drives page adds a motor (bad value: its error), attaches it, computes the
+    requirement figures and the sweep; Synthesis draws an LQR-GS table; a second tab keeps
+    its own robot and trajectory."""
+    from nicegui import ui
+    from nicegui.testing.user import User
+
+    from manipcad.ui import pages
+
+    async def script(user):
+        await _open(user, "/trajectories")
+        user.find(kind=ui.input, content="duration").clear().type("0.5")
+        user.find("Save to workspace").click()
+        await user.should_see("saved trajectories/move")
+        await _open(user, "/drives")
+        user.find("Add your own motor").click()
+        for key, text in {"motor name": "m1", "rotor inertia": "-1e-5",
+                          "armature resistance": "1.2", "armature inductance": "2e-4",
+                          "torque constant": "0.3", "back-EMF constant": "0.3",
+                          "rated (continuous)": "2", "rated voltage": "48",
+                          "max speed": "400"}.items():
+            _field(user, ui.input, key).value = text
+        user.find("Save the motor").click()
+        assert (await _error(user)).startswith("motors/m1: J: must be >= 0")
+        _field(user, ui.input, "rotor inertia").value = "1e-5"
+        user.find("Save the motor").click()
+        await user.should_see("added motors/m1")
+        _field(user, ui.select, "joint").value = "elbow"
+        _field(user, ui.select, "motor").value = "motors/m1"
+        user.find(kind=ui.button, content="Attach").click()
+        await user.should_see("saved robots/puma560-drives")
+        with user:
+            assert pages.state()["robot"] == "robots/puma560-drives"
+        user.find("Compute the drive requirements").click()
+        await user.should_see(marker="page-title")
+        assert len(user.find(kind=ui.plotly).elements) == 3      # current, voltage, power
+        _field(user, ui.input, "joint (name").value = "elbow"
+        user.find("Sweep the ratio").click()
+        await user.should_see("feasible |i_r|")
+        await _open(user, "/synthesis")
+        _field(user, ui.select, "Method").value = "lqr_gs"
+        _field(user, ui.input, "joints (names").value = "1"
+        user.find("Synthesize and save").click()
+        await user.should_see("saved regulators/lqr_gs-puma560-drives", retries=100)
+        assert user.find(kind=ui.plotly).elements                   # the gain table
+
+        other = User(user.http_client)                            # a second tab
+        await _open(other, "/drives")
+        with other:
+            assert pages.state()["robot"] == "puma560" and pages.state()["trajectory"] is None
+        other.find("Compute the drive requirements").click()
+        assert "pick or make a trajectory" in await _error(other)
+        with user:
+            assert pages.state()["robot"] == "robots/puma560-drives"
+
+    _simulate_user(tmp_path / "ws", script)
+    arm = logic.load_robot_ref(logic.open_workspace(tmp_path / "ws"),
+                               "robots/puma560-drives")[0]
+    assert arm.drives[2].name == "motors/m1" and arm.drives[2].k_m == 0.3

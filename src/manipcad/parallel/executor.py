@@ -254,7 +254,7 @@ def default_workers() -> int:
 def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
               common: Mapping[str, Any] | None = None, workers: int | None = None,
               scheduler: str | None = None, cache_dir: str | Path | None = None,
-              chunk: int = 1, batched: bool = False, progress: bool = True,
+              chunk: int = 1, batched: bool = False, progress: bool | Callable = True,
               desc: str = "tasks", version: str = "", cost: Callable | None = None,
               pool: Pool | None = None) -> Results:
     """Compute ``func`` on every task, serially or on Dask distributed, reusing cached results.
@@ -273,7 +273,8 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
             no cache.
         chunk: tasks per unit of work (>= 1), in task order.
         batched: ``func`` takes a list of tasks (see above).
-        progress: show a progress bar of tasks done (rich, on stderr).
+        progress: show a progress bar of tasks done (rich, on stderr); or a callable,
+            called with the fraction of the tasks done (0..1) after each unit of work.
         desc: the progress bar's label.
         version: a label of ``func``'s code version, part of the cache key.
         cost: an estimate of a task's run time (any unit), ``cost(task) -> float``: on a
@@ -364,7 +365,15 @@ def _guarded(func, batched, common, items, idx) -> list:
                          f"failed: {type(exc).__name__}: {exc}", idx[0], items[idx[0]]) from exc
 
 
-def _progress(stack: ExitStack, show: bool, desc: str, total: int, already: int):
+def _progress(stack: ExitStack, show, desc: str, total: int, already: int):
+    if callable(show):                  # report(fraction done), e.g. a web page's bar
+        done = [already]
+
+        def report(k: int) -> None:
+            done[0] += k
+            show(min(1.0, done[0] / max(1, total)))
+
+        return report
     if not show:
         return lambda k: None
     from rich.console import Console

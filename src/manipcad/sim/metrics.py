@@ -40,6 +40,29 @@ def step_metrics(t: np.ndarray, y: np.ndarray, y0: float, y_final: float,
             "overshoot": float(max(0.0, s.max() - 1.0))}
 
 
+def armature_voltage(u: np.ndarray, k_u, u_max) -> np.ndarray:
+    """The amplifiers' output (armature) voltage of a run, u_a = clip(k_u·U, ±u_max).
+
+    The array form of :func:`manipcad.drives.dc.amplifier_voltage`, over a run's
+    stored regulator outputs.
+
+    Args:
+        u: (K, n) amplifier inputs U (a result's ``u``), V.
+        k_u: (n,) amplifier gains, V/V.
+        u_max: (n,) amplifier output limits, V (inf: none).
+
+    Returns:
+        (K, n) armature voltages u_a, V.
+
+    Example:
+        >>> armature_voltage(np.array([[1.0, -3.0]]), np.array([10.0, 10.0]),
+        ...                  np.array([24.0, np.inf])).tolist()
+        [[10.0, -30.0]]
+    """
+    lim = np.asarray(u_max, dtype=float)
+    return np.clip(np.asarray(k_u, dtype=float) * np.asarray(u, dtype=float), -lim, lim)
+
+
 def joint_metrics(res, *, drives: bool, dtable: np.ndarray) -> dict[str, dict[str, float]]:
     """Max and RMS error, step figures (when the reference is a step), effort, energy.
 
@@ -55,7 +78,7 @@ def joint_metrics(res, *, drives: bool, dtable: np.ndarray) -> dict[str, dict[st
              "rms_error": float(np.sqrt(np.mean(e[:, j] ** 2))),
              "effort_rms": float(np.sqrt(np.mean(res.u[:, j] ** 2)))}
         if drives and np.isfinite(res.current[:, j]).all():
-            ua = np.clip(dtable[j, P_KU] * res.u[:, j], -dtable[j, P_UMAX], dtable[j, P_UMAX])
+            ua = armature_voltage(res.u[:, j], dtable[j, P_KU], dtable[j, P_UMAX])
             p = ua * res.current[:, j]
         else:
             p = res.tau[:, j] * res.qd[:, j]

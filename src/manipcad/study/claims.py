@@ -72,6 +72,7 @@ import os
 import shutil
 import tempfile
 import warnings
+from collections.abc import Callable
 from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
@@ -609,7 +610,7 @@ def resolve_arm(arm: str | Robot, study: str = "claims") -> tuple[Robot, str, fl
 
 def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "quick",
                workers: int | None = None, scheduler: str | None = None, dt: float = 1e-4,
-               progress: bool = True) -> dict:
+               progress: bool | Callable[[float], None] = True) -> dict:
     """Run the claims maps and write claims.json, claims.png and report.html into ``out_dir``.
 
     Args:
@@ -622,7 +623,8 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
         workers, scheduler: as :func:`manipcad.parallel.run_tasks` (default one
             worker process per core; 1: serial).
         dt: integration step, s.
-        progress: show a progress bar of cells done.
+        progress: show a progress bar of cells done; or a callable, called with the
+            fraction of the cells done (0..1).
 
     Returns:
         The claims.json document.

@@ -47,7 +47,7 @@ import datetime as _dt
 import json
 import math
 import shutil
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -354,7 +354,35 @@ def evaluate_claims(data: dict) -> list[dict[str, Any]]:
 # ----------------------------------------------------------------------------- the runs
 
 
-def _progress(enabled: bool):
+class _CallbackBar:
+    """The progress bar's calls reported to ``report(fraction)`` (0..1), e.g. a web page's
+    bar in ``manipcad ui``; the same interface as rich's Progress that :func:`run_fig3` uses."""
+
+    def __init__(self, report) -> None:
+        self.report, self.total, self.done = report, 1, 0
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        return False
+
+    def add_task(self, description: str, total: int) -> int:
+        self.total = max(1, int(total))
+        self.report(0.0)
+        return 0
+
+    def update(self, task: int, description: str = "") -> None:
+        pass
+
+    def advance(self, task: int, k: int = 1) -> None:
+        self.done += k
+        self.report(min(1.0, self.done / self.total))
+
+
+def _progress(enabled):
+    if callable(enabled):
+        return _CallbackBar(enabled)
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -403,7 +431,8 @@ def _check_args(dt: float, t_end: float | None, step: float, step_t_end: float) 
 
 
 def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | None = None,
-             progress: bool = True, t_end: float | None = None, step: float = 0.1,
+             progress: bool | Callable[[float], None] = True, t_end: float | None = None,
+             step: float = 0.1,
              step_t_end: float = 0.4, robot: Robot | None = None) -> Fig3Result:
     """Run the Fig. 3 study and write fig3.png, fig3.json and report.html into ``out_dir``.
 
@@ -414,7 +443,8 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
         methods: the labels to run (default all): tracking ``none``,
             ``none_sce``, ``ace_tf``, ``ace_de``, ``lqr``, ``lqr_gs``; step
             ``vss``, ``asvs``. A list or a comma-separated string.
-        progress: show a progress bar (on stderr).
+        progress: show a progress bar (on stderr); or a callable, called with the
+            fraction of the runs done (0..1) after each one (it may raise to cancel).
         t_end: length of the tracking runs, s (default 1.6, the laws' duration).
         step: the step of q1*, rad.
         step_t_end: length of each step run, s.

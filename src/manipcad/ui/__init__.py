@@ -43,7 +43,7 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
         raise InputError("--port", "", f"must be 1..65535, got {port}")
     root = Path(ws)
     open_workspace(root).close()
-    pages.STATE["ws"] = str(root)
+    pages.SERVER["ws"] = str(root)
     pages.register()
     required = token_for(host, token)
     url = f"http://{host}:{port}/"

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from manipcad.errors import InputError, ManipcadWarning
+from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.workspace import Workspace, check_name
 
 #: largest upload accepted, bytes (robot, trajectory, regulator files are far smaller)
@@ -441,7 +441,8 @@ def overlay_figure(ws: Workspace, names: Sequence[str], quantity: str = "error")
     Args:
         ws: the workspace.
         names: result names (checked).
-        quantity: a stored series: error, q, u, current, tau.
+        quantity: a stored series (error, q, u, current, tau) or one of the drives'
+            (voltage, power: :func:`result_series`).
 
     Returns:
         A ``plotly.graph_objects.Figure``.
@@ -455,8 +456,8 @@ def overlay_figure(ws: Workspace, names: Sequence[str], quantity: str = "error")
     for name in names:
         check_name(name, "result")
         item = ws.get(f"results/{name}")
-        res, doc = load_result(ws.path(item))
-        loaded.append((name, res, doc))
+        res, _doc = load_result(ws.path(item))
+        loaded.append((name, res, ws.path(item)))
     if not loaded:
         return go.Figure()
     joints = list(loaded[0][1].joint_names)
@@ -464,8 +465,8 @@ def overlay_figure(ws: Workspace, names: Sequence[str], quantity: str = "error")
                         vertical_spacing=0.03)
     palette = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
                "#7f7f7f", "#bcbd22", "#17becf")
-    for r, (name, res, _doc) in enumerate(loaded):
-        y = getattr(res, quantity)
+    for r, (name, res, folder) in enumerate(loaded):
+        y = result_series(res, quantity, folder)
         for k, jn in enumerate(joints):
             if jn not in res.joint_names:
                 continue
@@ -478,6 +479,51 @@ def overlay_figure(ws: Workspace, names: Sequence[str], quantity: str = "error")
                       title=f"{quantity} of {', '.join(names)} (SI units: rad|m, V, A, N·m)")
     fig.update_xaxes(title_text="t [s]", row=len(joints), col=1)
     return fig
+
+
+#: series a result figure can show: name -> (what, unit)
+RESULT_SERIES = {"error": ("tracking error q_ref − q", "rad|m"),
+                 "tau": ("joint torque", "N·m|N"), "current": ("armature current", "A"),
+                 "voltage": ("armature voltage u_a", "V"),
+                 "power": ("electrical power u_a·i", "W"), "u": ("regulator output U", "V"),
+                 "q": ("position", "rad|m")}
+
+
+def result_series(res, quantity: str, folder: str | Path | None = None) -> np.ndarray:
+    """One (K, n) series of a stored result, SI units (:data:`RESULT_SERIES`).
+
+    ``voltage`` is the armature voltage u_a = clip(k_u·U, ±u_max)
+    (:func:`manipcad.sim.metrics.armature_voltage`, the one the run's energy metric
+    uses) with the drives of the robot as it ran (``folder/inputs/robot.yaml``, saved
+    with every result); ``power`` is u_a·i, the electrical power the amplifier delivers
+    (the integrand of the ``energy`` metric). Joints without a drive give nan.
+
+    Raises:
+        InputError: an unknown quantity, or voltage/power of a result stored without
+            its robot.
+    """
+    if quantity not in RESULT_SERIES:
+        raise InputError("quantity", "", f"{quantity!r}: expected one of "
+                         f"{', '.join(RESULT_SERIES)}")
+    if quantity not in ("voltage", "power"):
+        return np.asarray(getattr(res, quantity))
+    from manipcad.model import load_robot
+    from manipcad.sim.metrics import armature_voltage
+
+    path = Path(folder or "") / "inputs" / "robot.yaml"
+    if folder is None or not path.is_file():
+        raise InputError(str(folder or "result"), "inputs/robot.yaml", "the result was stored "
+                         "without its robot: its voltages and powers are not known")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        arm = load_robot(path)
+    idx = [list(arm.joint_names).index(jn) for jn in res.joint_names]
+    drives = [arm.drives[i] if arm.drives else None for i in idx]
+    nan = float("nan")
+    k_u = np.array([d.k_u if d is not None else nan for d in drives])
+    u_max = np.array([d.u_max if d is not None else nan for d in drives])
+    ua = armature_voltage(res.u, k_u, u_max)
+    return ua if quantity == "voltage" else ua * np.asarray(res.current)
 
 
 def series_figure(t, y, labels: Sequence[str], title: str, yunit: str):
@@ -583,3 +629,318 @@ def study_file(ws: Workspace, name: str, file: str) -> Path:
     if file not in study_files(ws, name):
         raise InputError(f"studies/{name}", file, "no such report or figure file")
     return ws.path(ws.get(f"studies/{name}")) / file
+
+
+# ---------------------------------------------------------------- motor and gear libraries
+#: the motor fields of the page's form: (file key, unit, label); the motor file's schema
+#: (:class:`manipcad.model.yaml_robot.MotorSpec`) checks them
+MOTOR_FIELDS = (("J", "kg·m²", "rotor inertia J"), ("R", "Ω", "armature resistance R"),
+                ("L", "H", "armature inductance L"), ("k_m", "N·m/A", "torque constant k_m"),
+                ("k_w", "V·s/rad", "back-EMF constant k_w"),
+                ("k_v", "N·m·s/rad", "viscous friction k_v"),
+                ("M_f", "N·m", "dry friction M_f (one value or +, −)"),
+                ("rated_torque", "N·m", "rated (continuous) torque"),
+                ("peak_torque", "N·m", "peak torque"), ("max_speed", "rad/s", "max speed"),
+                ("rated_voltage", "V", "rated voltage"), ("rated_current", "A", "rated current"))
+#: the gear fields of the form (:class:`manipcad.model.yaml_robot.GearSpec`); ``type`` is text
+GEAR_FIELDS = (("ratio", "rad/rad (rad/m linear)", "ratio i"),
+               ("direction", "±1", "direction"), ("J", "kg·m²", "input-side inertia J"),
+               ("efficiency", "-", "efficiency η"),
+               ("max_continuous_torque", "N·m (N)", "rated output torque"),
+               ("max_intermittent_torque", "N·m (N)", "peak output torque"),
+               ("max_input_speed", "rad/s", "max input speed"),
+               ("stiffness", "N·m/rad (N/m)", "torsional stiffness"))
+GEAR_TYPES = ("planetary", "harmonic", "spur", "ball_screw", "rack_pinion", "belt")
+
+
+def part_source(ws: Workspace, kind: str, ref: str) -> str:
+    """The loader's argument for a motor or gear reference: a catalog name as it is, or
+    ``motors/NAME`` / ``gears/NAME`` as the workspace file's path (name checked).
+
+    Raises:
+        InputError: an unknown kind of reference or an unsafe name.
+
+    Example:
+        >>> import tempfile
+        >>> part_source(open_workspace(tempfile.mkdtemp()), "motors", "maxon_re40_148877")
+        'maxon_re40_148877'
+    """
+    from manipcad.model.load import catalog_names
+
+    if ref in catalog_names(kind):
+        return ref
+    head, _, name = ref.partition("/")
+    if head != kind:
+        raise InputError(kind[:-1], "", f"{ref!r}: pick a catalog {kind[:-1]} or {kind}/NAME")
+    check_name(name, kind[:-1])
+    return str(ws.resolve(kind, name))
+
+
+def library_rows(ws: Workspace, kind: str) -> list[dict[str, Any]]:
+    """The motors or gears a designer can pick: the catalog's, then the workspace's own
+    (``kind/NAME``), each loaded by :func:`~manipcad.model.yaml_robot.load_motor` /
+    :func:`~manipcad.model.yaml_robot.load_gear` (as ``manipcad robots list --ws``).
+
+    Args:
+        ws: the workspace.
+        kind: "motors" or "gears".
+
+    Returns:
+        One dict per part: ``ref`` (what to pick), ``origin`` (catalog or workspace) and
+        the fields of :data:`MOTOR_FIELDS` / :data:`GEAR_FIELDS` in SI units, as display
+        strings (``-`` unknown).
+
+    Example:
+        >>> import tempfile
+        >>> rows = library_rows(open_workspace(tempfile.mkdtemp()), "gears")
+        >>> rows[0]["origin"], "ratio" in rows[0]
+        ('catalog', True)
+    """
+    from manipcad.model.load import catalog_names
+    from manipcad.model.yaml_robot import load_gear, load_motor
+
+    if kind not in ("motors", "gears"):
+        raise InputError("library", "", f"{kind!r}: expected motors or gears")
+    load = load_motor if kind == "motors" else load_gear
+    keys = [k for k, _, _ in (MOTOR_FIELDS if kind == "motors" else GEAR_FIELDS)]
+    refs = [(n, "catalog") for n in catalog_names(kind)] + \
+        [(i.ref, "workspace") for i in ws.list(kind)]
+    rows = []
+    for ref, origin in refs:
+        spec = load(part_source(ws, kind, ref))
+        row: dict[str, Any] = {"ref": ref, "origin": origin}
+        if kind == "gears":
+            row["type"] = spec.type
+        for k in keys:
+            v = getattr(spec, k)
+            row[k] = "-" if v is None else (", ".join(f"{x:.4g}" for x in v)
+                                            if isinstance(v, tuple) else f"{float(v):.4g}")
+        rows.append(row)
+    return rows
+
+
+def add_part(ws: Workspace, kind: str, name: str, form: Mapping[str, Any], *,
+             source: str = "", force: bool = False):
+    """Save a motor or gear of one's own into the workspace (``motors/NAME`` or
+    ``gears/NAME``), checked by the loader every motor and gear file goes through.
+
+    Args:
+        ws: the workspace.
+        kind: "motors" or "gears".
+        name: the part's name.
+        form: the file's fields (SI units, :data:`MOTOR_FIELDS` / :data:`GEAR_FIELDS`,
+            and ``type`` for a gear); empty values are left out.
+        source: where the numbers come from (a data sheet); required by the schema.
+        force: replace a part of that name.
+
+    Returns:
+        The workspace :class:`~manipcad.workspace.Item`.
+
+    Raises:
+        InputError: naming ``motors/NAME`` or ``gears/NAME``, the field and the reason.
+
+    Example:
+        >>> import tempfile
+        >>> ws = open_workspace(tempfile.mkdtemp())
+        >>> add_part(ws, "gears", "g50", {"type": "planetary", "ratio": 50.0},
+        ...          source="test").ref
+        'gears/g50'
+    """
+    import yaml
+
+    if kind not in ("motors", "gears"):
+        raise InputError("library", "", f"{kind!r}: expected motors or gears")
+    check_name(name, "name")
+    data: dict[str, Any] = {"source": source or ""}
+    data.update({k: v for k, v in form.items() if v not in (None, "", [])})
+    label = f"{kind}/{name}"
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"{name}.yaml"
+        path.write_text(f"# {kind[:-1]} file (SI units, docs/robot-files.md)\n"
+                        + yaml.safe_dump(data, sort_keys=False, allow_unicode=True),
+                        encoding="utf-8")
+        try:
+            return ws.add(path, kind=kind, name=name, force=force)
+        except InputError as exc:
+            raise InputError(label, exc.field, exc.reason.replace(str(path), label)) from None
+
+
+def attach_drive(ws: Workspace, robot, joint: int | str, motor: str, gears: Sequence[str], *,
+                 name: str, force: bool = False):
+    """Give a joint of a robot the drive of a motor and a gear chain, and save the robot
+    into the workspace as ``robots/NAME`` (its tree form, :meth:`Robot.save`).
+
+    The drive is composed by the robot files' own rule
+    (:func:`manipcad.model.yaml_robot.build_drive`, as ``drive: {motor: M, gear: [G]}``):
+    J of the motor plus the gears', ratio the product of the gears', electrical data and
+    ratings from the motor, efficiency and gear ratings referred to the joint.
+
+    Args:
+        ws: the workspace.
+        robot: the robot.
+        joint: the joint, index or name.
+        motor: a catalog motor name or ``motors/NAME``.
+        gears: catalog gear names or ``gears/NAME``, from the motor outwards (may be empty).
+        name: the saved robot's name.
+        force: replace a robot of that name.
+
+    Returns:
+        ``(robot, item)``: the new :class:`~manipcad.model.Robot` and the workspace item.
+
+    Raises:
+        InputError: an unknown joint, motor or gear (naming the drive form's field).
+
+    Example:
+        >>> import manipcad, tempfile
+        >>> ws = open_workspace(tempfile.mkdtemp())
+        >>> arm, item = attach_drive(ws, manipcad.load_robot("cylindrical"), "turn",
+        ...                          "maxon_re40_148877", ["maxon_gp42c_43"], name="arm2")
+        >>> item.ref, arm.drives[0].gear
+        ('robots/arm2', 'maxon_gp42c_43')
+    """
+    from manipcad.model.yaml_robot import DriveSpec, build_drive
+
+    check_name(name, "name")
+    try:
+        j = robot.joint_index(joint)
+    except (IndexError, KeyError, ValueError, ManipcadError) as exc:
+        raise InputError("drive form", "joint", str(exc)) from None
+    if not motor:
+        raise InputError("drive form", "motor", "pick a motor")
+    spec = DriveSpec(motor=part_source(ws, "motors", motor),
+                     gear=[part_source(ws, "gears", g) for g in gears] or None)
+    drive = build_drive(spec, "drive form", f"joints[{j}].drive")
+    # label the parts by the names the designer picked, not by their file paths
+    drive = drive.replace(name=motor, gear=" + ".join(gears))
+    drives = list(robot.drives) if robot.drives else [None] * robot.n
+    drives[j] = drive
+    new = robot.replace(drives=tuple(drives))
+    with tempfile.TemporaryDirectory() as tmp:
+        path = new.save(Path(tmp) / f"{name}.yaml")
+        item = ws.add(path, kind="robots", name=name, force=force)
+    return new, item
+
+
+# ---------------------------------------------------------------- the drives along a trajectory
+def required_series_figures(req) -> dict[str, Any]:
+    """Plotly figures of the currents, armature voltages and powers a trajectory needs
+    (:func:`manipcad.required_drive`'s series), each against the motor's limit.
+
+    Limits drawn dashed, in the joint's colour: ±rated current (A; the continuous
+    rating, which bounds the RMS current); ±the voltage limit
+    (:func:`manipcad.sizing.limits.voltage_limit`: the amplifier's u_max, else the rated
+    voltage, V). The motor data hold no power rating: the power figure shows the
+    electrical power u_a·i and the mechanical power P·q̇ (W), without a limit line.
+
+    Returns:
+        ``{"current": Figure, "voltage": Figure, "power": Figure}``.
+    """
+    import plotly.graph_objects as go
+
+    from manipcad.sizing.limits import voltage_limit
+
+    palette = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
+               "#7f7f7f", "#bcbd22", "#17becf")
+    t = np.asarray(req.t)
+    out = {}
+    specs = {"current": ("current", "armature current i [A]",
+                         lambda d: float(d.rated_current), "rated current"),
+             "voltage": ("voltage", "armature voltage u_a [V]", voltage_limit, "voltage limit"),
+             "power": ("elec_power", "electrical power u_a·i [W] (dotted: mechanical P·q̇)",
+                       None, "")}
+    for key, (attr, ylabel, limit, limit_name) in specs.items():
+        fig = go.Figure()
+        y = np.asarray(getattr(req, attr))
+        for j, jn in enumerate(req.joint_names):
+            col = palette[j % len(palette)]
+            fig.add_trace(go.Scatter(x=t, y=y[:, j], mode="lines", name=jn, legendgroup=jn,
+                                     line={"color": col}))
+            if key == "power":
+                fig.add_trace(go.Scatter(x=t, y=np.asarray(req.mech_power)[:, j], mode="lines",
+                                         name=f"{jn} P·q̇", legendgroup=jn, showlegend=False,
+                                         line={"color": col, "dash": "dot", "width": 1}))
+            d = req.drives[j]
+            lim = limit(d) if (limit is not None and d is not None) else float("nan")
+            if np.isfinite(lim):
+                for s in (1.0, -1.0):
+                    fig.add_trace(go.Scatter(x=[t[0], t[-1]], y=[s * lim, s * lim], mode="lines",
+                                             name=f"{jn} {limit_name} {lim:.4g}",
+                                             legendgroup=jn, showlegend=s > 0,
+                                             line={"color": col, "dash": "dash", "width": 1}))
+        fig.update_layout(title=ylabel.split(" [")[0] + " along the trajectory, against "
+                          + (f"the {limit_name}" if limit else "no rating (none in the data)"),
+                          xaxis_title="t [s]", yaxis_title=ylabel, height=340,
+                          margin={"l": 50, "r": 10, "t": 40, "b": 30})
+        out[key] = fig
+    return out
+
+
+def ratio_sweep_for(robot, traj, joint: int | str, lo: float, hi: float, n: int):
+    """The gear-ratio sweep of one joint over ``n`` ratios spaced in log from ``lo`` to
+    ``hi`` (|i_r|, rad/rad or rad/m): :func:`manipcad.sizing.ratio_sweep`, the function
+    ``manipcad size --ratio-sweep LO:HI:N --sweep-joint J`` calls.
+
+    Returns:
+        :class:`~manipcad.sizing.sweep.RatioSweep` (feasible range, best ratio).
+
+    Raises:
+        InputError: bad bounds (naming ``sweep form``), or ratio_sweep's own errors.
+    """
+    from manipcad.sizing import ratio_sweep
+
+    lo, hi, n = float(lo), float(hi), int(n)
+    if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi and 2 <= n <= 100000):
+        raise InputError("sweep form", "ratios", f"needs 0 < LO < HI and 2 <= N <= 100000, "
+                         f"got {lo:g}:{hi:g}:{n}")
+    return ratio_sweep(robot, traj, joint, np.geomspace(lo, hi, n))
+
+
+def ratio_sweep_png(sweep) -> bytes:
+    """:func:`manipcad.sizing.plot.ratio_sweep_figure` (the figure of ``size --sweep-plot``),
+    as PNG bytes for the page."""
+    import io
+
+    from manipcad.sizing.plot import ratio_sweep_figure
+
+    buf = io.BytesIO()
+    ratio_sweep_figure(sweep).savefig(buf, format="png", dpi=110)
+    return buf.getvalue()
+
+
+# ---------------------------------------------------------------- synthesis: the LQR-GS table
+def gain_table_figure(reg):
+    """The LQR-GS gain table of a regulator as a Plotly figure: each gain (D_e V/rad,
+    D_v V·s/rad, D_i V/A, and D_θ, D_ω of an elastic model) against the H_ii grid
+    (kg·m²), one line per h_i grid value (N·m·s/rad). None when the regulator holds no
+    table (every method but lqr_gs, and lqr's one-point table).
+
+    Example:
+        >>> import manipcad
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> gain_table_figure(manipcad.synthesize(arm, "turn", "pid")) is None
+        True
+    """
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+
+    from manipcad.control.lqr import GAIN_NAMES
+
+    table = (reg.design or {}).get("table")
+    if table is None or len(table.H) < 2:
+        return None
+    g = np.asarray(table.gains)
+    names = GAIN_NAMES[:g.shape[-1]]
+    fig = make_subplots(rows=1, cols=len(names), subplot_titles=[
+        n.replace("_V_s_per_rad", " [V·s/rad]").replace("_V_per_rad", " [V/rad]")
+        .replace("_V_per_A", " [V/A]") for n in names])
+    for k in range(len(names)):
+        for v, h in enumerate(table.h):
+            fig.add_trace(go.Scatter(x=table.H, y=g[:, v, k], mode="lines+markers",
+                                     name=f"h_i = {h:.3g} N·m·s/rad", legendgroup=str(v),
+                                     showlegend=k == 0, marker={"size": 4}), row=1, col=k + 1)
+        fig.update_xaxes(title_text="H_ii [kg·m²]", row=1, col=k + 1)
+    joint = reg.joint_names[0] if reg.joint_names else reg.joint
+    fig.update_layout(title=f"{reg.method} gain table of {joint}: {len(table.H)} × "
+                      f"{len(table.h)} grid over (H_ii, h_i)", height=340,
+                      margin={"l": 40, "r": 10, "t": 60, "b": 40})
+    return fig

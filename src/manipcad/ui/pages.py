@@ -5,8 +5,10 @@ Simulation → Results. Each page lays out calls of :mod:`manipcad.ui.logic` (th
 same Python API as the CLI) and shows a bad value or file as one line naming the
 file or form, the field and the reason, never a traceback.
 
-The application serves one designer at a time on one workspace (a local tool):
-the current robot, trajectory and recommendation live in :data:`STATE`.
+The application serves one workspace (:data:`SERVER`); each browser tab has its own
+current robot, trajectory, method and runs (:func:`state`, NiceGUI's per-tab
+``app.storage.tab``), so two designers (or two tabs) do not change each other's
+selection. Each page waits for its tab's connection before it reads that state.
 """
 
 from __future__ import annotations
@@ -18,34 +20,59 @@ from typing import Any
 
 import numpy as np
 from nicegui import app, ui
+from nicegui.run import io_bound as run_io
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.sizing import required_drive
 from manipcad.ui import logic
-from manipcad.ui.worker import SimSpec, SimulationJob, run_in_worker
+from manipcad.ui.worker import SimSpec, SimulationJob, StudySpec, run_in_worker
 
-#: the session's state: workspace root, picked robot, trajectory, method, jobs
-STATE: dict[str, Any] = {"ws": None, "robot": "puma560", "trajectory": None, "method": None,
-                         "regulators": [], "jobs": [], "recommendation": None}
+#: the server's state: the workspace root (one per server, set by ``manipcad ui``)
+SERVER: dict[str, Any] = {"ws": None}
+
+#: a new tab's selection: robot, trajectory (workspace name), recommended method
+DEFAULTS: dict[str, Any] = {"robot": "puma560", "trajectory": None, "method": None}
 
 #: stored series a figure can show, with their units
-QUANTITIES = {"error": "error [rad|m]", "u": "regulator output U [V]", "current": "current [A]",
-              "tau": "torque [N·m|N]", "q": "position [rad|m]"}
+QUANTITIES = {k: f"{what} [{unit}]" for k, (what, unit) in logic.RESULT_SERIES.items()}
 
-MENU = (("/", "Main menu"), ("/robots", "Robots"), ("/trajectories", "Trajectories"),
-        ("/requirements", "Requirements → method"), ("/synthesis", "Synthesis"),
-        ("/simulation", "Simulation"), ("/results", "Results"), ("/drives", "Drives"),
-        ("/identification", "Identification"))
+#: jobs (simulations, studies) per tab id: worker handles, kept out of the tab's storage
+_JOBS: dict[str, list] = {}
+
+MENU = (("/", "Main menu"), ("/robots", "Robots"), ("/drives", "Drives"),
+        ("/trajectories", "Trajectories"), ("/requirements", "Requirements → method"),
+        ("/synthesis", "Synthesis"), ("/simulation", "Simulation"),
+        ("/results", "Results and studies"), ("/identification", "Identification"))
+
+
+def state() -> dict[str, Any]:
+    """This browser tab's selection (NiceGUI's ``app.storage.tab``, defaults from
+    :data:`DEFAULTS`); only once the page's client is connected."""
+    tab = app.storage.tab
+    for key, value in DEFAULTS.items():
+        tab.setdefault(key, value)
+    return tab
+
+
+def jobs() -> list:
+    """This tab's worker jobs (simulations and studies), oldest first."""
+    return _JOBS.setdefault(ui.context.client.tab_id or "", [])
+
+
+async def connected() -> dict[str, Any]:
+    """Wait for the page's websocket (the tab's identity), then its :func:`state`."""
+    await ui.context.client.connected()
+    return state()
 
 
 def ws():
     """The opened workspace."""
-    return logic.open_workspace(STATE["ws"])
+    return logic.open_workspace(SERVER["ws"])
 
 
 def robot():
-    """The picked robot (loaded through the workspace API)."""
-    return logic.load_robot_ref(ws(), STATE["robot"])[0]
+    """The tab's picked robot (loaded through the workspace API)."""
+    return logic.load_robot_ref(ws(), state()["robot"])[0]
 
 
 def error_text(exc: Exception) -> str:
@@ -61,11 +88,14 @@ def frame(title: str):
         for path, text in MENU:
             ui.link(text, path).classes("text-white")
     col = ui.column().classes("w-full p-4 gap-3")
+    S = state()
     with col:
-        ui.label(title).classes("text-h5")
-        ui.label().classes("text-caption").bind_text_from(
-            STATE, "robot", lambda _: f"workspace {Path(STATE['ws']).resolve()} · robot "
-            f"{STATE['robot']} · trajectory {STATE['trajectory'] or '-'}")
+        ui.label(title).classes("text-h5").props("data-testid=page-title").mark("page-title")
+        with ui.row().classes("text-caption gap-1").props("data-testid=selection"):
+            ui.label(f"workspace {Path(SERVER['ws']).resolve()} · robot")
+            ui.label().bind_text_from(S, "robot")
+            ui.label("· trajectory")
+            ui.label().bind_text_from(S, "trajectory", lambda v: v or "-")
     return col
 
 
@@ -103,7 +133,8 @@ def register() -> None:
     the user simulation of the tests resets NiceGUI and registers them again)."""
 
     @ui.page("/")
-    def main_menu() -> None:
+    async def main_menu() -> None:
+        await connected()
         with frame("Main menu"):
             ui.markdown("The designer's path (paper Fig. 1): pick a **robot**, make a "
                         "**trajectory**, state **requirements** and get the recommended synthesis "
@@ -121,11 +152,12 @@ def register() -> None:
 
 
     @ui.page("/robots")
-    def robots_page() -> None:
+    async def robots_page() -> None:
+        S = await connected()
         with frame("Robots"):
             show, clear = error_label()
             w = ws()
-            pick = ui.select(logic.robot_choices(w), value=STATE["robot"], label="Robot") \
+            pick = ui.select(logic.robot_choices(w), value=S["robot"], label="Robot") \
                 .classes("w-64").props("data-testid=robot-select")
             with ui.row().classes("items-center"):
                 name_in = ui.input("Name for an upload (optional)").props("data-testid=upload-name")
@@ -153,7 +185,7 @@ def register() -> None:
             def render() -> None:
                 body.clear()
                 try:
-                    arm, notes = logic.load_robot_ref(ws(), STATE["robot"])
+                    arm, notes = logic.load_robot_ref(ws(), S["robot"])
                 except ManipcadError as exc:
                     show(exc)
                     return
@@ -197,7 +229,7 @@ def register() -> None:
 
             def picked(e) -> None:
                 clear()
-                STATE["robot"] = e.value
+                S["robot"] = e.value
                 render()
 
             pick.on_value_change(picked)
@@ -205,14 +237,16 @@ def register() -> None:
 
 
     @ui.page("/trajectories")
-    def trajectories_page() -> None:
+    async def trajectories_page() -> None:
+        S = await connected()
         with frame("Trajectories"):
             show, clear = error_label()
             law = ui.select({"cosine": "laws (2): q = q0 + A(1 − cos ωt)",
                              "quintic": "quintic point to point",
                              "trapezoidal": "trapezoidal velocity",
                              "spline": "via points (C2 spline)",
-                             "line": "gripper straight line (inverse kinematics)"},
+                             "line": "gripper straight line (inverse kinematics)",
+                             "circle": "gripper circle (inverse kinematics)"},
                             value="cosine",
                             label="Law").classes("w-96").props("data-testid=law")
             fields: dict[str, Any] = {}
@@ -236,7 +270,15 @@ def register() -> None:
                                      "';' [rad|m]", "0; 0.2; 0.1")),
                          "line": (("q0", "start pose per joint [rad|m]", "0.1"),
                                   ("move", "gripper displacement x, y, z [m]", "0.05, 0, 0"),
-                                  ("duration", "duration [s]", "1"))}
+                                  ("duration", "duration [s]", "1")),
+                         "circle": (("q0", "start pose per joint [rad|m]", "0.1"),
+                                    ("offset", "centre from the gripper at the start pose "
+                                     "x, y, z [m]", "0, 0, -0.05"),
+                                    ("radius", "radius [m]", "0.05"),
+                                    ("normal", "normal of the circle's plane x, y, z [-]",
+                                     "1, 0, 0"),
+                                    ("angle", "angle travelled [rad]", "6.283185307179586"),
+                                    ("duration", "duration [s]", "2"))}
                 with form:
                     ui.label("Lists: one value per joint, or one value for every joint.") \
                         .classes("text-caption")
@@ -254,11 +296,11 @@ def register() -> None:
                         data[key] = [r * arm.n if len(r) == 1 else r for r in rows]
                         continue
                     vals = numbers(inp.value, key, "trajectory form")
-                    if key == "move":
+                    if key in ("move", "offset"):
                         continue
                     if key == "q0" and len(vals) == 1:
                         vals = vals * arm.n
-                    if key == "duration":
+                    if key in ("duration", "radius", "angle"):
                         data[key] = vals[0]
                     elif key in ("q_start", "q_end") and len(vals) == 1:
                         data[key] = vals * arm.n
@@ -273,6 +315,12 @@ def register() -> None:
                     p0 = logic.tool_position(arm, data["q0"])
                     data["p_start"] = [float(x) for x in p0]
                     data["p_end"] = [float(x) for x in p0 + np.asarray(d)]
+                if law.value == "circle":   # centred at the tool's position at q0 + offset
+                    d = numbers(fields["offset"].value, "offset", "trajectory form")
+                    if len(d) != 3:
+                        raise InputError("trajectory form", "offset", "expected x, y, z in m")
+                    p0 = logic.tool_position(arm, data["q0"])
+                    data["center"] = [float(x) for x in p0 + np.asarray(d)]
                 return arm, logic.make_trajectory(data, arm)
 
             def do_preview() -> None:
@@ -298,7 +346,7 @@ def register() -> None:
                 except ManipcadError as exc:
                     show(exc)
                     return
-                STATE["trajectory"] = item.name
+                S["trajectory"] = item.name
                 ui.notify(f"saved {item.ref}")
                 listing.refresh()
 
@@ -310,7 +358,7 @@ def register() -> None:
                 except (ManipcadError, OSError) as exc:
                     show(exc)
                     return
-                STATE["trajectory"] = item.name
+                S["trajectory"] = item.name
                 ui.notify(f"added {item.ref}")
                 listing.refresh()
 
@@ -331,9 +379,9 @@ def register() -> None:
                 ui.label("In the workspace (pick the current one):")
 
                 def chosen(e) -> None:
-                    STATE["trajectory"] = e.value
+                    S["trajectory"] = e.value
 
-                ui.select(names, value=STATE["trajectory"] if STATE["trajectory"] in names
+                ui.select(names, value=S["trajectory"] if S["trajectory"] in names
                           else None, on_change=chosen, label="Current trajectory").classes("w-64")
 
             listing()
@@ -341,7 +389,8 @@ def register() -> None:
 
 
     @ui.page("/requirements")
-    def requirements_page() -> None:
+    async def requirements_page() -> None:
+        S = await connected()
         with frame("Requirements → method"):
             show, clear = error_label()
             yes_no = {None: "—", True: "yes", False: "no"}
@@ -380,14 +429,13 @@ def register() -> None:
                 try:
                     form = read_form()
                     arm = robot()
-                    traj = logic.load_trajectory_ref(ws(), STATE["trajectory"], arm) \
-                        if STATE["trajectory"] else None
+                    traj = logic.load_trajectory_ref(ws(), S["trajectory"], arm) \
+                        if S["trajectory"] else None
                     recs = logic.recommend_for(form, arm, traj)
                 except ManipcadError as exc:
                     show(exc)
                     return
-                STATE["recommendation"] = recs
-                STATE["method"] = recs.best.method
+                S["method"] = recs.best.method
                 with out:
                     ui.label(f"Recommended, best first: {', '.join(recs.methods)}") \
                         .classes("text-subtitle1").props("data-testid=rec-methods")
@@ -412,19 +460,19 @@ def register() -> None:
                 clear()
                 try:
                     form = read_form()
-                    if not STATE["trajectory"]:
+                    if not S["trajectory"]:
                         raise InputError("requirements form", "trajectory", "verify by "
                                          "simulation needs a trajectory (Trajectories page)")
                     checked.text = "verifying: synthesizing and simulating the top candidates"
-                    doc = await run_in_worker(logic.verify_by_names, form, str(STATE["ws"]),
-                                              STATE["robot"], STATE["trajectory"])
+                    doc = await run_in_worker(logic.verify_by_names, form, str(SERVER["ws"]),
+                                              S["robot"], S["trajectory"])
                     if "error" in doc:
                         raise ManipcadError(doc["error"])
                 except ManipcadError as exc:
                     checked.text = ""
                     show(exc)
                     return
-                checked.text = "verified by simulation along " + STATE["trajectory"]
+                checked.text = "verified by simulation along " + S["trajectory"]
                 vbox.clear()
                 with vbox:
                     ui.table(columns=[{"name": c, "label": lab, "field": c} for c, lab in (
@@ -444,21 +492,24 @@ def register() -> None:
 
 
     @ui.page("/synthesis")
-    def synthesis_page() -> None:
+    async def synthesis_page() -> None:
+        S = await connected()
         with frame("Synthesis"):
             show, clear = error_label()
             ms = logic.methods()
             with ui.row().classes("items-end"):
-                method = ui.select(ms, value=STATE["method"] or "pid", label="Method") \
+                method = ui.select(ms, value=S["method"] or "pid", label="Method") \
                     .classes("w-64").props("data-testid=syn-method")
                 spec = ui.input("spec KEY=VALUE, ... (e.g. bandwidth=30)", value="") \
                     .classes("w-80")
                 period = ui.input("period [s] (empty: the method's)", value="") \
                     .props("data-testid=syn-period")
+                joints = ui.input("joints (names or 1..n, comma; empty: all)", value="") \
+                    .classes("w-72").props("data-testid=syn-joints")
                 name = ui.input("Name", value="").props("data-testid=syn-name")
                 force = ui.checkbox("replace")
 
-            def run() -> None:
+            async def run() -> None:
                 clear()
                 try:
                     pairs = {}
@@ -471,12 +522,21 @@ def register() -> None:
                                                      "synthesis form")[0]
                     per = numbers(period.value, "period", "synthesis form")[0] \
                         if str(period.value).strip() else None
-                    nm = name.value or f"{method.value}-{STATE['robot'].split('/')[-1]}"
-                    regs, item = logic.synthesize_to(ws(), robot(), method.value, spec=pairs,
-                                                     period=per, name=nm, force=force.value)
+                    nm = name.value or f"{method.value}-{S['robot'].split('/')[-1]}"
+                    picked = [int(x) - 1 if x.isdigit() else x for x in
+                              (p.strip() for p in str(joints.value).split(",")) if x]
+                    busy.text = f"synthesizing {method.value}..."
+                    # in a thread: a gain table takes seconds, the page stays live meanwhile
+                    root, arm, m, f = SERVER["ws"], robot(), method.value, force.value
+                    regs, item = await run_io(   # its own workspace handle in the thread
+                        lambda: logic.synthesize_to(logic.open_workspace(root), arm, m,
+                                                    joints=picked or "all",
+                                                    spec=pairs, period=per, name=nm, force=f))
                 except ManipcadError as exc:
+                    busy.text = ""
                     show(exc)
                     return
+                busy.text = ""
                 ui.notify(f"saved {item.ref}")
                 out.clear()
                 with out:
@@ -489,9 +549,14 @@ def register() -> None:
                                      f"({c['mul']} ×, {c['add']} +), {c['gains_stored']} numbers "
                                      f"stored, reads {', '.join(c['signals'])}") \
                                 .classes("text-caption")
+                            fig = logic.gain_table_figure(reg)
+                            if fig is not None:     # LQR-GS: the gains over the H_ii grid
+                                ui.plotly(fig).classes("w-full") \
+                                    .props("data-testid=syn-gain-table")
                 listing.refresh()
 
             ui.button("Synthesize and save", on_click=run).props("data-testid=syn-run")
+            busy = ui.label("")
 
             @ui.refreshable
             def listing() -> None:
@@ -503,14 +568,15 @@ def register() -> None:
 
 
     @ui.page("/simulation")
-    def simulation_page() -> None:
+    async def simulation_page() -> None:
+        S = await connected()
         with frame("Simulation"):
             show, clear = error_label()
             w = ws()
             trajs = [i.name for i in w.list("trajectories")]
             regs = [i.name for i in w.list("regulators")]
             with ui.row().classes("items-end"):
-                traj = ui.select(trajs, value=STATE["trajectory"] if STATE["trajectory"] in trajs
+                traj = ui.select(trajs, value=S["trajectory"] if S["trajectory"] in trajs
                                  else (trajs[0] if trajs else None), label="Trajectory") \
                     .classes("w-48").props("data-testid=sim-traj")
                 reg = ui.select(regs, value=regs[-1] if regs else None, label="Regulator") \
@@ -531,7 +597,7 @@ def register() -> None:
                     if not traj.value:
                         raise InputError("simulation form", "trajectory", "pick a trajectory "
                                          "(make one on the Trajectories page)")
-                    spec = SimSpec(workspace=str(STATE["ws"]), robot=STATE["robot"],
+                    spec = SimSpec(workspace=str(SERVER["ws"]), robot=S["robot"],
                                    trajectory=traj.value,
                                    regulators=[reg.value] if reg.value else [],
                                    t_end=numbers(t_end.value, "t_end", "simulation form")[0]
@@ -541,18 +607,18 @@ def register() -> None:
                 except ManipcadError as exc:
                     show(exc)
                     return
-                STATE["jobs"].append(SimulationJob(spec))
+                jobs().append(SimulationJob(spec))
                 status.text = "starting the worker..."
 
             def cancel() -> None:
-                for job in STATE["jobs"]:
+                for job in jobs():
                     if not job.finished:
                         job.cancel()
 
             def tick() -> None:
-                if not STATE["jobs"]:
+                if not jobs():
                     return
-                job = STATE["jobs"][-1]
+                job = jobs()[-1]
                 state = job.poll()
                 bar.value = job.fraction
                 if state in ("starting", "running"):
@@ -589,8 +655,9 @@ def register() -> None:
 
 
     @ui.page("/results")
-    def results_page() -> None:
-        with frame("Results"):
+    async def results_page() -> None:
+        await connected()
+        with frame("Results and studies"):
             show, clear = error_label()
             with ui.row().classes("items-end"):
                 where = ui.input("filter, e.g. max_error<1e-3 and status=ok", value="") \
@@ -629,39 +696,228 @@ def register() -> None:
                     .props("data-testid=res-overlay-run")
             figs = ui.column().classes("w-full")
             load()
-            ui.label("Studies (e.g. manipcad study fig3 / claims, added with ws add)") \
+            ui.label("Studies: the paper's Fig. 3 study and the claims maps (manipcad study "
+                     "fig3 | claims), run here in a worker process and kept in the workspace") \
                 .classes("text-subtitle1")
-            w = ws()
-            for item in w.list("studies"):
-                with ui.row().classes("items-center"):
-                    ui.label(item.name).classes("font-bold")
-                    for f in logic.study_files(w, item.name):
-                        ui.link(f, f"/api/studies/{item.name}/{f}", new_tab=True)
-            if not w.list("studies"):
-                ui.label("none yet").classes("text-caption")
+            with ui.row().classes("items-end"):
+                kind = ui.select({"fig3": "Fig. 3 study (laws (2), every method)",
+                                  "claims": "claims maps (--grid quick)"}, value="fig3",
+                                 label="Study").classes("w-72").props("data-testid=study-kind")
+                sname = ui.input("name", value="fig3").props("data-testid=study-name")
+                st_end = ui.input("fig3: t_end [s] (empty: 1.6)", value="") \
+                    .props("data-testid=study-tend")
+                smethods = ui.input("fig3: methods (comma; empty: all)", value="") \
+                    .classes("w-64").props("data-testid=study-methods")
+                kind.on_value_change(lambda e: sname.set_value(e.value))
+            sbar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
+            sstatus = ui.label("").props("data-testid=study-status")
+            my_studies: list[SimulationJob] = []
+            seen: dict[str, Any] = {"job": None}
+
+            def start_study() -> None:
+                clear()
+                try:
+                    spec = StudySpec(
+                        workspace=str(SERVER["ws"]), study=kind.value, name=sname.value,
+                        t_end=numbers(st_end.value, "t_end", "study form")[0]
+                        if str(st_end.value).strip() else None,
+                        methods=smethods.value.strip() or None)
+                    from manipcad.workspace import check_name
+
+                    check_name(spec.name, "study name")
+                except ManipcadError as exc:
+                    show(exc)
+                    return
+                job = SimulationJob(spec)
+                jobs().append(job)
+                my_studies.append(job)
+                sstatus.text = f"starting the worker for {spec.study}..."
+
+            def cancel_study() -> None:
+                for job in my_studies:
+                    if not job.finished:
+                        job.cancel()
+
+            def study_tick() -> None:
+                if not my_studies:
+                    return
+                job = my_studies[-1]
+                st = job.poll()
+                sbar.value = job.fraction
+                if st in ("starting", "running"):
+                    sstatus.text = f"{job.spec.study} {st}: {100 * job.fraction:.0f} %"
+                    return
+                if seen["job"] is job:
+                    return
+                seen["job"] = job
+                if st == "done":
+                    report = "report.html" if "report.html" in job.metrics.get("files", []) \
+                        else None
+                    sstatus.text = (f"done: stored studies/{job.result} in {job.wall:.3g} s")
+                    studies.refresh()
+                    if report:
+                        ui.navigate.to(f"/api/studies/{job.result}/{report}", new_tab=True)
+                else:
+                    sstatus.text = st
+                    if st == "error":
+                        show(ManipcadError(job.message))
+
+            with ui.row():
+                ui.button("Run the study", on_click=start_study).props("data-testid=study-run")
+                ui.button("Cancel", on_click=cancel_study, color="negative") \
+                    .props("data-testid=study-cancel")
+            ui.timer(0.5, study_tick)
+
+            @ui.refreshable
+            def studies() -> None:
+                w = ws()
+                for item in w.list("studies"):
+                    with ui.row().classes("items-center").props(
+                            f"data-testid=study-{item.name}"):
+                        ui.label(item.name).classes("font-bold")
+                        for f in logic.study_files(w, item.name):
+                            ui.link(f, f"/api/studies/{item.name}/{f}", new_tab=True)
+                if not w.list("studies"):
+                    ui.label("none yet").classes("text-caption")
+
+            studies()
 
 
     # ---------------------------------------------------------------------------- files
     @ui.page("/drives")
-    def drives_page() -> None:
+    async def drives_page() -> None:
+        S = await connected()
         with frame("Drives"):
             show, clear = error_label()
-            ui.label("The torques, speeds, currents, voltages and powers the current "
-                     "trajectory needs from the picked robot's drives, against the motors' "
-                     "and gears' limits (manipcad size).")
+            ui.markdown("Motors and gears: the catalog's and your own (kept in the workspace), "
+                        "attached to the joints of the current robot; then what the current "
+                        "trajectory needs from the drives against their limits (`manipcad "
+                        "size`) and the gear-ratio sweep (`manipcad size --ratio-sweep`).")
+
+            # ---- the libraries
+            @ui.refreshable
+            def libraries() -> None:
+                w = ws()
+                for kind, fields in (("motors", logic.MOTOR_FIELDS),
+                                     ("gears", logic.GEAR_FIELDS)):
+                    cols = [("ref", "name", ""), ("origin", "origin", "")] + \
+                        ([("type", "type", "")] if kind == "gears" else []) + \
+                        [(k, lab, u) for k, u, lab in fields]
+                    ui.label(f"{kind.capitalize()} library").classes("text-subtitle1")
+                    ui.table(columns=[{"name": k, "label": f"{k} [{u}]" if u else lab,
+                                       "field": k, "sortable": True} for k, lab, u in cols],
+                             rows=logic.library_rows(w, kind), row_key="ref",
+                             pagination=6).props(f"dense flat data-testid={kind}-table")
+
+            libraries()
+
+            def part_form(kind: str, fields) -> None:
+                inputs: dict[str, Any] = {}
+                with ui.expansion(f"Add your own {kind[:-1]}").classes("w-full") \
+                        .props(f"data-testid=add-{kind[:-1]}"):
+                    with ui.grid(columns=4).classes("gap-2"):
+                        name = ui.input(f"{kind[:-1]} name").props(f"data-testid={kind[:-1]}-name")
+                        source = ui.input("source (data sheet)", value="own data") \
+                            .props(f"data-testid={kind[:-1]}-source")
+                        gtype = ui.select(list(logic.GEAR_TYPES), value="planetary",
+                                          label="type") if kind == "gears" else None
+                        for key, unit, label in fields:
+                            inputs[key] = ui.input(f"{label} [{unit}]").props(
+                                f"data-testid={kind[:-1]}-{key}")
+
+                    def save() -> None:
+                        clear()
+                        form: dict[str, Any] = {"type": gtype.value} if gtype else {}
+                        try:
+                            for key, inp in inputs.items():
+                                if not str(inp.value).strip():
+                                    continue
+                                vals = numbers(inp.value, key, f"{kind}/{name.value}")
+                                form[key] = vals if key == "M_f" and len(vals) > 1 else (
+                                    int(vals[0]) if key == "direction" else vals[0])
+                            item = logic.add_part(ws(), kind, name.value, form,
+                                                  source=source.value)
+                        except ManipcadError as exc:
+                            show(exc)
+                            return
+                        ui.notify(f"added {item.ref}")
+                        libraries.refresh()
+                        reload_parts()
+
+                    ui.button(f"Save the {kind[:-1]}", on_click=save) \
+                        .props(f"data-testid={kind[:-1]}-save")
+
+            part_form("motors", logic.MOTOR_FIELDS)
+            part_form("gears", logic.GEAR_FIELDS)
+
+            # ---- attach motor + gear to a joint of the current robot
+            sel: dict[str, Any] = {}
+
+            def reload_parts() -> None:
+                w = ws()
+                sel["motor"].set_options([r["ref"] for r in logic.library_rows(w, "motors")])
+                sel["gear"].set_options(["(none)", *(r["ref"] for r in
+                                                    logic.library_rows(w, "gears"))])
+
+            def attach_form() -> None:
+                try:
+                    arm = robot()
+                except ManipcadError as exc:
+                    show(exc)
+                    return
+                ui.label("Attach a motor and a gear to a joint of the current robot (saved as "
+                         "a workspace robot, which becomes the current one)") \
+                    .classes("text-subtitle1")
+                with ui.row().classes("items-end"):
+                    joint = ui.select(list(arm.joint_names), value=arm.joint_names[0],
+                                      label="joint").classes("w-40") \
+                        .props("data-testid=attach-joint")
+                    sel["motor"] = ui.select([], value=None, label="motor").classes("w-64") \
+                        .props("data-testid=attach-motor")
+                    sel["gear"] = ui.select(["(none)"], value="(none)", label="gear") \
+                        .classes("w-64").props("data-testid=attach-gear")
+                    reload_parts()
+                    base = S["robot"].split("/")[-1]
+                    own = S["robot"].startswith("robots/")
+                    rname = ui.input("robot name", value=base if own else f"{base}-drives") \
+                        .props("data-testid=attach-name")
+                    force = ui.checkbox("replace", value=own)
+
+                    def attach() -> None:
+                        clear()
+                        motor, gear = sel["motor"].value, sel["gear"].value
+                        try:
+                            _, item = logic.attach_drive(
+                                ws(), robot(), joint.value, motor or "",
+                                [] if gear in (None, "(none)") else [gear],
+                                name=rname.value, force=force.value)
+                        except ManipcadError as exc:
+                            show(exc)
+                            return
+                        S["robot"] = item.ref
+                        rname.value, force.value = item.name, True
+                        ui.notify(f"{joint.value}: {motor} + {gear}; saved {item.ref}")
+
+                    ui.button("Attach", on_click=attach).props("data-testid=attach-run")
+
+            attach_form()
+
+            # ---- what the trajectory needs, against the limits
+            ui.label("Along the current trajectory").classes("text-subtitle1")
             out = ui.column().classes("w-full")
 
             def run() -> None:
                 clear()
                 out.clear()
                 try:
-                    if not STATE["trajectory"]:
+                    if not S["trajectory"]:
                         raise InputError("drives", "trajectory", "pick or make a trajectory "
                                          "first (Trajectories page)")
                     arm = robot()
-                    traj = logic.load_trajectory_ref(ws(), STATE["trajectory"], arm)
+                    traj = logic.load_trajectory_ref(ws(), S["trajectory"], arm)
                     req = required_drive(arm, traj)
                     png = logic.torque_speed_png(req)
+                    figs = logic.required_series_figures(req)
                 except ManipcadError as exc:
                     show(exc)
                     return
@@ -675,13 +931,70 @@ def register() -> None:
                              rows=logic.drive_rows(req), row_key="joint") \
                         .props("dense flat data-testid=drives-table")
                     b64 = base64.b64encode(png).decode()
-                    ui.image(f"data:image/png;base64,{b64}").style("max-width: 1100px")
+                    ui.image(f"data:image/png;base64,{b64}").style("max-width: 1100px") \
+                        .props("data-testid=torque-speed")
+                    with ui.row().classes("w-full no-wrap"):
+                        for key in ("current", "voltage", "power"):
+                            ui.plotly(figs[key]).classes("w-1/3") \
+                                .props(f"data-testid=drives-{key}")
 
             ui.button("Compute the drive requirements", on_click=run) \
                 .props("data-testid=drives-run")
 
+            # ---- the gear-ratio sweep
+            ui.label("Gear-ratio sweep of one joint (its motor kept; feasible ratios shaded)") \
+                .classes("text-subtitle1")
+            with ui.row().classes("items-end"):
+                sj = ui.input("joint (name or 1..n)", value="2").props("data-testid=sweep-joint")
+                lo = ui.input("lowest |i_r| [rad/rad|rad/m]", value="10") \
+                    .props("data-testid=sweep-lo")
+                hi = ui.input("highest |i_r| [rad/rad|rad/m]", value="1000") \
+                    .props("data-testid=sweep-hi")
+                nr = ui.input("ratios [-]", value="200").props("data-testid=sweep-n")
+            sweep_out = ui.column().classes("w-full")
+
+            def sweep() -> None:
+                clear()
+                sweep_out.clear()
+                try:
+                    if not S["trajectory"]:
+                        raise InputError("sweep form", "trajectory", "pick or make a "
+                                         "trajectory first (Trajectories page)")
+                    arm = robot()
+                    traj = logic.load_trajectory_ref(ws(), S["trajectory"], arm)
+                    jv = str(sj.value).strip()
+                    joint = int(jv) - 1 if jv.isdigit() else jv
+                    if isinstance(joint, int) and not 0 <= joint < arm.n:
+                        raise InputError("sweep form", "joint", f"{jv}: expected 1..{arm.n} or "
+                                         f"a name ({', '.join(arm.joint_names)})")
+                    if isinstance(joint, str) and joint not in arm.joint_names:
+                        raise InputError("sweep form", "joint", f"no joint {jv!r}; joints: "
+                                         f"{', '.join(arm.joint_names)}")
+                    n = numbers(nr.value, "ratios", "sweep form")[0]
+                    if n != int(n):
+                        raise InputError("sweep form", "ratios", f"a whole number, got {n}")
+                    sw = logic.ratio_sweep_for(
+                        arm, traj, joint, numbers(lo.value, "lowest", "sweep form")[0],
+                        numbers(hi.value, "highest", "sweep form")[0], int(n))
+                    png = logic.ratio_sweep_png(sw)
+                except ManipcadError as exc:
+                    show(exc)
+                    return
+                spans = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in sw.intervals) or "none"
+                with sweep_out:
+                    ui.label(f"{sw.joint} ({sw.motor or 'motor'}): feasible |i_r| {spans}; best "
+                             f"{sw.best_ratio:.4g} (least {sw.criterion.replace('_', ' ')}); "
+                             f"present {abs(sw.ratio):.4g}"
+                             + ("; the range reaches the grid's end" if sw.bounded_by_grid
+                                else "")).props("data-testid=sweep-result")
+                    b64 = base64.b64encode(png).decode()
+                    ui.image(f"data:image/png;base64,{b64}").style("max-width: 700px")
+
+            ui.button("Sweep the ratio", on_click=sweep).props("data-testid=sweep-run")
+
     @ui.page("/identification")
-    def identification_page() -> None:
+    async def identification_page() -> None:
+        await connected()
         with frame("Identification"):
             show, clear = error_label()
             ui.label("Upload measured joint torques or motor currents along a motion (CSV: t, "

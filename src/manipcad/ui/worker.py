@@ -47,6 +47,72 @@ class SimSpec:
     save_diverged: bool = False
 
 
+    def run(self, progress=None) -> tuple[str, dict[str, Any]]:
+        """:func:`run_spec` of this spec."""
+        return run_spec(self, progress)
+
+
+@dataclass
+class StudySpec:
+    """A study to run and store as ``studies/NAME`` (what ``manipcad study fig3|claims
+    --ws W --out NAME`` does, through the same functions).
+
+    Attributes:
+        workspace: the workspace folder.
+        study: "fig3" (:func:`manipcad.study.run_fig3`) or "claims"
+            (:func:`manipcad.study.claims.run_claims`).
+        name: the study's name in the workspace.
+        t_end: fig3: length of the laws (2) runs, s (None: 1.6).
+        methods: fig3: comma-separated labels (None: all).
+        grid: claims: "quick" (4 × 4 cells) or "full".
+        dt: integration step, s.
+    """
+
+    workspace: str
+    study: str
+    name: str
+    t_end: float | None = None
+    methods: str | None = None
+    grid: str = "quick"
+    dt: float = 1e-4
+
+    def run(self, progress=None) -> tuple[str, dict[str, Any]]:
+        """Run the study into the workspace; returns ``(name, {"files": [...]})``.
+
+        Raises:
+            InputError: a bad name, kind or argument (the study functions' own checks).
+        """
+        import tempfile
+        from pathlib import Path
+
+        from manipcad.errors import InputError
+        from manipcad.workspace import Workspace, check_name
+
+        check_name(self.name, "study name")
+        if self.study not in ("fig3", "claims"):
+            raise InputError("study form", "study", f"{self.study!r}: expected fig3 or claims")
+        cb = progress if progress is not None else False
+        space = Workspace(self.workspace)
+        if any(i.name == self.name for i in space.list("studies")):   # before the run
+            raise InputError(f"studies/{self.name}", "", "name taken in the workspace; "
+                             "choose another name")
+        # as `study ... --ws`: written into a temporary folder, then added (validated, indexed)
+        with tempfile.TemporaryDirectory() as tmp:
+            folder = Path(tmp) / "study"
+            if self.study == "fig3":
+                from manipcad.study import run_fig3
+
+                run_fig3(folder, dt=self.dt, t_end=self.t_end, methods=self.methods,
+                         progress=cb)
+            else:
+                from manipcad.study.claims import run_claims
+
+                run_claims(folder, grid=self.grid, workers=1, dt=self.dt, progress=cb)
+            files = sorted(p.name for p in folder.iterdir() if p.is_file())
+            space.add(folder, kind="study", name=self.name)
+        return self.name, {"files": files}
+
+
 def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
     """Run one simulation and store it in the workspace (what the worker does).
 
@@ -147,7 +213,7 @@ def _work(inbox, out, cancel) -> None:
             raise KeyboardInterrupt
 
     try:
-        name, metrics = run_spec(spec, progress)
+        name, metrics = spec.run(progress)
     except KeyboardInterrupt:
         out.put(("cancelled", ""))
     except ManipcadError as exc:
@@ -201,7 +267,8 @@ def _take() -> _Worker:
 
 
 class SimulationJob:
-    """A simulation running in a worker process.
+    """A simulation (:class:`SimSpec`) or a study (:class:`StudySpec`) running in a
+    worker process.
 
     Example (not run here: it starts a process)::
 
@@ -211,7 +278,7 @@ class SimulationJob:
         job.state, job.result
     """
 
-    def __init__(self, spec: SimSpec, *, spare: bool = True) -> None:
+    def __init__(self, spec: SimSpec | StudySpec, *, spare: bool = True) -> None:
         w = _take()
         self.spec = spec
         self.queue, self.cancel_event, self.process = w.queue, w.cancel_event, w.process

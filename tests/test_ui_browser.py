@@ -104,10 +104,12 @@ def _pick(page, testid: str, option: str) -> None:
 
 
 def _open(page, url: str) -> None:
-    """Go to a page and wait until its websocket is up (events before that are lost)."""
+    """Go to a page and wait until it is built: pages build once their tab's websocket is
+    up (the tab's own state), so the title is the sign the page is live."""
     resp = page.goto(url)
     assert resp.status == 200, (url, resp.status)
     page.wait_for_function("() => window.socket && window.socket.connected")
+    page.get_by_test_id("page-title").wait_for()
 
 
 def _see(page, locator, timeout: float = 30_000) -> None:
@@ -213,13 +215,26 @@ def test_designer_flow(browser, server):
     _fill(page, "syn-name", "pid")
     page.get_by_test_id("syn-run").click()
     page.get_by_test_id("syn-saved").get_by_text("saved regulators/pid").wait_for()
+    _pick(page, "syn-method", "lqr_gs")                  # its gain table as a plot
+    _fill(page, "syn-joints", "1")
+    _fill(page, "syn-name", "gs")
+    page.get_by_test_id("syn-run").click()
+    _see(page, page.get_by_test_id("syn-gain-table").locator(".main-svg").first, 60_000)
+    _shot(page, "synthesis-lqr-gs")
 
-    # drives: what the trajectory needs against the motors' limits
+    # drives: the libraries; what the trajectory needs against the motors' limits (torque-
+    # speed, current, voltage, power); the gear-ratio sweep
     _open(page, server + "/drives")
+    assert "maxon_ec45flat_411812" in page.get_by_test_id("motors-table").inner_text()
     page.get_by_test_id("drives-run").click()
     _see(page, page.get_by_test_id("drives-table"))
     assert "shoulder" in page.get_by_test_id("drives-table").inner_text()
-    page.locator("img").first.wait_for()
+    page.get_by_test_id("torque-speed").wait_for()
+    for key in ("current", "voltage", "power"):
+        page.get_by_test_id(f"drives-{key}").locator(".main-svg").first.wait_for()
+    page.get_by_test_id("sweep-run").click()
+    _see(page, page.get_by_test_id("sweep-result"))
+    assert "feasible |i_r|" in page.get_by_test_id("sweep-result").inner_text()
     _shot(page, "drives")
 
     # identification: the example's measured torques give the payload mass
@@ -252,6 +267,20 @@ def test_designer_flow(browser, server):
     _fill(page, "res-where", "max_error<0")
     page.get_by_test_id("res-filter").click()
     table.get_by_text("No data available").wait_for()
+
+    # a study from the page (a short Fig. 3 run in the worker): progress, then its report
+    _fill(page, "study-tend", "0.02")
+    _fill(page, "study-methods", "none")
+    with page.context.expect_page(timeout=120_000) as opened:
+        page.get_by_test_id("study-run").click()
+    report = opened.value                               # the report opens in a new tab
+    report.wait_for_load_state()
+    assert "/api/studies/fig3/report.html" in report.url
+    assert "Fig. 3" in report.content()
+    report.close()
+    assert "done: stored studies/fig3" in page.get_by_test_id("study-status").inner_text()
+    page.get_by_test_id("study-fig3").get_by_text("report.html").wait_for()
+    _shot(page, "studies")
 
     # a traversal name gets 400, an unknown item 404
     assert page.goto(server + "/api/items/robots/..%2F..%2Fetc%2Fpasswd").status == 400

@@ -846,7 +846,7 @@ def required_series_figures(req) -> dict[str, Any]:
     specs = {"current": ("current", "armature current i [A]",
                          lambda d: float(d.rated_current), "rated current"),
              "voltage": ("voltage", "armature voltage u_a [V]", voltage_limit, "voltage limit"),
-             "power": ("elec_power", "electrical power u_a·i [W] (dotted: mechanical P·q̇)",
+             "power": ("elec_power", "electrical power u_a·i (dotted: mechanical P·q̇) [W]",
                        None, "")}
     for key, (attr, ylabel, limit, limit_name) in specs.items():
         fig = go.Figure()
@@ -867,10 +867,12 @@ def required_series_figures(req) -> dict[str, Any]:
                                              name=f"{jn} {limit_name} {lim:.4g}",
                                              legendgroup=jn, showlegend=s > 0,
                                              line={"color": col, "dash": "dash", "width": 1}))
-        fig.update_layout(title=ylabel.split(" [")[0] + " along the trajectory, against "
-                          + (f"the {limit_name}" if limit else "no rating (none in the data)"),
+        fig.update_layout(title={"text": ylabel.split(" [")[0] + (
+                              f"<br><sub>dashed: ±{limit_name}</sub>" if limit else
+                              "<br><sub>no power rating in the motor data</sub>"),
+                              "font": {"size": 13}},
                           xaxis_title="t [s]", yaxis_title=ylabel, height=340,
-                          margin={"l": 50, "r": 10, "t": 40, "b": 30})
+                          margin={"l": 50, "r": 10, "t": 50, "b": 30})
         out[key] = fig
     return out
 

@@ -99,7 +99,7 @@ def _lit(v: float) -> str:
 C_SOURCE = f"""\
 /* sin and cos of an angle together: fdlibm's reduction and kernels without branches
    (manipcad.codegen.trig), within 1 ulp of libm; libm's own beyond 1e5 rad. */
-static void @PREFIX@_sincos(double x, double *sp, double *cp)
+static inline void @PREFIX@_sincos(double x, double *sp, double *cp)
 {{
     double fn, t, w, r, y, tail, z, v, rs, s, rc, hz, ww, c, s1, c1;
     long i, q;

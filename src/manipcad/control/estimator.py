@@ -46,10 +46,10 @@ import numpy as np
 from manipcad.control.signals import S_I, S_Q, S_QD
 from manipcad.drives.dc import rigid_joint_torque
 from manipcad.drives.params import pack_drives
-from manipcad.dynamics.rls import STATE_SIZE, OnlinePayloadEstimator, payload_rls_step
+from manipcad.dynamics.rls import OnlinePayloadEstimator, payload_rls_step
 from manipcad.dynamics.rnea import RNEA_WORK
 from manipcad.errors import ManipcadError
-from manipcad.model.robot import COL_COM, COL_IC, COL_MASS, TABLE_COLS, Robot, combine_bodies
+from manipcad.model.robot import COL_COM, COL_IC, COL_MASS, Robot, combine_bodies
 
 #: the compiled component (numba-typed): see :func:`PayloadEstimator.pack`. ``on``: the
 #: component runs; ``steps``: its period in integration steps; ``feed``: the model's payload
@@ -287,16 +287,5 @@ class PayloadEstimator:
                 "signals": list(NEEDS), "gives": list(GIVES), "period": self.period}
 
 
-def idle(n: int) -> Estimator:
-    """The compiled component of a run without an estimator (``on`` false; same types)."""
-    z = np.zeros((1, TABLE_COLS))
-    return Estimator(False, 1, False, np.zeros(STATE_SIZE), np.zeros(2, dtype=np.int64),
-                     np.zeros((5, n)), np.zeros(0), np.zeros((0, n)),
-                     pack_drives([None] * n), np.zeros((n, TABLE_COLS)),
-                     np.zeros((n, TABLE_COLS)), np.zeros(3), np.zeros(0, dtype=np.int64),
-                     np.zeros(0), np.zeros(0), 1.0, 0.0, True, 0, np.zeros(3), z[0].copy(),
-                     _scratch(n, 0))
-
-
-__all__ = ["PayloadEstimator", "Estimator", "estimator_update", "payload_row", "idle",
+__all__ = ["PayloadEstimator", "Estimator", "estimator_update", "payload_row",
            "NEEDS", "GIVES"]

@@ -635,10 +635,6 @@ def _pack_regulators(robot: Robot, regulators, dt: float, est=None):
         steps[r] = int(round(s))
         need_comp = need_comp or any(s_ in MODEL_SIGNALS for s_ in reg.needs)
         described[", ".join(robot.joint_names[j] for j in idx)] = reg.describe()
-    if est is None:
-        from manipcad.control.estimator import idle
-
-        est = idle(n)
     return Control(kind, params, state, joints, nj, steps, need_comp, est), described
 
 

@@ -183,10 +183,15 @@ def test_token_gate_refuses_requests_without_the_token():
     assert closed == [{"type": "websocket.close", "code": 1008}]
 
 
-@pytest.mark.slow
 def test_worker_runs_stores_and_cancels(ws):
-    """The worker's run equals manipcad.simulate's; a cancel stores nothing."""
-    from manipcad.ui.worker import SimSpec, SimulationJob, run_spec
+    """The worker's run equals manipcad.simulate's; its voltage and power series give the
+    run's own energy metric; a cancel stores nothing. (The worker's body runs in this
+    process here; the browser flow runs it in the worker process.)"""
+    import queue
+    import threading
+
+    from manipcad.store.results import load_result
+    from manipcad.ui.worker import SimSpec, _work, run_spec
 
     arm = manipcad.load_robot("cylindrical")
     traj = logic.make_trajectory({"type": "quintic", "q_start": [0.0, 0.1, 0.1],
@@ -202,16 +207,29 @@ def test_worker_runs_stores_and_cancels(ws):
     assert metrics["max_error"] == pytest.approx(
         max(m["max_error"] for m in direct.metrics.values()), rel=1e-12)
 
-    job = SimulationJob(SimSpec(str(ws.root), "cylindrical", "move", ["pid"], t_end=0.1,
-                                dt=1e-4, name="r2"), spare=False)
-    job.cancel()
-    import time
+    folder = ws.path(ws.get("results/r1"))
+    res, doc = load_result(folder)
+    ua = logic.result_series(res, "voltage", folder)
+    k_u = np.array([d.k_u for d in arm.drives])
+    u_max = np.array([d.u_max for d in arm.drives])
+    np.testing.assert_array_equal(ua, np.clip(k_u * res.u, -u_max, u_max))
+    p = logic.result_series(res, "power", folder)
+    for j, jn in enumerate(res.joint_names):      # ∫ u_a·i dt is the run's energy metric
+        assert np.trapezoid(p[:, j], res.t) == pytest.approx(doc["metrics"][jn]["energy"],
+                                                             rel=1e-9, abs=1e-12)
+    with pytest.raises(InputError, match="inputs/robot.yaml"):
+        logic.result_series(res, "voltage", None)
 
-    deadline = time.time() + 120
-    while not job.finished and time.time() < deadline:
-        job.poll()
-        time.sleep(0.05)
-    assert job.state == "cancelled", (job.state, job.message)
+    class Inbox:                                    # the pipe the spec comes through
+        def recv(self):
+            return SimSpec(str(ws.root), "cylindrical", "move", ["pid"], t_end=0.1,
+                           dt=1e-4, name="r2")
+
+    out, cancel = queue.Queue(), threading.Event()
+    cancel.set()                                    # cancel asked before the first report
+    _work(Inbox(), out, cancel)
+    said = [out.get_nowait() for _ in range(out.qsize())]
+    assert said[-1] == ("cancelled", "") and said[0][0] == "progress"
     assert [i.name for i in ws.list("results")] == ["r1"]
 
     with pytest.raises(InputError, match="may not contain"):
@@ -258,7 +276,11 @@ async def _error(user) -> str:
 
 @pytest.mark.slow
 def test_pages_in_the_simulated_user(tmp_path):
+    """Each page's errors name form, field and reason; the Trajectories page makes and saves
+    laws (2), via points, a gripper line and a gripper circle."""
     from nicegui import ui
+
+    from manipcad.ui import pages
 
     async def script(user):
         await _open(user, "/")
@@ -284,7 +306,47 @@ def test_pages_in_the_simulated_user(tmp_path):
         user.find("Filter").click()
         assert "unknown metric 'max_errr'" in await _error(user)
 
+        # via points, a gripper line and a gripper circle (schema + inverse kinematics)
+        await _open(user, "/trajectories")
+        law = _field(user, ui.select, "Law")
+        forms = {"via": ("spline", {"times of the via": "0, 0.5, 1",
+                                    "one row per time": "0; 0.2; 0.1"}),
+                 "line": ("line", {"start pose": "0, -0.5, 0.5, 0, 0.5, 0",
+                                   "displacement": "0.05, 0, 0"}),
+                 "circle": ("circle", {"start pose": "0, -0.5, 0.5, 0, 0.5, 0",
+                                       "centre from": "0, 0.05, 0", "radius": "0.05",
+                                       "normal": "1, 0, 0", "angle": "3.14159",
+                                       "duration": "1"})}
+        for name, (kind, fields) in forms.items():
+            law.value = kind
+            for label, text in {**fields, "Name": name}.items():
+                user.find(kind=ui.input, content=label).clear().type(text)
+            user.find("Save to workspace").click()
+            await user.should_see(f"saved trajectories/{name}")
+        with user:
+            assert pages.state()["trajectory"] == "circle"      # this tab's current one
+
     _simulate_user(tmp_path / "ws", script)
+    # the line's tool path is straight and moves by the displacement; the circle's tool
+    # stays on its circle
+    ws = logic.open_workspace(tmp_path / "ws")
+    arm = manipcad.load_robot("puma560")
+    via = logic.load_trajectory_ref(ws, "via", arm)
+    np.testing.assert_allclose(via.sample(np.array([0.5]))[0][0], [0.2] * 6, atol=1e-12)
+    line = logic.load_trajectory_ref(ws, "line", arm)
+    q0 = [0, -0.5, 0.5, 0, 0.5, 0]
+    q, _, _ = line.sample(np.linspace(0.0, 1.0, 11))
+    p = np.array([logic.tool_position(arm, qk) for qk in q])
+    np.testing.assert_allclose(p[0], logic.tool_position(arm, q0), atol=1e-6)
+    np.testing.assert_allclose(p[-1] - p[0], [0.05, 0, 0], atol=1e-6)
+    # the circle: every tool point at 0.05 m from the centre, in the plane x = x0
+    circ = logic.load_trajectory_ref(ws, "circle", arm)
+    q, _, _ = circ.sample(np.linspace(0.0, 1.0, 11))
+    p = np.array([logic.tool_position(arm, qk) for qk in q])
+    centre = logic.tool_position(arm, q0) + [0, 0.05, 0]
+    np.testing.assert_allclose(np.linalg.norm(p - centre, axis=1), 0.05, atol=1e-6)
+    np.testing.assert_allclose(p[:, 0], centre[0], atol=1e-6)
+    np.testing.assert_allclose(p[-1], 2 * centre - p[0], atol=1e-4)     # half a turn
 
 
 @pytest.mark.slow
@@ -340,56 +402,6 @@ def test_study_reports_are_served_only_from_the_study(ws, tmp_path):
                        ("../results", "fig3.html"), ("nothing", "fig3.html")):
         with pytest.raises(InputError):
             logic.study_file(ws, name, file)
-
-
-@pytest.mark.slow
-def test_via_points_and_gripper_line_and_circle_from_the_page(tmp_path):
-    """The Trajectories page makes a via-point spline, a gripper line and a gripper circle
-    (through the trajectory schema and inverse kinematics) and saves them; the line's tool
-    path is straight and moves by the given displacement, the circle's stays on its circle."""
-    from nicegui import ui
-
-    from manipcad.ui import pages
-
-    async def script(user):
-        await _open(user, "/trajectories")
-        (law,) = [e for e in user.find(kind=ui.select).elements if e.props.get("label") == "Law"]
-        forms = {"via": ("spline", {"times of the via": "0, 0.5, 1",
-                                    "one row per time": "0; 0.2; 0.1"}),
-                 "line": ("line", {"start pose": "0, -0.5, 0.5, 0, 0.5, 0",
-                                   "displacement": "0.05, 0, 0"}),
-                 "circle": ("circle", {"start pose": "0, -0.5, 0.5, 0, 0.5, 0",
-                                       "centre from": "0, 0.05, 0", "radius": "0.05",
-                                       "normal": "1, 0, 0", "angle": "3.14159",
-                                       "duration": "1"})}
-        for name, (kind, fields) in forms.items():
-            law.value = kind
-            for label, text in {**fields, "Name": name}.items():
-                user.find(kind=ui.input, content=label).clear().type(text)
-            user.find("Save to workspace").click()
-            await user.should_see(f"saved trajectories/{name}")
-        with user:
-            assert pages.state()["trajectory"] == "circle"      # this tab's current one
-
-    _simulate_user(tmp_path / "ws", script)
-    ws = logic.open_workspace(tmp_path / "ws")
-    arm = manipcad.load_robot("puma560")
-    via = logic.load_trajectory_ref(ws, "via", arm)
-    np.testing.assert_allclose(via.sample(np.array([0.5]))[0][0], [0.2] * 6, atol=1e-12)
-    line = logic.load_trajectory_ref(ws, "line", arm)
-    q0 = [0, -0.5, 0.5, 0, 0.5, 0]
-    q, _, _ = line.sample(np.linspace(0.0, 1.0, 11))
-    p = np.array([logic.tool_position(arm, qk) for qk in q])
-    np.testing.assert_allclose(p[0], logic.tool_position(arm, q0), atol=1e-6)
-    np.testing.assert_allclose(p[-1] - p[0], [0.05, 0, 0], atol=1e-6)
-    # the circle: every tool point at 0.05 m from the centre, in the plane x = x0
-    circ = logic.load_trajectory_ref(ws, "circle", arm)
-    q, _, _ = circ.sample(np.linspace(0.0, 1.0, 11))
-    p = np.array([logic.tool_position(arm, qk) for qk in q])
-    centre = logic.tool_position(arm, q0) + [0, 0.05, 0]
-    np.testing.assert_allclose(np.linalg.norm(p - centre, axis=1), 0.05, atol=1e-6)
-    np.testing.assert_allclose(p[:, 0], centre[0], atol=1e-6)
-    np.testing.assert_allclose(p[-1], 2 * centre - p[0], atol=1e-4)     # half a turn
 
 
 @pytest.mark.slow

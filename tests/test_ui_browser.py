@@ -198,10 +198,8 @@ def test_designer_flow(browser, server):
     best = methods.inner_text().split(":", 1)[1].split(",")[0].strip()
     assert best == "asvs", methods.inner_text()
     page.get_by_text("Rules that fired").wait_for()
-    page.get_by_test_id("req-verify").click()            # simulated in a worker process
-    verified = page.get_by_test_id("req-verified")
-    _see(page, verified, timeout=120_000)
-    assert "asvs" in verified.inner_text() and "true" in verified.inner_text()
+    # ("verify by simulation" is left to test_verify_by_simulation_from_names: a second
+    # worker process here would cost the suite ~15 s)
     _shot(page, "requirements")
 
     # synthesis: the recommended method (preselected) and a PID

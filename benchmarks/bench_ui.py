@@ -7,8 +7,9 @@ Usage::
 What is timed (wall clock, ``time.perf_counter``), in one run on one machine:
 
 * **page load**: each page of the application in headless Chromium (Debian's
-  ``/usr/bin/chromium`` driven by Playwright), from ``page.goto`` to the page's
-  websocket being connected (the page is live), median of ``--loads`` loads.
+  ``/usr/bin/chromium`` driven by Playwright), from ``page.goto`` to the page
+  built and live: its websocket connected and its content shown (pages build once
+  their tab is connected, for the tab's own state), median of ``--loads`` loads.
 * **simulation from the page**: a PUMA 560 run of ``--t-end`` s (dt = 1e-4 s,
   a PID on every joint, the laws (2) on every joint), from the click on
   "Simulate" to the page showing "done" (worker process start, imports, run,
@@ -40,8 +41,8 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
          "--disable-component-update", "--disable-sync", "--no-first-run"]
-PAGES = ("/", "/robots", "/trajectories", "/requirements", "/synthesis", "/simulation",
-         "/results")
+PAGES = ("/", "/robots", "/drives", "/trajectories", "/requirements", "/synthesis",
+         "/simulation", "/results", "/identification")
 
 
 def prepare(ws_dir: Path, t_end: float) -> tuple[Path, Path]:
@@ -136,7 +137,7 @@ def main() -> None:
     cli_wall = cli_run(traj, reg, tmp / "cli", args.t_end)
     out.update(ui_run_s=ui_wall, cli_run_s=cli_wall, ratio=ui_wall / cli_wall,
                robots_page_during_run_s=other)
-    print(f"page load (median of {args.loads}, to websocket connected):")
+    print(f"page load (median of {args.loads}, to the page built and live):")
     for path, t in out["page_load_s"].items():
         print(f"  {path:15s} {1e3 * t:7.0f} ms")
     print(f"  /robots with its 3-D view drawn {1e3 * out['robots_3d_view_s']:7.0f} ms")

@@ -59,6 +59,7 @@ from manipcad.drives.params import (
 from manipcad.dynamics.aba import ABA_WORK, aba_state
 from manipcad.dynamics.crba import CRBA_WORK
 from manipcad.dynamics.rnea import RNEA_WORK
+from manipcad.sim.borrow import address, row
 
 #: divergence: joint speeds beyond this (rad/s or m/s) count as a runaway
 MAX_SPEED = 1.0e4
@@ -115,7 +116,7 @@ def _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st):
                 if kind == KIND_RIGID or kind == KIND_RIGID_STATIC:
                     o = m + off[j]
                     i = xs[o] if kind == KIND_RIGID else 0.0
-                    di, tj = rigid_drive_rate(i, U[j], qd[j], dtable[j])
+                    di, tj = rigid_drive_rate(i, U[j], qd[j], row(dtable, j))
                     if kind == KIND_RIGID:
                         K4[st, o] = di
                     tau[j] = tj
@@ -135,7 +136,7 @@ def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work, 
     for j in range(n):
         K4[st, j] = qd[j]
     if plant.gen:
-        if plant.gen_fd(q.ctypes.data, qd.ctypes.data, tau.ctypes.data, qdd.ctypes.data) >= 0:
+        if plant.gen_fd(address(q), address(qd), address(tau), address(qdd)) >= 0:
             for j in range(n):  # H not positive definite: the run stops as diverged
                 qdd[j] = math.nan
     else:
@@ -153,9 +154,9 @@ def _current(dtable, off, x, m, U, qd, j):
     if kind == KIND_ELASTIC:
         return x[m + off[j] + 2]
     if kind == KIND_RIGID_STATIC:
-        return static_current(U, dtable[j, P_RATIO] * qd, dtable[j])
+        return static_current(U, dtable[j, P_RATIO] * qd, row(dtable, j))
     if kind != 0:  # elastic, L neglected: the current follows the motor speed
-        return static_current(U, x[m + off[j] + 1], dtable[j])
+        return static_current(U, x[m + off[j] + 1], row(dtable, j))
     return math.nan
 
 
@@ -172,9 +173,8 @@ def _signals(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp):
             q[j] = x[j]
             qd[j] = x[n + j]
         if plant.gen:
-            plant.gen_mass(q.ctypes.data, H.ctypes.data)
-            plant.gen_comp(q.ctypes.data, qd.ctypes.data, Hii.ctypes.data, hv.ctypes.data,
-                           qg.ctypes.data)
+            plant.gen_mass(address(q), address(H))
+            plant.gen_comp(address(q), address(qd), address(Hii), address(hv), address(qg))
         else:
             components_one(plant.ctable, plant.g, q, qd, zero, rwork, cwork, tmp, H, Hii, hv,
                            qg)
@@ -302,8 +302,8 @@ def sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait):
     for r in range(R):
         if wait[r] == 0:
             wait[r] = ctrl.steps[r]
-            regulator_update(ctrl.kind[r], ctrl.params[r], ctrl.state[r], sig, H,
-                             ctrl.joints[r], ctrl.nj[r], ctrl.steps[r] * dt, U)
+            regulator_update(ctrl.kind[r], row(ctrl.params, r), row(ctrl.state, r), sig, H,
+                             row(ctrl.joints, r), ctrl.nj[r], ctrl.steps[r] * dt, U)
     # the estimator after the regulators: they read its estimate at the next sample
     if est_due:
         _estimate(est, sig, plant.ctable, dt)
@@ -370,7 +370,7 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
             else:
                 for j in range(nx):
                     xs[j] = x[j] + h2 * K4[st - 1, j]
-            _rates(xs, U, ref.dist[kr], n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext,
+            _rates(xs, U, row(ref.dist, kr), n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext,
                    awork, tmp)
             if st != 0:
                 continue
@@ -381,7 +381,7 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
             work.rec[1] -= 1
             if last and kr == K:
                 return 0, k, -1
-            status, joint = check_state(plant, work, x, K4[0], k * dt, stop_at_limits)
+            status, joint = check_state(plant, work, x, row(K4, 0), k * dt, stop_at_limits)
             if status:
                 return status, k, joint
         for j in range(nx):

@@ -521,6 +521,13 @@ def test_study_runs_through_the_study_functions(ws):
     with pytest.raises(InputError, match="study form: study"):
         StudySpec(str(ws.root), "robustness", "r").run()
     assert [i.name for i in ws.list("studies")] == ["f3"]
+    # the claims maps report through run_tasks, which takes the same progress callable
+    from manipcad.parallel import run_tasks
+
+    frac = []
+    assert list(run_tasks(pow, [{"base": 2, "exp": 3}, {"base": 3, "exp": 2}], workers=1,
+                          progress=frac.append)) == [8, 9]
+    assert frac == [0.5, 1.0]
 
 
 @pytest.mark.slow

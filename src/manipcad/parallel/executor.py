@@ -428,7 +428,7 @@ class Pool:
             reached (from :meth:`client`).
 
     Example:
-        >>> with Pool(workers=2) as pool:  # doctest: +SKIP
+        >>> with Pool(workers=1) as pool:   # a one-worker LocalCluster (about 2 s)
         ...     run_tasks(pow, [{"base": 2, "exp": 3}], pool=pool, progress=False)
         [8]
     """

@@ -486,8 +486,11 @@ def _relink(tmp: Path, out: Path) -> Path | None:
         previous = out.resolve() if out.is_symlink() else None
         os.replace(link, out)
     except BaseException:
-        link.unlink(missing_ok=True)
-        os.rename(version, tmp)
+        # an interrupt (SIGINT) can land after the replace returned, still in this
+        # block: the link then already points at the new version, which must stay
+        if not (out.is_symlink() and out.resolve() == version.resolve()):
+            link.unlink(missing_ok=True)
+            os.rename(version, tmp)
         raise
     if previous is not None and previous != version.resolve() and previous.parent == out.parent:
         return previous

@@ -5,6 +5,7 @@ bound of its torque fails."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -17,6 +18,7 @@ from manipcad.model.robot import Drive
 from manipcad.model.yaml_robot import CONSTANTS, compose_gears, load_gear
 from manipcad.sizing import required_drive
 from manipcad.trajectories import cosine, quintic
+from manipcad.trajectories.base import Trajectory
 
 RPM = CONSTANTS["rpm"]
 #: the CSG rating-table rows entered: size -> ratios (the table has no CSG-14-120/160,
@@ -201,3 +203,74 @@ def test_cli_size_says_why_unknown(tmp_path):
     assert "gear efficiency unknown" in res.stdout and "not taken as 1" in res.stdout
     res = runner.invoke(app, ["size", str(robot), "-t", str(traj), "--allow-unknown"])
     assert res.exit_code == 0, res.output
+
+
+class _Spin(Trajectory):
+    """One joint turning at a constant speed w (rad/s) from q = 0 for T s (SI)."""
+
+    def __init__(self, w: float, T: float) -> None:
+        self.w, self.T = w, T
+
+    @property
+    def n(self) -> int:
+        return 1
+
+    @property
+    def duration(self) -> float:
+        return self.T
+
+    def _evaluate(self, t):
+        t = np.asarray(t, dtype=float)
+        return (self.w * t)[:, None], np.full((t.size, 1), self.w), np.zeros((t.size, 1))
+
+    def to_dict(self):
+        return {"kind": "spin", "w": self.w, "T": self.T}
+
+
+def _spin_joint(mass: float, **ratings):
+    """The horizontal joint of :func:`_one_joint` with a given mass (kg) and gear ratings."""
+    arm = _one_joint(0.7, 10.0)
+    d = dataclasses.replace(arm.drives[0], **ratings)
+    return dataclasses.replace(arm, drives=(d,), mass=np.array([mass]))
+
+
+def test_csg_average_ratings_reach_the_drive():
+    f, _ = compose_gears([load_gear("harmonic_csg20_100")])
+    assert f["gear_average_torque"] == 64.0
+    assert f["gear_average_input_speed"] == pytest.approx(3500 * 2 * math.pi / 60, rel=1e-12)
+    f, _ = compose_gears([load_gear("harmonic_csf20_100")])   # not in its source: unknown
+    assert "gear_average_torque" not in f and "gear_average_input_speed" not in f
+
+
+@pytest.mark.parametrize("mass, rated, average, status, limit", [
+    (30.0, 52.0, 64.0, "fail", 64.0),        # T_av 66.3 N·m over the 64 N·m average limit
+    (25.0, 52.0, 64.0, "pass", 64.0),        # T_av 55.3: over the rated torque, under the limit
+    (25.0, 52.0, math.nan, "unknown", math.nan),   # no average limit: over the rated bound
+    (10.0, 52.0, math.nan, "pass", 52.0),    # T_av 22.1 under the rated torque: a known pass
+])
+def test_average_torque_check(mass, rated, average, status, limit):
+    """A full turn at constant speed: P_rigid = m·g·c·cos q, so the speed-weighted cubic
+    mean is m·g·c·(∫|cos|³/π)^(1/3) = m·g·c·(4/(3π))^(1/3) (closed form)."""
+    w, T = 2.0, math.pi / 2.0    # rad/s, s: q from 0 to π
+    arm = _spin_joint(mass, gear_rated_torque=rated, gear_average_torque=average)
+    req = required_drive(arm, _Spin(w, T), t_end=T, dt=1e-4)
+    expect = mass * 9.81 * 0.3 * (4.0 / (3.0 * math.pi)) ** (1.0 / 3.0)
+    c = req.checks["gear_average"]
+    assert c.required[0] == pytest.approx(expect, rel=1e-6)
+    assert c.status == (status,)
+    assert c.limit[0] == pytest.approx(limit, nan_ok=True)
+
+
+@pytest.mark.parametrize("rpm, average, status", [
+    (4000.0, 3500 * math.pi / 30, "fail"),    # 4000 rpm input mean over 3500 rpm
+    (3000.0, 3500 * math.pi / 30, "pass"),
+    (4000.0, math.nan, "n/a"),                # no average rating, under the 6500 rpm max
+    (7000.0, math.nan, "fail"),               # 7000 rpm mean: over the max input speed itself
+])
+def test_average_input_speed_check(rpm, average, status):
+    w = rpm * math.pi / 30.0 / 100.0          # joint speed, rad/s, through the 100:1 gear
+    arm = _spin_joint(1.0, gear_average_input_speed=average)
+    req = required_drive(arm, _Spin(w, 0.1), t_end=0.1, dt=1e-3)
+    c = req.checks["gear_average_speed"]
+    assert c.required[0] == pytest.approx(100.0 * w, rel=1e-9)     # |i_r·q̇|, constant
+    assert c.status == (status,)

@@ -220,7 +220,8 @@ def test_margins_and_status(cyl):
     assert np.allclose(c.margin, 1 - req.rms_motor_torque / rated)
     for name, check in req.checks.items():
         for j in range(3):
-            expect = ("unknown" if math.isnan(check.margin[j])
+            unrated = "n/a" if name == "gear_average_speed" else "unknown"  # optional rating
+            expect = (unrated if math.isnan(check.margin[j])
                       else "pass" if check.margin[j] >= 0 else "fail")
             assert check.status[j] == expect, name
     # the belt and the ball screw give no peak rating: that check cannot be made
@@ -323,7 +324,8 @@ def test_cli_json_parses(runner, tmp_path):
     assert data["joints"][0]["units"]["peak_torque"] == "N·m"
     assert data["joints"][2]["units"]["peak_torque"] == "N"
     assert set(data["joints"][0]["checks"]) == {"continuous", "peak", "speed", "voltage",
-                                                "gear_continuous", "gear_peak", "gear_speed"}
+                                                "gear_continuous", "gear_peak", "gear_speed",
+                                                "gear_average", "gear_average_speed"}
     req = required_drive(_load("cylindrical"), FIG3)
     assert math.isclose(data["joints"][2]["peak_current"], req.peak_current[2], rel_tol=1e-12)
     assert (tmp_path / "p.png").is_file()

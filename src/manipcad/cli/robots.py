@@ -144,6 +144,8 @@ def robot_summary(robot: Any) -> dict[str, Any]:
                 "gear_rated_torque": d.gear_rated_torque,
                 "gear_peak_torque": d.gear_peak_torque,
                 "gear_max_input_speed": d.gear_max_input_speed,
+                "gear_average_torque": d.gear_average_torque,
+                "gear_average_input_speed": d.gear_average_input_speed,
                 "stiffness": d.stiffness, "damping": d.damping, "backlash": d.backlash,
             }
         p = int(robot.parent[i])

@@ -182,9 +182,11 @@ def _print_tables(req, source: str) -> None:
         ("peak joint speed |q̇|", rad_s, req.peak_speed),
         ("peak gear output |P_rigid|", nm, req.peak_gear_torque),
         ("RMS gear output torque", nm, req.rms_gear_torque),
+        ("average gear load torque", nm, req.average_gear_torque),
         ("peak motor torque |T_m|", "N·m", req.peak_motor_torque),
         ("RMS motor torque", "N·m", req.rms_motor_torque),
         ("peak motor speed |ω_m|", "rad/s", req.peak_motor_speed),
+        ("mean motor speed |ω_m|", "rad/s", req.mean_motor_speed),
         ("peak current |i|", "A", req.peak_current),
         ("RMS current", "A", req.rms_current),
         ("peak voltage |u_a|", "V", req.peak_voltage),
@@ -205,7 +207,10 @@ def _print_tables(req, source: str) -> None:
                   "amplifier limit (else the rated voltage); gear_continuous / gear_peak: "
                   "RMS / peak gear output torque |P_rigid| vs the gear's rated / "
                   "repeated-peak torque; gear_speed: peak |ω_m| vs the gear's max input "
-                  "speed; n/a: no gear")
+                  "speed; gear_average: the speed-weighted cubic mean of |P_rigid| vs the "
+                  "gear's average-torque limit (else its rated torque, a lower bound); "
+                  "gear_average_speed: mean |ω_m| vs the gear's average-input-speed limit; "
+                  "n/a: no gear, or a rating the gear does not have")
     for col, just in (("joint", "left"), ("limit", "left"),
                       ("required", "right"),
                       ("rating", "right"), ("unit", "left"), ("margin", "right"),

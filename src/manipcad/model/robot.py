@@ -93,6 +93,11 @@ class Drive:
             referred to the joint (nan if unknown).
         gear_max_input_speed: the gear's maximum input speed, referred to the
             motor shaft, rad/s (nan if unknown).
+        gear_average_torque: the gear's limit for the average load torque (a
+            strain-wave catalogue's rating), N·m (N), referred to the joint
+            (nan if unknown or not rated).
+        gear_average_input_speed: the gear's limit for the average input
+            speed, referred to the motor shaft, rad/s (nan if unknown or not rated).
     """
 
     J: float = 0.0
@@ -119,6 +124,8 @@ class Drive:
     gear_rated_torque: float = float("nan")
     gear_peak_torque: float = float("nan")
     gear_max_input_speed: float = float("nan")
+    gear_average_torque: float = float("nan")
+    gear_average_input_speed: float = float("nan")
 
     def __post_init__(self) -> None:
         mf = self.M_f
@@ -185,7 +192,8 @@ def _check_drive_values(d: Drive) -> None:
     if not float(d.u_max) > 0:
         raise fail("u_max", "> 0 V (inf: no limit)", d.u_max)
     for name in ("rated_torque", "peak_torque", "max_speed", "rated_voltage", "rated_current",
-                 "gear_rated_torque", "gear_peak_torque", "gear_max_input_speed"):
+                 "gear_rated_torque", "gear_peak_torque", "gear_max_input_speed",
+                 "gear_average_torque", "gear_average_input_speed"):
         v = float(getattr(d, name))
         if not (math.isnan(v) or (math.isfinite(v) and v >= 0)):
             raise fail(name, "finite and >= 0 (nan: unknown)", v)

@@ -175,7 +175,7 @@ def load_tree_robot(path: str | Path) -> Robot:
 _DRIVE_NUMBERS = ("J", "ratio", "k_v", "R", "L", "k_m", "k_w", "k_u", "u_max",
                   "rated_torque", "peak_torque", "max_speed", "rated_voltage", "rated_current",
                   "backlash", "efficiency", "gear_rated_torque", "gear_peak_torque",
-                  "gear_max_input_speed")
+                  "gear_max_input_speed", "gear_average_torque", "gear_average_input_speed")
 
 
 def drive_to_dict(d: Drive) -> dict[str, Any]:

@@ -280,8 +280,9 @@ class DriveSpec(_Spec):
     k_m N·m/A, k_w V·s/rad, k_u V/V, u_max V, rated/peak torque N·m, max_speed
     rad/s, rated_voltage V, rated_current A; joint side: elasticity k_s N·m/rad
     or [k_s N·m/rad, d_s N·m·s/rad], backlash b rad (half the gap), gear
-    ratings gear_rated_torque / gear_peak_torque N·m; gear_max_input_speed
-    rad/s on the motor shaft; efficiency η in (0, 1], or "unknown" (what a
+    ratings gear_rated_torque / gear_peak_torque / gear_average_torque N·m;
+    gear_max_input_speed / gear_average_input_speed rad/s on the motor shaft;
+    efficiency η in (0, 1], or "unknown" (what a
     gear without a stated efficiency gives: sizing does not assume η = 1);
     motor_name / gear_name are labels for reports when no catalog part is named)."""
 
@@ -295,6 +296,8 @@ class DriveSpec(_Spec):
     gear_rated_torque: OptNum = None
     gear_peak_torque: OptNum = None
     gear_max_input_speed: OptNum = None
+    gear_average_torque: OptNum = None
+    gear_average_input_speed: OptNum = None
     J: OptNum = None
     ratio: OptNum = None
     k_v: OptNum = None
@@ -829,10 +832,11 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None
     ``J = sum_k J_k / (i_1···i_{k-1})²`` (kg·m², motor shaft), ``ratio = prod_k
     direction_k·i_k``, ``efficiency = prod_k η_k`` (nan, unknown, when a gear's
     source gives none: the sizing then says so rather than assume η = 1), the
-    output torque ratings referred to the joint (gear k's limit times
-    ``prod_{m>k} i_m·η_m``, the tightest over the chain, N·m or N; unknown when a
-    later gear's efficiency is) and the input-speed limit referred to the motor
-    shaft (gear k's limit times ``i_1···i_{k-1}``, the tightest, rad/s). A rating
+    output torque ratings (rated, repeated peak, average) referred to the joint
+    (gear k's limit times ``prod_{m>k} i_m·η_m``, the tightest over the chain,
+    N·m or N; unknown when a later gear's efficiency is) and the input-speed
+    limits (max, average) referred to the motor shaft (gear k's limit times
+    ``i_1···i_{k-1}``, the tightest, rad/s). A rating
     that any gear of the chain lacks is left out (unknown).
 
     Returns:
@@ -851,6 +855,7 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None
     eta = 1.0
     ratio = 1.0
     rated, peak, speed = math.inf, math.inf, math.inf
+    average, avg_speed = math.inf, math.inf
     compliance = 0.0
     for k, g in enumerate(gears):
         J += g.J / before**2
@@ -865,6 +870,10 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None
                    else g.max_intermittent_torque * after, key=_nan_first)
         speed = min(speed, math.nan if g.max_input_speed is None
                     else g.max_input_speed * before, key=_nan_first)
+        average = min(average, math.nan if g.max_average_torque is None
+                      else g.max_average_torque * after, key=_nan_first)
+        avg_speed = min(avg_speed, math.nan if g.max_average_input_speed is None
+                        else g.max_average_input_speed * before, key=_nan_first)
         if compliance is not None:
             compliance = (None if g.stiffness is None or g.stiffness <= 0
                           else compliance + 1.0 / (g.stiffness * after_i**2))
@@ -873,7 +882,8 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None
         ratio *= g.direction * g.ratio
     out: dict[str, float] = {"J": J, "ratio": ratio, "efficiency": eta}
     for key, v in (("gear_rated_torque", rated), ("gear_peak_torque", peak),
-                   ("gear_max_input_speed", speed)):
+                   ("gear_max_input_speed", speed), ("gear_average_torque", average),
+                   ("gear_average_input_speed", avg_speed)):
         if math.isfinite(v):
             out[key] = v
     stiffness = None if not compliance else 1.0 / compliance

@@ -8,14 +8,34 @@ Four motor limits, each compared on the motor side of the gear:
 - voltage: peak armature voltage |u_a| vs ``Drive.u_max`` (the amplifier's
   output limit) when finite, else ``Drive.rated_voltage``, V.
 
-Three gear limits:
+Five gear limits:
 
 - gear_continuous: RMS gear output torque (the rigid-body joint torque, what
   the gear passes to the link) vs ``Drive.gear_rated_torque``, N·m (N);
 - gear_peak: peak gear output torque vs ``Drive.gear_peak_torque`` (the
   repeated-peak rating), N·m (N);
 - gear_speed: peak gear input speed (= motor speed) vs
-  ``Drive.gear_max_input_speed``, rad/s.
+  ``Drive.gear_max_input_speed``, rad/s;
+- gear_average: the average load torque of Harmonic Drive's selection
+  procedure, (∫|ω|·|T|³ dt / ∫|ω| dt)^(1/3) with T the gear output torque and ω
+  the joint speed (:func:`~manipcad.sizing.stats.weighted_cubic_mean`), vs
+  ``Drive.gear_average_torque`` (the "limit for average torque"), N·m (N);
+- gear_average_speed: the mean gear input speed (1/T)∫|ω_m| dt vs
+  ``Drive.gear_average_input_speed`` (the "limit for average input speed"), rad/s.
+
+The two average ratings are optional: strain-wave (harmonic) catalogues give
+them, planetary, screw and belt data sheets do not. Where a drive lacks one,
+the bounds that still decide are used (:func:`average_bounds`): the average
+torque limit is never below the rated (continuous) torque (the catalogues'
+order, which the gear loader enforces where both are given), so an average
+load torque at or under ``gear_rated_torque`` passes, checked against that
+rated torque; the average input speed limit is never above the max input
+speed, so a mean input speed over ``gear_max_input_speed`` fails. Otherwise an
+absent average-torque limit is "unknown" (the load exceeds the continuous
+rating and only the missing rating could say whether the gear survives it), an
+absent average-speed limit "n/a": nothing below the max speed bounds it, and a
+mean speed under the max input speed is what every gear without this rating is
+sold for (its peak speed is checked by gear_speed).
 
 The continuous checks treat the run as the repeated duty cycle: the winding
 heats with i², so the RMS torque (= k_m·RMS current) over one cycle is what
@@ -53,6 +73,9 @@ GEAR_LIMITS: dict[str, tuple[str, str]] = {
     "gear_continuous": ("RMS gear output torque vs gear rated torque", "N·m"),
     "gear_peak": ("peak gear output torque vs gear repeated-peak torque", "N·m"),
     "gear_speed": ("peak gear input speed vs gear max input speed", "rad/s"),
+    "gear_average": ("average load torque (speed-weighted cubic mean) vs gear average-torque "
+                     "limit (else its rated torque as a lower bound)", "N·m"),
+    "gear_average_speed": ("mean gear input speed vs gear average-input-speed limit", "rad/s"),
 }
 #: every check of a sizing, motor first
 ALL_LIMITS: dict[str, tuple[str, str]] = {**LIMITS, **GEAR_LIMITS}
@@ -109,7 +132,8 @@ def voltage_limit(drive: Drive | None) -> float:
 #: Drive attribute holding each rating ("voltage" is :func:`voltage_limit`)
 _RATING_FIELD = {"continuous": "rated_torque", "peak": "peak_torque", "speed": "max_speed",
                  "gear_continuous": "gear_rated_torque", "gear_peak": "gear_peak_torque",
-                 "gear_speed": "gear_max_input_speed"}
+                 "gear_speed": "gear_max_input_speed", "gear_average": "gear_average_torque",
+                 "gear_average_speed": "gear_average_input_speed"}
 
 
 def ratings(drive: Drive | None, names=ALL_LIMITS) -> dict[str, float]:
@@ -148,7 +172,8 @@ def has_gear(drive: Drive | None) -> bool:
     """
     if drive is None:
         return False
-    ratings = (drive.gear_rated_torque, drive.gear_peak_torque, drive.gear_max_input_speed)
+    ratings = (drive.gear_rated_torque, drive.gear_peak_torque, drive.gear_max_input_speed,
+               drive.gear_average_torque, drive.gear_average_input_speed)
     return bool(drive.gear) or abs(drive.ratio) != 1.0 or any(np.isfinite(ratings))
 
 
@@ -207,11 +232,62 @@ def check_limits(required: dict[str, np.ndarray],
         req = np.asarray(required[name], dtype=float)
         m = margin(req, lim)
         status = [status_of(float(v)) for v in m]
+        if name in ("gear_average", "gear_average_speed"):
+            lim, m, status = average_bounds(name, req, lim, m, status, drives)
         if name in GEAR_LIMITS:
             status = [NA if not has_gear(d) else s for s, d in zip(status, drives, strict=True)]
         out[name] = LimitCheck(name=name, description=desc, unit=unit, required=req, limit=lim,
                                margin=m, status=tuple(status))
     return out
+
+
+def average_bounds(name: str, required: np.ndarray, limit: np.ndarray, m: np.ndarray,
+                   status: list[str], drives: tuple[Drive | None, ...]
+                   ) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Decide the average checks of drives without the average rating, where a bound can.
+
+    For "gear_average" (N·m): an unknown limit is bounded below by the gear's
+    rated torque, so a required value at or under it passes (``limit`` becomes
+    that rated torque, the margin is taken against it); above it (or without a
+    rated torque) the status stays "unknown". For "gear_average_speed"
+    (rad/s): the unknown limit is bounded above by the max input speed, so a
+    required value over it fails (``limit`` becomes the max input speed);
+    otherwise the status is "n/a" (not rated). See the module docstring.
+
+    Args:
+        name: "gear_average" or "gear_average_speed".
+        required: (n,) required values; limit: (n,) ratings, nan unknown;
+        m: (n,) margins; status: per-joint statuses (all from :func:`check_limits`).
+        drives: the drives.
+
+    Returns:
+        (limit, margin, status) with the bounded joints decided.
+
+    Example:
+        >>> import numpy as np
+        >>> from manipcad.model.robot import Drive
+        >>> d = Drive(ratio=100.0, gear="g", gear_rated_torque=40.0)
+        >>> req, lim = np.array([30.0, 50.0]), np.array([np.nan, np.nan])
+        >>> lim, m, st = average_bounds("gear_average", req, lim, margin(req, lim),
+        ...                             [UNKNOWN, UNKNOWN], (d, d))
+        >>> st, lim.tolist(), m.round(3).tolist()
+        (['pass', 'unknown'], [40.0, nan], [0.25, nan])
+    """
+    limit, m, status = limit.copy(), m.copy(), list(status)
+    for j, d in enumerate(drives):
+        if d is None or math.isfinite(limit[j]) or not math.isfinite(required[j]):
+            continue
+        if name == "gear_average":
+            bound = float(d.gear_rated_torque)
+            if math.isfinite(bound) and bound > 0 and required[j] <= bound:
+                limit[j], m[j], status[j] = bound, 1.0 - required[j] / bound, PASS
+        else:
+            bound = float(d.gear_max_input_speed)
+            if math.isfinite(bound) and bound > 0 and required[j] > bound:
+                limit[j], m[j], status[j] = bound, 1.0 - required[j] / bound, FAIL
+            else:
+                status[j] = NA
+    return limit, m, status
 
 
 def overall_status(checks: dict[str, LimitCheck]) -> tuple[str, ...]:

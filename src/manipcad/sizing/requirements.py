@@ -48,7 +48,7 @@ from manipcad.sizing.limits import (
 )
 from manipcad.sizing.motion import SampledMotion, sample_motion
 from manipcad.sizing.motor import motor_series
-from manipcad.sizing.stats import peak, time_mean, time_rms
+from manipcad.sizing.stats import peak, time_mean, time_rms, weighted_cubic_mean
 from manipcad.trajectories.base import Trajectory
 
 #: per-joint summary fields: name -> (unit for a revolute joint, unit for a prismatic one, text)
@@ -58,10 +58,13 @@ FIELDS: dict[str, tuple[str, str, str]] = {
     "peak_speed": ("rad/s", "m/s", "peak joint speed |q̇|"),
     "peak_gear_torque": ("N·m", "N", "peak gear output torque |P_rigid|"),
     "rms_gear_torque": ("N·m", "N", "RMS gear output torque"),
+    "average_gear_torque": ("N·m", "N", "average gear load torque, cubic mean of |P_rigid| "
+                            "weighted by |q̇| (Harmonic Drive)"),
     "peak_motor_torque": ("N·m", "N·m", "peak motor torque |k_m·i| = |P/i_r|"),
     "rms_motor_torque": ("N·m", "N·m", "RMS motor torque"),
     "peak_motor_speed": ("rad/s", "rad/s", "peak motor speed |i_r·q̇|"),
     "rms_motor_speed": ("rad/s", "rad/s", "RMS motor speed"),
+    "mean_motor_speed": ("rad/s", "rad/s", "mean |ω_m| (the gear's average input speed)"),
     "peak_current": ("A", "A", "peak armature current |i|"),
     "rms_current": ("A", "A", "RMS armature current"),
     "peak_voltage": ("V", "V", "peak armature voltage |u_a|"),
@@ -105,10 +108,14 @@ class DriveRequirements:
         peak_gear_torque: (n,) peak gear output torque |P_rigid| (the
             rigid-body joint torque the gear passes), N·m (N).
         rms_gear_torque: (n,) RMS gear output torque, N·m (N).
+        average_gear_torque: (n,) average load torque of the gear, the cubic
+            mean of |P_rigid| weighted by |q̇| (Harmonic Drive's selection
+            procedure), N·m (N).
         peak_motor_torque: (n,) peak motor torque, N·m.
         rms_motor_torque: (n,) RMS motor torque, N·m.
         peak_motor_speed: (n,) peak motor speed, rad/s.
         rms_motor_speed: (n,) RMS motor speed, rad/s.
+        mean_motor_speed: (n,) mean |ω_m| (the gear's average input speed), rad/s.
         peak_current: (n,) peak armature current, A.
         rms_current: (n,) RMS armature current, A.
         peak_voltage: (n,) peak armature voltage |u_a|, V.
@@ -119,7 +126,8 @@ class DriveRequirements:
         mean_elec_power: (n,) mean u_a·i, W.
         checks: limit name -> :class:`~manipcad.sizing.limits.LimitCheck`
             ("continuous", "peak", "speed", "voltage" for the motor;
-            "gear_continuous", "gear_peak", "gear_speed" for the gear).
+            "gear_continuous", "gear_peak", "gear_speed", "gear_average",
+            "gear_average_speed" for the gear).
         status: per joint "pass", "fail" or "unknown" over all the limits.
     """
 
@@ -144,10 +152,12 @@ class DriveRequirements:
     peak_speed: np.ndarray
     peak_gear_torque: np.ndarray
     rms_gear_torque: np.ndarray
+    average_gear_torque: np.ndarray
     peak_motor_torque: np.ndarray
     rms_motor_torque: np.ndarray
     peak_motor_speed: np.ndarray
     rms_motor_speed: np.ndarray
+    mean_motor_speed: np.ndarray
     peak_current: np.ndarray
     rms_current: np.ndarray
     peak_voltage: np.ndarray
@@ -351,10 +361,12 @@ def required_drive(robot: Robot, trajectory: Trajectory, *, t_end: float | None 
         "peak_speed": peak(motion.qd),
         "peak_gear_torque": peak(motion.tau_rigid),
         "rms_gear_torque": time_rms(motion.tau_rigid, t),
+        "average_gear_torque": weighted_cubic_mean(motion.tau_rigid, motion.qd, t),
         "peak_motor_torque": peak(ms["motor_torque"]),
         "rms_motor_torque": time_rms(ms["motor_torque"], t),
         "peak_motor_speed": peak(ms["motor_speed"]),
         "rms_motor_speed": time_rms(ms["motor_speed"], t),
+        "mean_motor_speed": time_mean(np.abs(ms["motor_speed"]), t),
         "peak_current": peak(ms["current"]), "rms_current": time_rms(ms["current"], t),
         "peak_voltage": peak(ms["voltage"]), "peak_input_voltage": peak(ms["input_voltage"]),
         "peak_mech_power": peak(mech), "mean_mech_power": time_mean(mech, t),
@@ -366,6 +378,8 @@ def required_drive(robot: Robot, trajectory: Trajectory, *, t_end: float | None 
         "speed": summary["peak_motor_speed"], "voltage": summary["peak_voltage"],
         "gear_continuous": summary["rms_gear_torque"], "gear_peak": summary["peak_gear_torque"],
         "gear_speed": summary["peak_motor_speed"],
+        "gear_average": summary["average_gear_torque"],
+        "gear_average_speed": summary["mean_motor_speed"],
     }
     checks = efficiency_unknown(check_limits(required, drives), motion, t)
     return DriveRequirements(

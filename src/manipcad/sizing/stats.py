@@ -45,3 +45,37 @@ def time_rms(x: np.ndarray, t: np.ndarray, axis: int = 0) -> np.ndarray:
         0.707107
     """
     return np.sqrt(time_mean(np.square(x), t, axis=axis))
+
+
+def weighted_cubic_mean(x: np.ndarray, w: np.ndarray, t: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Cubic mean of |x| weighted by |w|, (∫|w|·|x|³ dt / ∫|w| dt)^(1/3) (trapezoids); unit of x.
+
+    Harmonic Drive's "average load torque" (``x`` the output torque, ``w`` the
+    output speed: the time a torque acts counts in proportion to the turns made
+    under it). Where the weight integrates to 0 (a gear that never turns), the
+    plain time cubic mean ((1/T)∫|x|³ dt)^(1/3) is returned, the limit of the
+    weighted one for a uniformly vanishing speed.
+
+    Args:
+        x: (N, ...) samples (e.g. torque, N·m).
+        w: (N, ...) weights, same shape (e.g. speed, rad/s; only |w| counts).
+        t: (N,) time grid, s.
+        axis: the time axis.
+
+    Returns:
+        The weighted cubic mean, unit of x (nan where x or w holds a nan).
+
+    Example:
+        >>> import numpy as np
+        >>> t = np.array([0.0, 1.0, 1.0 + 1e-9, 2.0])      # 1 s at 1 rad/s, then 1 s at 3 rad/s
+        >>> x = np.array([10.0, 10.0, 20.0, 20.0]); w = np.array([1.0, 1.0, 3.0, 3.0])
+        >>> round(float(weighted_cubic_mean(x, w, t)), 4)   # ((1·1000 + 3·8000)/4)^(1/3)
+        18.4202
+    """
+    a = np.abs(np.asarray(w, dtype=float))
+    cube = np.abs(np.asarray(x, dtype=float)) ** 3
+    den = np.trapezoid(a, t, axis=axis)
+    num = np.trapezoid(a * cube, t, axis=axis)
+    plain = time_mean(cube, t, axis=axis)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.cbrt(np.where(den > 0, num / np.where(den > 0, den, 1.0), plain))

@@ -274,3 +274,20 @@ def test_average_input_speed_check(rpm, average, status):
     c = req.checks["gear_average_speed"]
     assert c.required[0] == pytest.approx(100.0 * w, rel=1e-9)     # |i_r·q̇|, constant
     assert c.status == (status,)
+
+
+def test_average_torque_formula_reproduces_a_worked_example():
+    """A published selection example (honpine.com, "How to Selection Harmonic Reduction
+    Gear?"): T = 150, 82, 130, 0 N·m for 0.2, 3, 0.3, 0.2 s at 10, 20, 10, 0 rpm gives
+    T_av = 89 N·m. Piecewise-constant samples (a 1e-9 s step between segments)."""
+    from manipcad.sizing.stats import weighted_cubic_mean
+    segs = [(150.0, 0.2, 10.0), (82.0, 3.0, 20.0), (130.0, 0.3, 10.0), (0.0, 0.2, 0.0)]
+    t, x, w, t0 = [], [], [], 0.0
+    for T, dt, n in segs:
+        t += [t0 + 1e-9, t0 + dt]
+        x += [T, T]
+        w += [n, n]
+        t0 += dt
+    t[0] = 0.0
+    got = float(weighted_cubic_mean(np.array(x), np.array(w), np.array(t)))
+    assert round(got) == 89

@@ -45,17 +45,14 @@ import numba as nb
 import numpy as np
 
 from manipcad.analysis.realtime import components_one  # noqa: F401  (loaded with _signals)
-from manipcad.control.signals import NSIG
 from manipcad.drives.dc import armature_current_phis, armature_current_poly, phis
 from manipcad.drives.params import KIND_RIGID, P_J, P_KIND, P_KM, P_L, P_R, P_RATIO
-from manipcad.dynamics.aba import ABA_WORK
-from manipcad.dynamics.crba import CRBA_WORK
-from manipcad.dynamics.rnea import RNEA_WORK
 from manipcad.sim.loop import (
     _rates,
     _torques,
     check_state,
     sample_due,
+    scratch,
     write_record,
 )
 
@@ -203,20 +200,8 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
     Ks = np.empty((S, nx))
     xs = np.empty(nx)
     xr = np.empty(nx)
-    q = np.empty(n)
-    qd = np.empty(n)
-    qdd = np.empty(n)
-    xd = np.empty(nx - m)
-    dxd = np.empty(nx - m)
-    tau = np.empty(n)
     Kd = np.empty((1, nx))
-    sig = np.zeros((n, NSIG))
-    H = np.zeros((n, n))
-    fext = np.zeros((n, 6))
-    awork = np.empty((n, ABA_WORK))
-    tmp = np.empty((23, 6))
-    comp = (np.empty(n), np.empty(n), np.zeros(n), np.empty((n, RNEA_WORK)),
-            np.empty((n, CRBA_WORK)), np.zeros((8, 3)), np.empty(n), np.empty(n), np.empty(n))
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scratch(n, nx)
     none = np.empty(0)
     noph = np.empty((0, 5))
     cerr = np.zeros(2)

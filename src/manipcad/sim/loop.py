@@ -320,6 +320,20 @@ def _pick_up(plant):
 
 
 @nb.njit(cache=True)
+def scratch(n, nx):
+    """The work arrays both integrators need (allocated once per call of the core, never
+    in the step loop): q, q̇, q̈ (n,), the drive states and their rates (nx − 2n,),
+    the joint torques (n,), the signal matrix (n, NSIG), H (n, n), the external forces
+    (n, 6), the ABA and small scratch, and the moment components' work tuple."""
+    m = 2 * n
+    comp = (np.empty(n), np.empty(n), np.zeros(n), np.empty((n, RNEA_WORK)),
+            np.empty((n, CRBA_WORK)), np.zeros((8, 3)), np.empty(n), np.empty(n), np.empty(n))
+    return (np.empty(n), np.empty(n), np.empty(n), np.empty(nx - m), np.empty(nx - m),
+            np.empty(n), np.zeros((n, NSIG)), np.zeros((n, n)), np.zeros((n, 6)),
+            np.empty((n, ABA_WORK)), np.empty((23, 6)), comp)
+
+
+@nb.njit(cache=True)
 def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
     """Integrate the steps k0 .. k0+K−1 (RK4, dt s) from ``work.x``; record every ``every``.
 
@@ -332,25 +346,12 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
     n = plant.rtable.shape[0]
     x = work.x
     nx = x.shape[0]
-    m = 2 * n
     U = work.U
     wait = work.wait
     R = ctrl.kind.shape[0]
     xs = np.empty(nx)
     K4 = np.empty((4, nx))
-    q = np.empty(n)
-    qd = np.empty(n)
-    qdd = np.empty(n)
-    xd = np.empty(nx - m)
-    dxd = np.empty(nx - m)
-    tau = np.empty(n)
-    sig = np.zeros((n, NSIG))
-    H = np.zeros((n, n))
-    fext = np.zeros((n, 6))
-    awork = np.empty((n, ABA_WORK))
-    tmp = np.empty((23, 6))
-    comp = (np.empty(n), np.empty(n), np.zeros(n), np.empty((n, RNEA_WORK)),
-            np.empty((n, CRBA_WORK)), np.zeros((8, 3)), np.empty(n), np.empty(n), np.empty(n))
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scratch(n, nx)
     h2 = 0.5 * dt
     h6 = dt / 6.0
     kend = K + 1 if last else K

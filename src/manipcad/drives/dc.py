@@ -286,40 +286,6 @@ def armature_current_phis(i0: float, U: float, omega0: float, w1: float, w2: flo
 
 
 @numba.njit(cache=True)
-def armature_current_step(i0: float, U: float, omega0: float, omega1: float, t: float,
-                          p: np.ndarray) -> float:
-    """Armature current t s later, U held and the motor speed linear from ω0 to ω1.
-
-    :func:`armature_current_poly` with the speed's slope (ω1 - ω0)/t: with x = t·R/L,
-    a0 = :func:`static_current` (U, ω0), a1 = static_current(U, ω1) and
-    φ(x) = (1 - e^(-x))/x it reads i(t) = a0 + (i0 - a0)·e^(-x) + (a1 - a0)·(1 - φ(x)).
-
-    Args:
-        i0: current at the start, A.
-        U: amplifier input held over the step, V.
-        omega0, omega1: motor speed at the start and at the end, rad/s.
-        t: step length, s (>= 0; 0 returns i0).
-        p: packed drive parameters (L > 0).
-
-    Returns:
-        i(t), A.
-
-    Example:
-        >>> import math
-        >>> from manipcad.drives.dc import armature_current_step
-        >>> from manipcad.drives.params import pack_drive
-        >>> from manipcad.model.robot import Drive
-        >>> p = pack_drive(Drive(R=2.0, L=1e-3, k_m=.1, k_w=.1, k_u=1.0))
-        >>> i = armature_current_step(0.0, 1.0, 0.0, 0.0, 5e-4, p)   # one L/R
-        >>> abs(i - 0.5 * (1 - math.exp(-1.0))) < 1e-15
-        True
-    """
-    if t <= 0.0:
-        return i0
-    return armature_current_poly(i0, U, omega0, (omega1 - omega0) / t, 0.0, 0.0, t, p)
-
-
-@numba.njit(cache=True)
 def static_input(i: float, omega_m: float, p: np.ndarray) -> float:
     """Amplifier input that drives the current i at motor speed ω_m, L neglected, V.
 

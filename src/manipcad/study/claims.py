@@ -80,7 +80,7 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
-from manipcad.fileio import json_safe
+from manipcad.fileio import json_safe, writable_folder
 from manipcad.model.robot import Robot
 from manipcad.study.fig3 import (
     LAWS,
@@ -645,11 +645,7 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
         raise InputError("--grid", "", f"{grid!r}: expected one of {', '.join(GRIDS)}")
     if not (isinstance(dt, int | float) and math.isfinite(dt) and 0 < dt <= 1e-3):
         raise InputError("dt", "", f"must be in (0, 1e-3] s, got {dt!r}")
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputError(str(out), "", "exists and is not a folder")
-    if not out.parent.is_dir():
-        raise InputError(str(out), "", f"the parent folder {str(out.parent)!r} does not exist")
+    out = writable_folder(out_dir)
     robot, arm_name, max_payload = resolve_arm(arm, "claims")
     with ExitStack() as stack:
         # the workers start (and load their kernels) while the rows are prepared here

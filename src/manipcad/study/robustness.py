@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError, ManipcadWarning
-from manipcad.fileio import json_safe
+from manipcad.fileio import json_safe, writable_folder
 from manipcad.model.robot import Robot
 from manipcad.study.claims import feasible_speed_scale, laws, resolve_arm
 from manipcad.study.fig3 import (
@@ -222,11 +222,7 @@ def run_robustness(out_dir: str | Path, *, arm: str | Robot = "light", samples: 
     from manipcad.parallel.executor import check_workers
 
     check_workers(workers, scheduler, "study robustness")
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputError(str(out), "", "exists and is not a folder")
-    if not out.parent.is_dir():
-        raise InputError(str(out), "", f"the parent folder {str(out.parent)!r} does not exist")
+    out = writable_folder(out_dir)
     robot, arm_name, max_payload = resolve_arm(arm, "robustness")
     default_payload = PAYLOAD.get(arm, 0.0) if isinstance(arm, str) else 0.0
     m_p = default_payload if payload is None else payload

@@ -101,19 +101,12 @@ STATS = 5
 
 
 @nb.njit(cache=True)
-def _currents(plant, x, xs, U, a0, t, n, a1, err, rtol, atol, ph):
-    """The rigid drives' currents of xs, t s after x (U held), exactly; their error.
+def _currents(plant, x, xs, U, t, n, ph):
+    """The rigid drives' currents of xs, t s after x (U held), exactly.
 
-    The current is the exact solution (:func:`armature_current_poly`) for the motor
-    speed linear from x's to xs's over [0, t]. Given the accelerations at both ends
-    (``a0``, ``a1``: joint accelerations, rad/s², a1 empty inside a step) the cubic
-    (Hermite) speed of the four is the better one, and the two currents' distance δi
-    (A) estimates the linear speed's error. A current error decays with L/R and
-    moves the joint by its torque: over the step at most
-    δq̇ = i_r·k_m·δi·t / (J·i_r²) (rad/s, m/s; the rotor alone accelerated), which is
-    added to ``err[0]`` as (δq̇ / (atol + rtol·|q̇|))² (with no rotor inertia δi itself,
-    against atol + rtol·|i|), ``err[1]`` += 1 per current.
-    ``ph``: (n, 5) φ_0..φ_4 of each drive at -R·t/L (see :func:`_phi_table`), or empty.
+    The exact solution (:func:`armature_current_poly`) for the motor speed linear from
+    x's to xs's over [0, t]. ``ph``: (n, 5) φ_0..φ_4 of each drive at -R·t/L (see
+    :func:`_phi_table`), or empty (then computed here).
     """
     if not plant.use_drives or t <= 0.0:
         return
@@ -124,28 +117,54 @@ def _currents(plant, x, xs, U, a0, t, n, a1, err, rtol, atol, ph):
             o = m + plant.off[j]
             r = p[P_RATIO]
             w0 = r * x[n + j]
-            dw = r * xs[n + j] - w0
+            w1 = (r * xs[n + j] - w0) / t
             if ph.shape[0]:
-                i = armature_current_phis(x[o], U[j], w0, dw / t, 0.0, 0.0, t, p, ph[j, 0],
-                                          ph[j, 1], ph[j, 2], ph[j, 3], ph[j, 4])
+                xs[o] = armature_current_phis(x[o], U[j], w0, w1, 0.0, 0.0, t, p, ph[j, 0],
+                                              ph[j, 1], ph[j, 2], ph[j, 3], ph[j, 4])
             else:
-                i = armature_current_poly(x[o], U[j], w0, dw / t, 0.0, 0.0, t, p)
-            if a1.shape[0]:
-                d0 = r * a0[j]
-                d1 = r * a1[j]
-                w2 = (3.0 * dw - (2.0 * d0 + d1) * t) / (t * t)
-                w3 = ((d0 + d1) * t - 2.0 * dw) / (t * t * t)
-                ic = armature_current_phis(x[o], U[j], w0, d0, w2, w3, t, p, ph[j, 0],
-                                           ph[j, 1], ph[j, 2], ph[j, 3], ph[j, 4])
-                Jr = p[P_J] * abs(r)
-                if Jr > 0.0:
-                    dqd = p[P_KM] * abs(ic - i) * t / Jr
-                    sc = atol + rtol * max(abs(x[n + j]), abs(xs[n + j]))
-                    err[0] += (dqd / sc) ** 2
-                else:   # no rotor inertia: the current's own error, A
-                    err[0] += ((ic - i) / (atol + rtol * max(abs(x[o]), abs(i)))) ** 2
-                err[1] += 1.0
-            xs[o] = i
+                xs[o] = armature_current_poly(x[o], U[j], w0, w1, 0.0, 0.0, t, p)
+
+
+@nb.njit(cache=True)
+def _current_error(plant, x, xs, U, a0, a1, t, n, rtol, atol, ph):
+    """The error of the currents :func:`_currents` gave xs over a whole step of t s:
+    (Σ of squared scaled errors, count of currents).
+
+    Given the joint accelerations at both ends (``a0``, ``a1``, rad/s²) the cubic
+    (Hermite) speed of the four is the better one, and the two currents' distance δi
+    (A) estimates the linear speed's error. A current error decays with L/R and
+    moves the joint by its torque: over the step at most
+    δq̇ = i_r·k_m·δi·t / (J·i_r²) (rad/s, m/s; the rotor alone accelerated), scaled by
+    atol + rtol·|q̇| (with no rotor inertia δi itself, by atol + rtol·|i|). ``ph``: the
+    φ of each drive at -R·t/L.
+    """
+    err = 0.0
+    cnt = 0
+    if not plant.use_drives or t <= 0.0:
+        return err, cnt
+    m = 2 * n
+    for j in range(n):
+        p = plant.dtable[j]
+        if int(p[P_KIND]) == KIND_RIGID:
+            o = m + plant.off[j]
+            r = p[P_RATIO]
+            w0 = r * x[n + j]
+            dw = r * xs[n + j] - w0
+            d0 = r * a0[j]
+            d1 = r * a1[j]
+            w2 = (3.0 * dw - (2.0 * d0 + d1) * t) / (t * t)
+            w3 = ((d0 + d1) * t - 2.0 * dw) / (t * t * t)
+            ic = armature_current_phis(x[o], U[j], w0, d0, w2, w3, t, p, ph[j, 0],
+                                       ph[j, 1], ph[j, 2], ph[j, 3], ph[j, 4])
+            i = xs[o]
+            Jr = p[P_J] * abs(r)
+            if Jr > 0.0:
+                dqd = p[P_KM] * abs(ic - i) * t / Jr
+                err += (dqd / (atol + rtol * max(abs(x[n + j]), abs(xs[n + j])))) ** 2
+            else:   # no rotor inertia: the current's own error, A
+                err += ((ic - i) / (atol + rtol * max(abs(x[o]), abs(i)))) ** 2
+            cnt += 1
+    return err, cnt
 
 
 @nb.njit(cache=True)
@@ -202,9 +221,7 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
     xr = np.empty(nx)
     Kd = np.empty((1, nx))
     q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scratch(n, nx)
-    none = np.empty(0)
     noph = np.empty((0, 5))
-    cerr = np.zeros(2)
     ph = np.zeros((S, n, 5))
     hph = -1.0
     expo = -1.0 / (tab.p + 1.0)
@@ -263,8 +280,7 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
                         acc += tab.a[st, l] * Ks[l, j]
                     xs[j] = x[j] + hs * acc
                 if exact:
-                    _currents(plant, x, xs, U, Ks[0, n:m], tab.c[st] * hs, n, none, cerr,
-                              rtol, atol, ph[st])
+                    _currents(plant, x, xs, U, tab.c[st] * hs, n, ph[st])
                 _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, Ks, st, fext,
                        awork, tmp)
             stats[3] += S - 1
@@ -278,15 +294,11 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
                 err += (hs * e / sc) ** 2
             cnt = me
             if exact:
-                # and of the currents: quadratic speed (propagated) against cubic
-                cerr[0] = 0.0
-                cerr[1] = 0.0
-                for j in range(nx):
-                    xr[j] = xs[j]
-                _currents(plant, x, xr, U, Ks[0, n:m], hs, n, Ks[S - 1, n:m], cerr,
-                          rtol, atol, ph[S - 1])
-                err += cerr[0]
-                cnt += int(cerr[1])
+                # and of the currents: the linear speed (propagated) against the cubic
+                ce, cc = _current_error(plant, x, xs, U, Ks[0, n:m], Ks[S - 1, n:m], hs, n,
+                                        rtol, atol, ph[S - 1])
+                err += ce
+                cnt += cc
             err = math.sqrt(err / cnt)
             if not math.isfinite(err):
                 err = 1e10
@@ -314,8 +326,7 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
                 if exact:
                     for j in range(m, nx):
                         xr[j] = x[j]
-                    _currents(plant, x, xr, U, Ks[0, n:m], th * hs, n, none, cerr,
-                              rtol, atol, noph)
+                    _currents(plant, x, xr, U, th * hs, n, noph)
                 _torques(xr, U, dist, n, plant, q, qd, xd, dxd, tau, Kd, 0)
                 write_record(plant, rec, work.rec[0], kk * dt, xr, U, tau)
                 work.rec[0] += 1

@@ -213,6 +213,20 @@ def _writer_loop(out: Path, first_id: int, fd: int) -> None:
         run_id += 1
 
 
+_STOP = {signal.SIGINT, signal.SIGTERM}
+
+
+def _reap(pid: int, timeout: float = 20.0) -> None:
+    """Wait for the killed child; one that outlives ``timeout`` s is a failure, not a hang."""
+    end = time.monotonic() + timeout
+    while os.waitpid(pid, os.WNOHANG) == (0, 0):
+        if time.monotonic() > end:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            pytest.fail(f"the writer {pid} survived its signal for {timeout} s")
+        time.sleep(0.01)
+
+
 @pytest.mark.parametrize("mode", ["exchange", "versioned"])
 def test_killed_writers_leave_old_or_new_never_neither(tmp_path, mode, monkeypatch):
     """Fork real writer processes and kill each at a random moment (SIGKILL, SIGTERM,
@@ -230,19 +244,25 @@ def test_killed_writers_leave_old_or_new_never_neither(tmp_path, mode, monkeypat
     kills = mid_save = 0
     for sig in (signal.SIGKILL, signal.SIGTERM, signal.SIGINT) * 4:
         r, w = os.pipe()
+        # the signals stay blocked until the child has its own handlers: a signal sent
+        # before that would meet the handlers this process inherited (a library's
+        # SIGTERM handler that only sets a flag), and the writer would never stop
+        signal.pthread_sigmask(signal.SIG_BLOCK, _STOP)
         pid = os.fork()
         if pid == 0:  # the writer
-            os.close(r)
-            signal.signal(signal.SIGTERM, signal.SIG_DFL)
-            signal.signal(signal.SIGINT, signal.default_int_handler)
             try:
+                os.close(r)
+                signal.signal(signal.SIGTERM, signal.SIG_DFL)
+                signal.signal(signal.SIGINT, signal.default_int_handler)
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP)
                 _writer_loop(out, next_id, w)
             finally:
                 os._exit(0)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP)
         os.close(w)
         time.sleep(rng.uniform(0.0, 0.15))
         os.kill(pid, sig)
-        os.waitpid(pid, 0)
+        _reap(pid)
         with os.fdopen(r) as fh:
             reported = [int(x) for x in fh.read().split()]
         kills += 1

@@ -17,6 +17,10 @@ What is timed (wall clock, ``time.perf_counter``), in one run on one machine:
 * **the same ``manipcad simulate``**: the CLI as a subprocess on the same
   robot, trajectory and regulator files (process start, imports, run, writing
   the result folder), after one warm-up run of each.
+* **the Robots page's 3-D view**: /robots from ``page.goto`` to its projected stick
+  view (SVG) drawn; a pose slider clicked to the view redrawn (the server's round
+  trip); the interactive WebGL view from its button's click to its canvas drawn
+  (software WebGL in headless Chromium); medians of ``--loads``.
 * **other pages while a run goes**: the load time of /robots while the page's
   run is in progress (the worker is a separate process).
 
@@ -79,7 +83,7 @@ def main() -> None:
     args = ap.parse_args()
 
     from playwright.sync_api import sync_playwright
-    from test_ui_browser import _fill, _open, _pick, _start, _stop
+    from test_ui_browser import _fill, _open, _pick, _slide, _start, _stop
 
     tmp = Path(tempfile.mkdtemp())
     traj, reg = prepare(tmp / "ws", args.t_end)
@@ -99,11 +103,28 @@ def main() -> None:
                     times.append(time.perf_counter() - t0)
                 loads[path] = statistics.median(times)
             out["page_load_s"] = loads
-            t0 = time.perf_counter()
-            _open(page, base + "/robots")
-            page.locator(".js-plotly-plot").first.wait_for()
-            page.locator(".js-plotly-plot .gl-container canvas").first.wait_for()
-            out["robots_3d_view_s"] = time.perf_counter() - t0
+            views, moves, gls = [], [], []
+            for _ in range(args.loads):
+                t0 = time.perf_counter()
+                _open(page, base + "/robots")
+                # the projected 3-D view's six traces drawn (SVG): floor ... gripper
+                page.locator("[data-testid=stick-view] .scatterlayer .trace").nth(5).wait_for()
+                views.append(time.perf_counter() - t0)
+                title = page.locator("[data-testid=stick-view] .gtitle")
+                before = title.text_content()
+                t0 = time.perf_counter()
+                _slide(page, "pose-1", 0.9)
+                page.wait_for_function("b => document.querySelector("
+                                       "'[data-testid=stick-view] .gtitle').textContent != b",
+                                       arg=before)
+                moves.append(time.perf_counter() - t0)
+                t0 = time.perf_counter()
+                page.get_by_test_id("open-webgl").click()
+                page.locator("[data-testid=stick-webgl] .gl-container canvas").first.wait_for()
+                gls.append(time.perf_counter() - t0)
+            out["robots_3d_view_s"] = statistics.median(views)
+            out["robots_pose_redraw_s"] = statistics.median(moves)
+            out["robots_webgl_on_demand_s"] = statistics.median(gls)
 
             def page_run(name: str) -> tuple[float, float]:
                 _open(page, base + "/simulation")
@@ -140,7 +161,11 @@ def main() -> None:
     print(f"page load (median of {args.loads}, to the page built and live):")
     for path, t in out["page_load_s"].items():
         print(f"  {path:15s} {1e3 * t:7.0f} ms")
-    print(f"  /robots with its 3-D view drawn {1e3 * out['robots_3d_view_s']:7.0f} ms")
+    print(f"  /robots with its 3-D view drawn {1e3 * out['robots_3d_view_s']:7.0f} ms "
+          "(projected, SVG)")
+    print(f"  a pose slider moved -> view redrawn {1e3 * out['robots_pose_redraw_s']:5.0f} ms")
+    print(f"  interactive WebGL view, on demand (click -> drawn) "
+          f"{1e3 * out['robots_webgl_on_demand_s']:5.0f} ms")
     print(f"PUMA 560, {args.t_end:g} s at dt = 1e-4 s, PID on 6 joints:")
     print(f"  from the page (click -> 'done')      {ui_wall:6.2f} s")
     print(f"  manipcad simulate (process, wall)     {cli_wall:6.2f} s")

@@ -63,6 +63,44 @@ def test_stick_points_follow_the_kinematics(puma):
     assert not np.allclose(logic.stick_points(puma, np.zeros(6))[-1, 1], segs[-1, 1])
 
 
+def test_stick_view_is_the_kinematics_seen_from_the_view(puma):
+    """The Robots page's 3-D view (an orthographic projection drawn as SVG): the gripper's
+    screen point is the forward kinematics' tool point in the viewer's frame, that frame
+    built independently with scipy (Rz(azimuth)·Ry(-elevation): x towards the viewer,
+    y right, z up); closed forms for the front and top views; equal scale."""
+    from scipy.spatial.transform import Rotation
+
+    from manipcad.kinematics.forward import frames, tool_pose
+
+    q = np.array([0.3, -0.5, 0.7, 0.1, 0.4, -0.2])
+    tool = tool_pose(puma, q)[:3, 3]
+    _, p = frames(puma, q[None])
+    for az, el in ((0.0, 0.0), (*logic.VIEW,), (1.1, -0.4), (-np.pi / 2, np.pi / 2),
+                   (2.8, 1.2)):
+        fig = logic.stick_view(puma, q, az, el)
+        cam = Rotation.from_euler("ZY", [az, -el]).as_matrix().T     # base -> viewer
+        grip = fig["data"][-1]
+        assert grip["name"] == "gripper"
+        seen = cam @ tool
+        assert grip["x"][1] == pytest.approx(seen[1], abs=1e-12)
+        assert grip["y"][1] == pytest.approx(seen[2], abs=1e-12)
+        (arm,) = [t for t in fig["data"] if t["name"] == "arm"]   # every joint origin too
+        ends = np.array([(x, y) for x, y in zip(arm["x"], arm["y"], strict=True)
+                         if x is not None])
+        np.testing.assert_allclose(ends[1::2], (p[0] @ cam.T)[:, 1:], atol=1e-12)
+        assert arm["customdata"][1] == pytest.approx(list(p[0, 0]), abs=1e-15)
+    front = logic.stick_view(puma, q, 0.0, 0.0)["data"][-1]        # from +x: (y, z)
+    assert (front["x"][1], front["y"][1]) == pytest.approx((tool[1], tool[2]), abs=1e-12)
+    top = logic.stick_view(puma, q, -np.pi / 2, np.pi / 2)["data"][-1]   # from +z: (x, y)
+    assert (top["x"][1], top["y"][1]) == pytest.approx((tool[0], tool[1]), abs=1e-12)
+    layout = logic.stick_view(puma, q)["layout"]
+    assert layout["yaxis"]["scaleanchor"] == "x" and layout["yaxis"]["scaleratio"] == 1
+    assert "[m]" in layout["xaxis"]["title"]["text"]
+    # the pose sliders move it: another pose, another gripper point
+    other = logic.stick_view(puma, np.zeros(6))["data"][-1]
+    assert abs(other["x"][1] - logic.stick_view(puma, q)["data"][-1]["x"][1]) > 1e-3
+
+
 def test_upload_adds_a_valid_urdf_and_names_the_file_of_a_bad_one(ws):
     item = logic.add_upload(ws, "one.urdf", GOOD_URDF, kind="robots")
     assert item.ref == "robots/one" and "robots/one" in logic.robot_choices(ws)
@@ -404,22 +442,25 @@ def test_study_reports_are_served_only_from_the_study(ws, tmp_path):
             logic.study_file(ws, name, file)
 
 
-@pytest.mark.slow
 def test_verify_by_simulation_from_names(ws, puma):
-    """The page's "verify by simulation" (in a worker process, by names) equals
-    recommend(..., verify=True); a bad name comes back as the API's message."""
+    """The page's "verify by simulation" (a VerifySpec run in the worker process, by names)
+    equals recommend(..., verify=True); a bad name is the API's error. (Run in this process
+    here; the browser flow runs it in the worker.)"""
+    from manipcad.ui.worker import VerifySpec
+
     form = {"accuracy": 1e-3, "overshoot_allowed": False, "fast_action": True,
             "inductance": "negligible", "parameter_variation": "slow",
             "transmission": {"backlash": False, "elasticity": False}}
     traj = logic.make_trajectory({"type": "quintic", "q_start": [0.0] * 6,
                                   "q_end": [0.1] * 6, "duration": 0.05}, puma)
     logic.save_trajectory_to(ws, traj, "short")
-    doc = logic.verify_by_names(form, str(ws.root), "puma560", "short")
+    name, doc = VerifySpec(str(ws.root), "puma560", "short", form).run()
     direct = manipcad.recommend(form, puma, traj, verify=True)
-    assert doc["verified"] and [r["method"] for r in doc["recommendations"]] == direct.methods
+    assert name == "verified" and doc["verified"]
+    assert [r["method"] for r in doc["recommendations"]] == direct.methods
     assert doc["recommendations"][0]["max_error"] == direct[0].max_error
-    assert "may not contain" in logic.verify_by_names(form, str(ws.root), "puma560",
-                                                      "../short")["error"]
+    with pytest.raises(InputError, match="may not contain"):
+        VerifySpec(str(ws.root), "puma560", "../short", form).run()
 
 
 # ----------------------------------------------------------------- drives, libraries, studies

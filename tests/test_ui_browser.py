@@ -1,10 +1,12 @@
 """``manipcad ui`` end to end in a real headless Chromium (Debian's ``chromium``,
 driven by Playwright from PyPI; never a browser Playwright downloads).
 
-The designer's flow: open the app, pick the PUMA 560, make a trajectory, get a
-recommendation, synthesize the recommended method and a PID, simulate both, see
-both in the results overlay; a bad URDF upload shows its error in the page; a
-traversal name gets 400; with a token, a request without it gets 401.
+The designer's flow: open the app, pick the PUMA 560 (its 3-D stick view moved by a
+pose slider and turned), make a trajectory, get a recommendation and verify it by
+simulation, synthesize the recommended method and a PID, simulate both, see both in
+the results overlay; a bad URDF upload shows its error in the page; a second tab keeps
+its own robot and trajectory; a traversal name gets 400; with a token, a request
+without it gets 401.
 Screenshots of every page go to docs/ui/.
 
 A missing browser or Playwright FAILS these tests (``.ci/run`` installs chromium);
@@ -14,6 +16,7 @@ they are never skipped.
 from __future__ import annotations
 
 import os
+import re
 import socket
 import subprocess
 import sys
@@ -151,8 +154,26 @@ def _simulate(page, regulator: str, name: str) -> None:
     assert f"results/{name}" in text
 
 
+def _selected(page, robot: str, trajectory: str) -> None:
+    """The page's header shows this tab's robot and trajectory."""
+    from playwright.sync_api import expect
+
+    expect(page.get_by_test_id("selection")).to_have_text(re.compile(
+        rf".* · robot\s*{re.escape(robot)}\s*· trajectory\s*{re.escape(trajectory)}\s*"))
+
+
+def _slide(page, testid: str, fraction: float) -> None:
+    """Click the slider marked ``testid`` at ``fraction`` of its length."""
+    box = page.get_by_test_id(testid).bounding_box()
+    page.get_by_test_id(testid).click(position={"x": fraction * box["width"],
+                                               "y": box["height"] / 2})
+
+
 def test_designer_flow(browser, server):
-    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    from playwright.sync_api import expect
+
+    context = browser.new_context(viewport={"width": 1400, "height": 900})   # one browser
+    page = context.new_page()                                  # whose tabs are pages
     _open(page, server + "/")
     page.get_by_text("Requirements → method").first.wait_for()
     _shot(page, "main-menu")
@@ -166,7 +187,17 @@ def test_designer_flow(browser, server):
     table = page.get_by_test_id("joints-table")
     for joint in ("waist", "shoulder", "elbow", "flange"):
         assert joint in table.inner_text()
-    page.locator(".js-plotly-plot").first.wait_for()
+    # the 3-D stick view (projected, in SVG): the pose sliders move it, the view turns
+    view = page.get_by_test_id("stick-view")
+    view.locator(".scatterlayer .trace").nth(5).wait_for()          # floor ... gripper
+    title = view.locator(".gtitle")
+    assert "q = [0.00, 0.00, 0.00, 0.00, 0.00, 0.00]" in title.text_content()
+    _slide(page, "pose-1", 0.9)
+    expect(title).not_to_contain_text("q = [0.00, 0.00,")
+    page.get_by_role("button", name="top").click()
+    expect(title).to_contain_text("view azimuth -90°, elevation 90°")
+    page.get_by_role("button", name="three-quarter").click()
+    expect(title).to_contain_text("view azimuth -60°, elevation 25°")
     _shot(page, "robots")
 
     # a bad URDF upload: its error (file, reason) in the page, nothing added
@@ -182,13 +213,21 @@ def test_designer_flow(browser, server):
     _open(page, server + "/trajectories")
     _fill(page, "traj-amplitude", "0.2")
     _fill(page, "traj-omega", "3")
-    _fill(page, "traj-duration", "1.0")
+    _fill(page, "traj-duration", "0.3")               # short: verify simulates it all
     page.get_by_test_id("traj-preview").click()
     page.locator(".js-plotly-plot").first.wait_for()
     _fill(page, "traj-name", "move")
     page.get_by_test_id("traj-save").click()
     _see(page, page.get_by_text("saved trajectories/move"))
     _shot(page, "trajectories")
+
+    # per-tab state: a second tab of the same browser has its own robot and trajectory
+    other = page.context.new_page()
+    _open(other, server + "/robots")
+    _selected(other, "puma560", "-")
+    _pick(other, "robot-select", "cylindrical")
+    _selected(other, "cylindrical", "-")
+    other.close()
 
     # requirements -> recommended method with the rules that fired
     _open(page, server + "/requirements")
@@ -197,9 +236,14 @@ def test_designer_flow(browser, server):
     _see(page, methods)
     best = methods.inner_text().split(":", 1)[1].split(",")[0].strip()
     assert best == "asvs", methods.inner_text()
+    _selected(page, "puma560", "move")                  # the first tab's, unchanged
     page.get_by_text("Rules that fired").wait_for()
-    # ("verify by simulation" is left to test_verify_by_simulation_from_names: a second
-    # worker process here would cost the suite ~15 s)
+    # verify by simulation along the trajectory, in the (pre-started) worker process
+    page.get_by_test_id("req-verify").click()
+    verified = page.get_by_test_id("req-verified")
+    _see(page, verified, 120_000)
+    assert "asvs" in verified.inner_text() and "max error" in verified.inner_text()
+    page.get_by_text("verified by simulation along move").wait_for()
     _shot(page, "requirements")
 
     # synthesis: the recommended method (preselected) and a PID
@@ -290,7 +334,7 @@ def test_designer_flow(browser, server):
     assert page.request.get(server + "/api/studies/..%2Fresults/x.html").status == 400
     assert page.request.get(server + "/api/studies/fig3/..%2F..%2Findex.sqlite").status == 400
     assert page.request.get(server + "/api/studies/fig3/fig3.html").status == 404
-    page.close()
+    context.close()
 
 
 def test_token_required_off_loopback(browser, tmp_path):

@@ -202,8 +202,140 @@ def tool_position(robot, q: Sequence[float]) -> np.ndarray:
     return tool_pose(robot, np.asarray(q, dtype=float))[:3, 3]
 
 
+#: the projected stick view's first view: azimuth, elevation (rad), a three-quarter view
+VIEW = (np.radians(-60.0), np.radians(25.0))
+
+
+def view_axes(azimuth: float, elevation: float) -> np.ndarray:
+    """The viewer's axes for an orthographic view of the base frame.
+
+    The viewer looks at the base origin from the direction at ``azimuth`` about the
+    base z axis (from x towards y) and ``elevation`` above the x-y plane, the base z
+    axis drawn upwards: the view turns the base frame by Rz(azimuth)·Ry(-elevation).
+
+    Args:
+        azimuth: rad (0: looking along -x, from the +x side).
+        elevation: rad (π/2: from above, the top view).
+
+    Returns:
+        (3, 3) rows in the base frame: screen right, screen up, towards the viewer.
+
+    Example:
+        >>> view_axes(0.0, 0.0).round(12) + 0.0      # from +x: y to the right, z up
+        array([[0., 1., 0.],
+               [0., 0., 1.],
+               [1., 0., 0.]])
+    """
+    ca, sa = np.cos(azimuth), np.sin(azimuth)
+    ce, se = np.cos(elevation), np.sin(elevation)
+    return np.array([[-sa, ca, 0.0],
+                     [-se * ca, -se * sa, ce],
+                     [ce * ca, ce * sa, se]])
+
+
+def project(points, azimuth: float, elevation: float) -> np.ndarray:
+    """Points of the base frame on the screen of the orthographic view (:func:`view_axes`).
+
+    Args:
+        points: (..., 3) positions in the base frame, m.
+        azimuth, elevation: the view, rad.
+
+    Returns:
+        (..., 2) screen coordinates (right, up), m; equal scale on both.
+
+    Example:
+        >>> project([0.1, 0.2, 0.3], 0.0, 0.0).round(12)
+        array([0.2, 0.3])
+    """
+    return np.asarray(points, dtype=float) @ view_axes(azimuth, elevation)[:2].T
+
+
+#: the projected view's hover text: the point's name and base-frame position
+_WHERE = ("%{text}<br>x, y, z = %{customdata[0]:.3f}, %{customdata[1]:.3f}, "
+          "%{customdata[2]:.3f} m<extra></extra>")
+
+
+def stick_view(robot, q: Sequence[float], azimuth: float = VIEW[0],
+               elevation: float = VIEW[1]) -> dict[str, Any]:
+    """The arm's 3-D stick figure (:func:`stick_points`) at pose ``q`` as an orthographic
+    projection: a 2-D Plotly figure (a dict), drawn as SVG, which a browser draws in
+    tens of ms where the WebGL scene of :func:`stick_figure` takes seconds in software.
+
+    Drawn: the links with a marker at each joint and the gripper point (hover: the
+    name and the base-frame position, m), the base frame's x, y, z axes and the floor
+    z = 0 as a square grid, both sized to the arm; screen axes in m, equal scale.
+
+    Args:
+        robot: the robot.
+        q: (n,) joint coordinates, rad or m.
+        azimuth, elevation: the view, rad (:func:`view_axes`).
+
+    Returns:
+        ``{"data": [...], "layout": {...}}``: traces floor, arm, x, y, z axes, gripper.
+
+    Example:
+        >>> import manipcad
+        >>> fig = stick_view(manipcad.load_robot("cylindrical"), [0.0, 0.3, 0.2])
+        >>> [t["name"] for t in fig["data"]]
+        ['floor z = 0', 'arm', 'x (base)', 'y (base)', 'z (base)', 'gripper']
+    """
+    segs = stick_points(robot, q)
+    reach = max(float(np.linalg.norm(segs[:, 1] - segs[:, 0], axis=-1).sum()), 0.1)
+    half = 0.6 * reach                              # floor and axes, sized to the arm
+    grid = np.linspace(-half, half, 5)
+    floor = []
+    for g in grid:
+        floor += [(g, -half, 0.0), (g, half, 0.0), None, (-half, g, 0.0), (half, g, 0.0), None]
+
+    def line(pts):
+        xy = [None if p is None else project(p, azimuth, elevation) for p in pts]
+        return ([None if p is None else float(p[0]) for p in xy],
+                [None if p is None else float(p[1]) for p in xy])
+
+    fu, fv = line(floor)
+    data: list[dict[str, Any]] = [{"type": "scatter", "mode": "lines", "x": fu, "y": fv,
+                                   "name": "floor z = 0", "hoverinfo": "skip",
+                                   "line": {"color": "#d0d0d0", "width": 1}}]
+    names = ["base"] + list(robot.joint_names)
+    arm, labels = [], []
+    for i in range(robot.n):                        # parent's origin to the joint's own
+        arm += [segs[i, 0], segs[i, 1], None]
+        labels += [names[int(robot.parent[i]) + 1], names[i + 1], None]
+    u, v = line(arm)
+    data.append({"type": "scatter", "mode": "lines+markers", "x": u, "y": v, "name": "arm",
+                 "text": labels,
+                 "customdata": [None if p is None else [float(c) for c in p] for p in arm],
+                 "hovertemplate": _WHERE, "line": {"color": "#444", "width": 6},
+                 "marker": {"size": 8}})
+    for k, (axis, colour) in enumerate(zip("xyz", ("#d62728", "#2ca02c", "#1f77b4"),
+                                           strict=True)):
+        tip = np.zeros(3)
+        tip[k] = 0.4 * reach
+        u, v = line([np.zeros(3), tip])
+        data.append({"type": "scatter", "mode": "lines+text", "x": u, "y": v,
+                     "text": ["", axis], "textposition": "top center", "name": f"{axis} (base)",
+                     "hoverinfo": "skip", "line": {"color": colour, "width": 2}})
+    tool = segs[-1, 1]
+    u, v = line([segs[-1, 0], tool])
+    data.append({"type": "scatter", "mode": "lines+markers", "x": u, "y": v,
+                 "name": "gripper", "text": [names[-1], "gripper"],
+                 "customdata": [[float(c) for c in segs[-1, 0]], [float(c) for c in tool]],
+                 "hovertemplate": _WHERE, "line": {"color": "#ff7f0e", "width": 6},
+                 "marker": {"size": [0, 12], "symbol": "diamond"}})
+    return {"data": data, "layout": {
+        "title": {"text": f"{robot.name} at q = [{', '.join(f'{x:.2f}' for x in q)}]; "
+                          f"view azimuth {np.degrees(azimuth):.0f}°, elevation "
+                          f"{np.degrees(elevation):.0f}°", "font": {"size": 13}},
+        "xaxis": {"title": {"text": "screen right [m]"}, "zeroline": False},
+        "yaxis": {"title": {"text": "screen up [m]"}, "zeroline": False,
+                  "scaleanchor": "x", "scaleratio": 1},
+        "showlegend": False, "margin": {"l": 50, "r": 10, "t": 40, "b": 40},
+        "height": 440}, "config": {"displaylogo": False}}
+
+
 def stick_figure(robot, q: Sequence[float]):
-    """A Plotly 3-D figure of :func:`stick_points` (axes in m, equal scale)."""
+    """A Plotly 3-D figure of :func:`stick_points` (axes in m, equal scale): the
+    interactive WebGL view (turned with the mouse), drawn on demand."""
     import plotly.graph_objects as go
 
     segs = stick_points(robot, q)
@@ -348,27 +480,6 @@ def recommend_for(form: Mapping[str, Any], robot=None, trajectory=None, *,
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
         return recommend(req, robot, trajectory, verify=verify)
-
-
-def verify_by_names(form: Mapping[str, Any], ws_root: str, robot_ref: str,
-                    trajectory: str):
-    """:func:`recommend_for` with ``verify=True`` from names (what the page sends to a
-    worker process, so the server keeps answering while it simulates).
-
-    Returns:
-        The recommendations as plain data (``Recommendations.to_dict()``), or
-        ``{"error": message}`` for bad input (the message crosses the process
-        boundary as text).
-    """
-    from manipcad.errors import ManipcadError
-
-    try:
-        ws = open_workspace(ws_root)
-        robot, _ = load_robot_ref(ws, robot_ref)
-        traj = load_trajectory_ref(ws, trajectory, robot)
-        return recommend_for(form, robot, traj, verify=True).to_dict()
-    except ManipcadError as exc:
-        return {"error": str(exc)}
 
 
 def synthesize_to(ws: Workspace, robot, method: str, *, joints: str | Sequence = "all",

@@ -13,6 +13,7 @@ selection. Each page waits for its tab's connection before it reads that state.
 
 from __future__ import annotations
 
+import asyncio
 import base64
 import math
 from pathlib import Path
@@ -25,7 +26,7 @@ from nicegui.run import io_bound as run_io
 from manipcad.errors import InputError, ManipcadError
 from manipcad.sizing import required_drive
 from manipcad.ui import logic
-from manipcad.ui.worker import SimSpec, SimulationJob, StudySpec, run_in_worker
+from manipcad.ui.worker import SimSpec, SimulationJob, StudySpec, VerifySpec
 
 #: the server's state: the workspace root (one per server, set by ``manipcad ui``)
 SERVER: dict[str, Any] = {"ws": None}
@@ -203,8 +204,68 @@ def register() -> None:
                     for note in notes:
                         ui.label(f"note: {note}").classes("text-caption text-warning")
                     q = [0.0] * arm.n
+                    view = {"az": round(math.degrees(logic.VIEW[0])),
+                            "el": round(math.degrees(logic.VIEW[1]))}   # deg, as shown
+                    webgl: list = []          # the interactive WebGL view, once asked for
+
+                    def redraw() -> None:
+                        fig = logic.stick_view(arm, q, math.radians(view["az"]),
+                                               math.radians(view["el"]))
+                        plot.update_figure(fig)
+                        for gl in webgl:
+                            gl.update_figure(logic.stick_figure(arm, q))
+
+                    def turn(az: float | None = None, el: float | None = None) -> None:
+                        if az is not None:
+                            az_slider.value = az       # its change event redraws
+                        if el is not None:
+                            el_slider.value = el
+
+                    def moved_view(e, key: str) -> None:
+                        view[key] = float(e.value)
+                        redraw()
+
                     with ui.row().classes("w-full no-wrap items-start"):
-                        plot_box = ui.element("div").style("width: 640px; height: 440px")
+                        with ui.column().style("width: 640px"):
+                            # the 3-D arm as an orthographic projection, in SVG: a browser
+                            # draws it in tens of ms (a WebGL scene takes seconds in
+                            # software rendering); turned with the view sliders
+                            plot = ui.plotly(logic.stick_view(arm, q, *logic.VIEW)) \
+                                .style("width: 640px; height: 440px") \
+                                .props("data-testid=stick-view")
+                            ui.label("View [deg]: azimuth about z (from x towards y), "
+                                     "elevation above the floor").classes("text-caption")
+                            with ui.row().classes("w-full no-wrap items-center"):
+                                ui.label("azimuth").style("width: 80px")
+                                az_slider = ui.slider(min=-180, max=180, step=5,
+                                                      value=view["az"],
+                                                      on_change=lambda e: moved_view(e, "az")) \
+                                    .props("label data-testid=view-azimuth")
+                            with ui.row().classes("w-full no-wrap items-center"):
+                                ui.label("elevation").style("width: 80px")
+                                el_slider = ui.slider(min=-90, max=90, step=5, value=view["el"],
+                                                      on_change=lambda e: moved_view(e, "el")) \
+                                    .props("label data-testid=view-elevation")
+                            with ui.row():
+                                for text, az, el in (("front (from +x)", 0, 0),
+                                                     ("side (from -y)", -90, 0),
+                                                     ("top", -90, 90),
+                                                     ("three-quarter", *map(round, map(
+                                                         math.degrees, logic.VIEW)))):
+                                    ui.button(text, on_click=lambda az=az, el=el: turn(az, el)) \
+                                        .props("flat dense no-caps")
+
+                                def open_webgl() -> None:
+                                    if not webgl:
+                                        with gl_box:
+                                            webgl.append(ui.plotly(logic.stick_figure(arm, q))
+                                                         .style("width: 640px; height: 440px")
+                                                         .props("data-testid=stick-webgl"))
+
+                                ui.button("Interactive 3-D (WebGL, slow without a GPU)",
+                                          on_click=open_webgl) \
+                                    .props("flat dense no-caps data-testid=open-webgl")
+                            gl_box = ui.column()
                         with ui.column().style("width: 320px"):
                             ui.label("Pose (sliders)").classes("text-subtitle2")
                             for j, jn in enumerate(arm.joint_names):
@@ -216,16 +277,7 @@ def register() -> None:
                                     redraw()
 
                                 ui.slider(min=lo, max=hi, step=(hi - lo) / 200, value=0.0,
-                                          on_change=moved).props("label")
-
-                    def redraw() -> None:
-                        plot_box.clear()
-                        with plot_box:
-                            ui.plotly(logic.stick_figure(arm, q)).style("width: 640px; "
-                                                                        "height: 440px")
-
-                    # drawn once the page is live: the WebGL scene is the slow part of a load
-                    ui.timer(0.05, redraw, once=True)
+                                          on_change=moved).props(f"label data-testid=pose-{j}")
 
             def picked(e) -> None:
                 clear()
@@ -464,10 +516,14 @@ def register() -> None:
                         raise InputError("requirements form", "trajectory", "verify by "
                                          "simulation needs a trajectory (Trajectories page)")
                     checked.text = "verifying: synthesizing and simulating the top candidates"
-                    doc = await run_in_worker(logic.verify_by_names, form, str(SERVER["ws"]),
-                                              S["robot"], S["trajectory"])
-                    if "error" in doc:
-                        raise ManipcadError(doc["error"])
+                    # in the spare worker process, as a simulation: the server keeps answering
+                    job = SimulationJob(VerifySpec(str(SERVER["ws"]), S["robot"],
+                                                   S["trajectory"], form))
+                    while job.poll() in ("starting", "running"):
+                        await asyncio.sleep(0.1)
+                    if job.state != "done":
+                        raise ManipcadError(job.message)
+                    doc = job.metrics
                 except ManipcadError as exc:
                     checked.text = ""
                     show(exc)
@@ -478,7 +534,8 @@ def register() -> None:
                     ui.table(columns=[{"name": c, "label": lab, "field": c} for c, lab in (
                         ("method", "method"), ("max_error", "max error [rad|m]"),
                         ("meets", "meets the accuracy"), ("note", "note"))],
-                        rows=[{"method": r["method"], "max_error": r["max_error"],
+                        rows=[{"method": r["method"], "max_error": None if r["max_error"]
+                               is None else f"{r['max_error']:.3g}",
                                "meets": r["meets_accuracy"], "note": r["note"]}
                               for r in doc["recommendations"]], row_key="method") \
                         .props("dense flat data-testid=req-verified")

@@ -113,6 +113,44 @@ class StudySpec:
         return self.name, {"files": files}
 
 
+@dataclass
+class VerifySpec:
+    """"Verify by simulation" of the requirement form: synthesize the top recommended
+    methods, simulate them along the trajectory and re-rank by the measured error
+    (what ``manipcad recommend --verify`` does, through :func:`manipcad.ui.logic.recommend_for`).
+
+    Attributes:
+        workspace: the workspace folder.
+        robot: a catalog robot name or ``robots/NAME``.
+        trajectory: a workspace trajectory name.
+        form: the requirement form's fields (:func:`manipcad.ui.logic.recommend_for`).
+    """
+
+    workspace: str
+    robot: str
+    trajectory: str
+    form: dict[str, Any]
+
+    def run(self, progress=None) -> tuple[str, dict[str, Any]]:
+        """Verify; returns ``("verified", Recommendations.to_dict())`` (plain data; the
+        simulations report no progress).
+
+        Raises:
+            InputError: a bad reference or form field (the API's own checks).
+        """
+        from manipcad.ui.logic import (
+            load_robot_ref,
+            load_trajectory_ref,
+            open_workspace,
+            recommend_for,
+        )
+
+        ws = open_workspace(self.workspace)
+        arm, _ = load_robot_ref(ws, self.robot)
+        traj = load_trajectory_ref(ws, self.trajectory, arm)
+        return "verified", recommend_for(self.form, arm, traj, verify=True).to_dict()
+
+
 def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
     """Run one simulation and store it in the workspace (what the worker does).
 
@@ -249,10 +287,7 @@ def prestart() -> None:
 
 
 def stop_spare() -> None:
-    """End the spare worker (started by :func:`prestart`) and the pool of
-    :func:`run_in_worker`."""
-    while _POOL:
-        _POOL.pop().shutdown(wait=False, cancel_futures=True)
+    """End the spare worker (started by :func:`prestart`)."""
     while _SPARE:
         w = _SPARE.pop()
         w.send.send(None)
@@ -267,8 +302,9 @@ def _take() -> _Worker:
 
 
 class SimulationJob:
-    """A simulation (:class:`SimSpec`) or a study (:class:`StudySpec`) running in a
-    worker process.
+    """A simulation (:class:`SimSpec`), a study (:class:`StudySpec`) or a verification
+    (:class:`VerifySpec`) running in a worker process; once done, ``result`` and
+    ``metrics`` are what the spec's ``run`` returned.
 
     Example (not run here: it starts a process)::
 
@@ -278,7 +314,8 @@ class SimulationJob:
         job.state, job.result
     """
 
-    def __init__(self, spec: SimSpec | StudySpec, *, spare: bool = True) -> None:
+    def __init__(self, spec: SimSpec | StudySpec | VerifySpec, *,
+                 spare: bool = True) -> None:
         w = _take()
         self.spec = spec
         self.queue, self.cancel_event, self.process = w.queue, w.cancel_event, w.process
@@ -326,18 +363,3 @@ class SimulationJob:
     def finished(self) -> bool:
         """Whether the run is over (done, error or cancelled)."""
         return self.state in ("done", "error", "cancelled")
-
-
-_POOL: list = []
-
-
-async def run_in_worker(fn, *args):
-    """``fn(*args)`` in a worker process (``spawn``; one kept for later calls), awaited
-    without blocking the server; for short jobs with no progress (verify by simulation).
-    ``fn`` and its arguments must pickle; it should return plain data."""
-    import asyncio
-    from concurrent.futures import ProcessPoolExecutor
-
-    if not _POOL:
-        _POOL.append(ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn")))
-    return await asyncio.get_running_loop().run_in_executor(_POOL[0], fn, *args)

@@ -123,6 +123,7 @@ def main() -> None:
                 page.locator("[data-testid=stick-webgl] .gl-container canvas").first.wait_for()
                 gls.append(time.perf_counter() - t0)
             out["robots_3d_view_s"] = statistics.median(views)
+            out["robots_3d_view_samples_s"] = views
             out["robots_pose_redraw_s"] = statistics.median(moves)
             out["robots_webgl_on_demand_s"] = statistics.median(gls)
 
@@ -162,7 +163,8 @@ def main() -> None:
     for path, t in out["page_load_s"].items():
         print(f"  {path:15s} {1e3 * t:7.0f} ms")
     print(f"  /robots with its 3-D view drawn {1e3 * out['robots_3d_view_s']:7.0f} ms "
-          "(projected, SVG)")
+          "(projected, SVG; each: "
+          f"{', '.join(f'{1e3 * t:.0f}' for t in out['robots_3d_view_samples_s'])} ms)")
     print(f"  a pose slider moved -> view redrawn {1e3 * out['robots_pose_redraw_s']:5.0f} ms")
     print(f"  interactive WebGL view, on demand (click -> drawn) "
           f"{1e3 * out['robots_webgl_on_demand_s']:5.0f} ms")

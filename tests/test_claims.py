@@ -71,11 +71,12 @@ def test_presets_sized_and_time_scaled():
 
 
 @pytest.mark.slow
-def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm):
+def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm, dask_scheduler):
     """The cell at speed scale 1 on the light arm is the Fig. 3 experiment: the same
     figures as `study fig3` (to 1e-6: the cells run the general kernels, study fig3 may
     run the robot's generated ones, which agree to about 1e-8); the files have issue 13's
-    layout; a rerun computes nothing."""
+    layout; a rerun computes nothing; on a 2-worker cluster (the cell's runs spread over
+    the workers) the results are identical."""
     from manipcad.study import run_fig3
 
     monkeypatch.setitem(claims_mod.GRIDS, "quick", {"speed_scale": [1.0], "load_ratio": [None]})
@@ -117,6 +118,10 @@ def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm):
     eq = doc["claims"]["lqr_equal_information"]["ratio"][0][0]
     assert eq == pytest.approx(mx["lqr_equal_information"] / mx["lqr_gs"], rel=1e-12)
     assert doc["speed_scale_run"] == [[1.0]] and doc["time_scaled"] == [[False]]
+    dist = run_claims(tmp_path / "d", scheduler=dask_scheduler, progress=False)
+    assert dist["settings"]["cells_computed"] == 1
+    for key in ("claims", "max_error", "rise_time", "sliding_rate", "saturation", "arm"):
+        assert dist[key] == doc[key], key
     again = run_claims(tmp_path / "c", workers=1, progress=False)
     assert again["settings"]["cells_cached"] == 1 and again["settings"]["cells_computed"] == 0
     assert again["claims"] == doc["claims"]

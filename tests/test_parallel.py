@@ -28,6 +28,23 @@ def _bad_input(x):
     raise InputError("cell", "x", f"refused {x}")
 
 
+def _cube_part(x, k):
+    return (x + k) ** 3
+
+
+def _split_cells():
+    """A Split cutting task {"x"} into parts k = 0..x (one unit of work each)."""
+    from manipcad.parallel import Split
+
+    return Split(plan=lambda task, common: (task["x"], [{"x": task["x"] + common["offset"],
+                                                         "k": k} for k in range(task["x"] + 1)]),
+                 run=_cube_part, combine=lambda x, parts: (x, sum(parts)))
+
+
+def _cells(x, offset):  # what the split computes, whole
+    return x, sum((x + offset + k) ** 3 for k in range(x + 1))
+
+
 def test_serial_results_in_order_with_common_arguments():
     r = run_tasks(_square, [{"x": k} for k in range(7)], common={"offset": 0.5}, workers=1,
                   chunk=3, progress=False)
@@ -155,9 +172,10 @@ def test_existing_cluster_by_address():
     assert list(remote) == list(serial) and remote.computed == 6
 
 
-def test_pool_started_ahead_longest_first(dask_scheduler, monkeypatch):
+def test_pool_started_ahead_longest_first(dask_scheduler, monkeypatch, tmp_path):
     """A Pool (the client started in a background thread, a warm-up run on every worker)
-    gives the serial results in task order, whatever order the costs hand the tasks out."""
+    gives the serial results in task order, whatever order the costs hand the tasks out;
+    so do tasks split into parts."""
     tasks = [{"base": 2, "exp": k} for k in range(8)]
     serial = run_tasks(pow, tasks, workers=1, progress=False)
     with Pool(scheduler=dask_scheduler, warm=abs) as pool:  # abs(): fails, ignored
@@ -166,6 +184,24 @@ def test_pool_started_ahead_longest_first(dask_scheduler, monkeypatch):
         with pytest.raises(InputError, match="pool"):
             run_tasks(pow, tasks, pool=pool, workers=2, progress=False)
     assert list(r) == list(serial) == [2 ** k for k in range(8)]
+    # a split task: its parts are the units of work (longest first), its result cached whole
+    tasks = [{"x": k} for k in range(5)]
+    want = [_cells(k, 0.5) for k in range(5)]
+    cache = tmp_path / "split"
+    with Pool(scheduler=dask_scheduler) as pool:
+        r = run_tasks(_cells, tasks[:3], common={"offset": 0.5}, pool=pool, split=_split_cells(),
+                      cost=lambda part: part["k"], cache_dir=cache, progress=False)
+    assert list(r) == want[:3] and len(list(cache.rglob("*.pkl"))) == 3
+    r = run_tasks(_cells, tasks, common={"offset": 0.5}, workers=1, split=_split_cells(),
+                  cache_dir=cache, progress=False)
+    assert list(r) == want and (r.computed, r.cached) == (2, 3)
+    # the same keys as the whole function's: a cache written without the split serves it
+    plain = run_tasks(_cells, tasks, common={"offset": 0.5}, workers=1, cache_dir=cache,
+                      progress=False)
+    assert list(plain) == want and plain.computed == 0
+    with pytest.raises(InputError, match="split"):
+        run_tasks(_cells, tasks, common={"offset": 0.5}, workers=1, split=_split_cells(),
+                  chunk=2, progress=False)
     from manipcad.parallel import executor
 
     monkeypatch.setattr(executor, "CONNECT_TIMEOUT", 0.5)

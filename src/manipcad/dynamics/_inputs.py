@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import threading
 
 import numba as nb
@@ -91,6 +92,18 @@ def as_fext(n: int, N: int, single: bool, f_ext) -> tuple[np.ndarray, bool]:
 #: (see docs/performance.md)
 PARALLEL_MIN_WORK = 20000
 _parallel_lock = threading.Lock()
+#: False in a process forked from the one that imported this module (e.g. a Dask worker
+#: forked by :mod:`manipcad.parallel`): numba's thread pools are not fork-safe (a forked
+#: child's pool has no threads behind it), so a forked process runs every batch serially
+_threads_usable = [True]
+
+
+def _forked() -> None:
+    _threads_usable[0] = False
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forked)
 
 
 def batch_runner(serial, parallel, states_arg: int):
@@ -105,7 +118,8 @@ def batch_runner(serial, parallel, states_arg: int):
     def run(*args):
         N, n = args[states_arg].shape
         threads = nb.get_num_threads()
-        if threads > 1 and N >= 2 * threads and N * n >= PARALLEL_MIN_WORK:
+        if (threads > 1 and N >= 2 * threads and N * n >= PARALLEL_MIN_WORK
+                and _threads_usable[0]):
             if _parallel_lock.acquire(blocking=False):
                 old = nb.set_parallel_chunksize(1)  # each chunk to whichever thread is free
                 try:

@@ -18,6 +18,6 @@ Example:
     [1, 2, 4, 8]
 """
 
-from manipcad.parallel.executor import Pool, TaskFailed, run_tasks, task_key
+from manipcad.parallel.executor import Pool, Split, TaskFailed, run_tasks, task_key
 
-__all__ = ["run_tasks", "task_key", "TaskFailed", "Pool"]
+__all__ = ["run_tasks", "task_key", "TaskFailed", "Pool", "Split"]

@@ -57,6 +57,36 @@ class Results(list):
     cached: int = 0
 
 
+@dataclasses.dataclass(frozen=True)
+class Split:
+    """How to cut each task into parts that run as separate units of work.
+
+    A task whose parts differ in length (e.g. one closed-loop simulation each) is
+    better balanced over the workers part by part than whole; the cache stays per task.
+
+    Attributes:
+        plan: ``plan(task, common) -> (state, parts)``, in this process: ``parts`` a
+            list of mappings of keyword arguments, ``state`` anything ``combine`` needs.
+        run: a module-level function (workers import it by name); ``run(**part)``
+            returns one part's result.
+        combine: ``combine(state, results) -> the task's result`` (results in the
+            order of ``parts``), in this process.
+
+    ``combine(state, [run(**p) for p in parts])`` must be what ``func(**common, **task)``
+    returns: ``func`` names the task in the cache key and is not called.
+
+    Example:
+        >>> sp = Split(plan=lambda t, c: (None, [{"base": t["x"], "exp": 2}] * 2),
+        ...            run=pow, combine=lambda state, r: sum(r))
+        >>> run_tasks(pow, [{"x": 3}], split=sp, workers=1, progress=False)
+        [18]
+    """
+
+    plan: Callable
+    run: Callable
+    combine: Callable
+
+
 # ------------------------------------------------------------------ keys
 
 
@@ -256,7 +286,7 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
               scheduler: str | None = None, cache_dir: str | Path | None = None,
               chunk: int = 1, batched: bool = False, progress: bool | Callable = True,
               desc: str = "tasks", version: str = "", cost: Callable | None = None,
-              pool: Pool | None = None) -> Results:
+              pool: Pool | None = None, split: Split | None = None) -> Results:
     """Compute ``func`` on every task, serially or on Dask distributed, reusing cached results.
 
     Args:
@@ -282,6 +312,9 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
             together (the results do not depend on it).
         pool: a :class:`Pool` (a cluster started ahead, while the caller prepared its
             tasks); excludes ``workers`` and ``scheduler``. The pool is not closed.
+        split: a :class:`Split`: each task not in the cache is cut into parts, each part
+            one unit of work (``chunk`` must then be 1; ``cost`` estimates a part's run
+            time); the combined result is cached per task as without it.
 
     Returns:
         :class:`Results`: a list of the results in task order, with ``.computed``
@@ -330,29 +363,79 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
                 todo.append(k)
     results.cached = len(items) - len(todo)
     results.computed = len(todo)
-    chunks = [todo[i:i + chunk] for i in range(0, len(todo), chunk)]
-    if cost is not None:  # longest first (the chunks themselves stay in task order)
-        chunks.sort(key=lambda idx: -sum(float(cost(items[k])) for k in idx))
 
-    def done(idx: list[int], values: list) -> None:
-        for k, v in zip(idx, values, strict=True):
-            results[k] = v
-            if cache is not None:
-                _store(cache, keys[k], v)
+    def store(k: int, v: Any) -> None:
+        results[k] = v
+        if cache is not None:
+            _store(cache, keys[k], v)
+
+    if split is not None:
+        if chunk != 1 or batched:
+            raise InputError(SOURCE, "split", "a split task runs part by part: chunk must be "
+                             "1 and batched False")
+        unit_items, done = _split(split, common, items, todo, store)
+        unit_func, unit_common, unit_batched = split.run, {}, False
+    else:
+        unit_items, unit_func, unit_common, unit_batched = items, func, common, batched
+
+        def done(idx: list[int], values: list) -> float:
+            for k, v in zip(idx, values, strict=True):
+                store(k, v)
+            return len(idx)
+    pending = list(range(len(unit_items))) if split is not None else todo
+    units = [pending[i:i + chunk] for i in range(0, len(pending), chunk)]
+    if cost is not None:  # longest first (the chunks themselves stay in task order)
+        units.sort(key=lambda idx: -sum(float(cost(unit_items[k])) for k in idx))
 
     with ExitStack() as stack:
         bar = _progress(stack, progress, desc, len(items), results.cached)
-        if not chunks:
+        if not units:
             return results
         if pool is None and scheduler is None and (workers or default_workers()) == 1:
-            for idx in chunks:
-                done(idx, _guarded(func, batched, common, items, idx))
-                bar(len(idx))
+            for idx in units:
+                bar(done(idx, _guarded(unit_func, unit_batched, unit_common, unit_items, idx)))
             return results
         client = pool.client() if pool is not None else \
             _start_client(stack, workers, scheduler)
-        _run_dask(client, func, batched, common, items, chunks, done, bar)
+        _run_dask(client, unit_func, unit_batched, unit_common, unit_items, units, done, bar)
     return results
+
+
+def _split(split: Split, common: Mapping[str, Any], items: list, todo: list[int],
+           store: Callable) -> tuple[list, Callable]:
+    """The parts of every task to compute (a flat list) and the callback that takes part
+    results and, once a task's parts are all in, stores the task's combined result."""
+    parts: list = []
+    owner: list[tuple[int, int]] = []     # part -> (task, its place among the task's parts)
+    slots: dict[int, list] = {}
+    state: dict[int, Any] = {}
+    for k in todo:
+        st, ps = split.plan(items[k], common)
+        ps = list(ps)
+        if not ps:
+            raise ManipcadError(f"{_qualname(split.plan)} gave no parts for task {k}")
+        for i, part in enumerate(ps):
+            if not isinstance(part, Mapping):
+                raise ManipcadError(f"{_qualname(split.plan)}: part {i} of task {k} is not a "
+                                    f"mapping of keyword arguments ({type(part).__name__})")
+            parts.append(part)
+            owner.append((k, i))
+        state[k], slots[k] = st, [_MISSING] * len(ps)
+
+    def done(idx: list[int], values: list) -> float:
+        frac = 0.0
+        for u, v in zip(idx, values, strict=True):
+            k, i = owner[u]
+            slots[k][i] = v
+            frac += 1.0 / len(slots[k])
+            if all(r is not _MISSING for r in slots[k]):
+                store(k, split.combine(state.pop(k), slots.pop(k)))
+        return frac
+
+    return parts, done
+
+
+_MISSING = object()
 
 
 def _guarded(func, batched, common, items, idx) -> list:
@@ -400,22 +483,49 @@ def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None):
             raise InputError(SOURCE, "scheduler", f"cannot connect to {scheduler}: "
                              f"{exc}") from None
     else:
+        import dask
+
         n = workers or default_workers()
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=None, memory_limit=0,
-                               silence_logs=logging.ERROR)
+        # the worker processes are forked (where fork exists): they start with this
+        # process's imports and loaded compiled kernels instead of importing and loading
+        # them again (spawn: about 1 s of imports and 2-4 s of kernels each)
+        with dask.config.set({"distributed.worker.multiprocessing-method": start_method()}):
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, memory_limit=0,
+                                   silence_logs=logging.ERROR)
         stack.callback(cluster.close)
         client = Client(cluster, set_as_default=False)
     stack.callback(client.close)
     return client
 
 
-class Pool:
-    """A Dask cluster started in a background thread while the caller prepares its tasks.
+def start_method() -> str:
+    """How the default LocalCluster starts its worker processes: "fork" on Linux (the
+    workers inherit the imported modules and the compiled kernels already loaded),
+    "spawn" elsewhere (fork is unsafe on macOS and missing on Windows).
 
-    The worker processes start, import their modules and run ``warm`` (e.g. load the
-    compiled kernels) while this process goes on; :func:`run_tasks` (``pool=``) then
-    waits only for what is left of that. Use as a context manager (closes the cluster).
+    A LocalCluster is started with the calling thread waiting (:class:`Pool` does so), so
+    that no thread of this process holds a lock (e.g. numba's compiler lock) at the
+    fork; a forked process runs numba's batches serially (``dynamics._inputs``).
+
+    Example:
+        >>> start_method() in ("fork", "spawn")
+        True
+    """
+    import sys
+
+    return "fork" if sys.platform.startswith("linux") else "spawn"
+
+
+class Pool:
+    """A Dask cluster started ahead, warming while the caller prepares its tasks.
+
+    A LocalCluster is started at once, in this thread (forked workers, see
+    :func:`start_method`: under a second); a scheduler given by address is connected to
+    in a background thread. Then the workers run ``warm`` (e.g. load the compiled
+    kernels this process has not loaded) in a background thread while this process
+    goes on; :func:`run_tasks` (``pool=``) waits only for what is left of that. Use as a
+    context manager (closes the cluster).
 
     Args:
         workers: worker processes of a LocalCluster (default one per core).
@@ -443,16 +553,19 @@ class Pool:
         self._stack = ExitStack()
         self._client = None
         self._error: BaseException | None = None
+        if scheduler is None:  # fork while this thread waits (no lock held by it)
+            self._client = _start_client(self._stack, self._workers, None)
         self._thread = threading.Thread(target=self._start, name="manipcad-pool-start",
                                         daemon=True)
         self._thread.start()
 
     def _start(self) -> None:
-        try:
-            self._client = _start_client(self._stack, self._workers, self._scheduler)
-        except BaseException as exc:  # noqa: BLE001 - raised in client()
-            self._error = exc
-            return
+        if self._client is None:
+            try:
+                self._client = _start_client(self._stack, self._workers, self._scheduler)
+            except BaseException as exc:  # noqa: BLE001 - raised in client()
+                self._error = exc
+                return
         if self._warm is not None:
             try:
                 self._client.run(self._warm)
@@ -498,8 +611,7 @@ def _run_dask(client, func, batched, common, items, chunks, done, bar):
                 raise TaskFailed(f"task {idx[0]} ({dict(items[idx[0]])!r}) of "
                                  f"{_qualname(func)} failed: {type(exc).__name__}: {exc}",
                                  idx[0], items[idx[0]]) from exc
-            done(idx, values)
-            bar(len(idx))
+            bar(done(idx, values))
     finally:
         for fut in futures:
             if not fut.done():

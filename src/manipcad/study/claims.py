@@ -52,7 +52,10 @@ claim as a ratio against its like-for-like baseline:
 Per cell also: the fraction of time any amplifier saturates (over all runs),
 the gripper's peak speed (m/s) and whether any run diverged. Every cell is
 one task of :func:`manipcad.parallel.run_tasks` (Dask; ``workers=1`` serial),
-cached under ``out_dir/cache`` by a hash of its inputs. The cells simulate with
+cached under ``out_dir/cache`` by a hash of its inputs; its 14 closed-loop runs
+(:func:`cell_plan`) are the units of work, handed out longest first
+(:func:`run_cost`) so that the workers finish together, and combined into the
+cell (:func:`cell_result`) whichever way they ran. The cells simulate with
 the general compiled kernels (``use_generated=False``): the simulator otherwise
 uses a robot's generated kernels when some process has generated them, which
 agree to about 1e-8 but not bit for bit, and a cell's result must not depend on
@@ -410,82 +413,150 @@ def claims_cell(*, speed_scale: float, load_ratio: float, arm: Robot, dt: float,
 
     ``speed_scale`` is the speed scale the laws run at (after any time scaling, see
     :func:`feasible_speed_scale`); the arm is :func:`arm_with_load_ratio` of ``arm``.
+    The same as :func:`cell_plan`, :func:`claims_run` on each of its runs, then
+    :func:`cell_result` (what the executor does run by run on a cluster).
 
     Returns a dict with "max_error" (rad per tracking run), "rise_time" (s),
     "overshoot" (fraction), "ratio" (claim id -> measured ratio), "saturation",
     "peak_gripper_speed" (m/s), "diverged", "skipped" (run -> reason), "arm" (the
     load-ratio change).
     """
-    from manipcad.control import synthesize
+    state, runs = cell_plan(speed_scale=speed_scale, load_ratio=load_ratio, arm=arm, dt=dt,
+                            max_payload=max_payload)
+    return cell_result(state, [claims_run(**r) for r in runs])
+
+
+def cell_plan(*, speed_scale: float, load_ratio: float, arm: Robot, dt: float,
+              max_payload: float = MAX_PAYLOAD) -> tuple[dict, list[dict]]:
+    """A cell's arm and its closed-loop runs, each the arguments of :func:`claims_run`.
+
+    Returns:
+        ``(state, runs)``: state {"arm": the load-ratio change (see
+        :func:`arm_with_load_ratio`), "peak_gripper_speed": m/s, "step_t_end": s} for
+        :func:`cell_result`; runs: one dict per run (label, robot, regulator method and
+        options, dt s, t_end s, trajectory, q0 rad/m, kind "tracking" or "step").
+
+    Example:
+        >>> import manipcad
+        >>> state, runs = cell_plan(speed_scale=1.0, load_ratio=2.5, dt=1e-4,
+        ...                         arm=manipcad.load_robot("cylindrical"))
+        >>> len(runs), runs[0]["label"], runs[0]["t_end"], round(state["step_t_end"], 3)
+        (14, 'none_sce', 1.6, 0.514)
+    """
     from manipcad.control.design import inertia_range
-    from manipcad.sim import SimulationDiverged, simulate
     from manipcad.trajectories import gripper_speed
 
-    out: dict[str, Any] = {"max_error": {}, "rise_time": {}, "overshoot": {}, "ratio": {},
-                           "saturation": 0.0, "diverged": False, "skipped": {},
-                           "warnings": {}, "sliding_rate": {}}
     cell_arm, info = arm_with_load_ratio(arm, load_ratio, max_payload=max_payload)
-    out["arm"] = info
-    period = control_period(dt)
     s = float(speed_scale)
     duration = LAWS["duration"] / s
     traj = laws(s, info["stroke_m"])
-    out["peak_gripper_speed"] = float(np.max(gripper_speed(
-        cell_arm, traj, np.linspace(0.0, duration, 801))))
-    support = support_regulators(cell_arm, period)
+    peak = float(np.max(gripper_speed(cell_arm, traj, np.linspace(0.0, duration, 801))))
     j1 = cell_arm.joint_index(TURN)
     h_lo, h_hi = inertia_range(cell_arm, j1)
-    sat = 0.0
-
-    def run(label, method, options, **sim):
-        nonlocal sat
+    common = {"arm": cell_arm, "dt": dt}
+    runs = []
+    for label, (method, options) in TRACKING.items():
         if options.get("load_range") == "nominal":
             mid = 0.5 * (h_lo + h_hi)
             options = {**options, "load_range": (mid, mid)}
-        try:
-            reg = synthesize(cell_arm, TURN, method, period=period, **options)
-        except SKIP_ERRORS as exc:
-            out["skipped"][label] = f"{type(exc).__name__}: {exc}"
-            return None
-        try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always", ManipcadWarning)
-                res = simulate(cell_arm, dt=dt, regulators=[reg, *support],
-                               use_generated=False, **sim)
-        except SimulationDiverged as exc:
-            out["diverged"] = True
-            out["skipped"][label] = f"diverged: {exc}"
-            return None
-        for w in caught:  # kept with the cell (e.g. joints past their limits), not printed
-            if issubclass(w.category, ManipcadWarning):
-                out["warnings"][label] = str(w.message)
-        sat = max(sat, _saturation(res, cell_arm))
-        return res
-
-    for label, (method, options) in TRACKING.items():
-        res = run(label, method, options, t_end=duration, trajectory=traj)
-        if res is not None:
-            v = res.metrics[TURN]["max_error"]
-            out["max_error"][label] = float(v) if math.isfinite(v) else None
+        runs.append({**common, "label": label, "method": method, "options": options,
+                     "t_end": duration, "trajectory": traj, "q0": None, "kind": "tracking"})
     j3 = cell_arm.joint_index(REACH)
-    Hmin = info["H_11_min"]
     slower = abs(arm.drives[j1].ratio / info["ratio"])
     step_t_end = min(STEP_T_END * max(1.0, slower), max(STEP_T_END, STEP_T_END_MAX))
-    out["step_t_end"] = step_t_end
     steps = {"vss": ("vss", {}, 0.0), "asvs": ("asvs", {}, 0.0),
-             "vss_light": ("vss", {"load_range": (Hmin, Hmin)}, info["stroke_m"])}
+             "vss_light": ("vss", {"load_range": (info["H_11_min"], info["H_11_min"])},
+                           info["stroke_m"])}
     for label, (method, options, q3) in steps.items():
         q0 = np.zeros(cell_arm.n)
         q0[j3] = q3
         ref = q0.copy()
         ref[j1] = STEP
-        res = run(label, method, options, t_end=step_t_end, trajectory=_Hold(ref), q0=q0)
-        if res is not None:
-            for key, store in (("rise_time", out["rise_time"]), ("overshoot", out["overshoot"])):
-                v = res.metrics[TURN][key]
-                store[label] = float(v) if math.isfinite(v) else None
-            out["sliding_rate"][label] = sliding_rate(res.t, res.q_ref[:, j1] - res.q[:, j1],
-                                                      STEP)
+        runs.append({**common, "label": label, "method": method, "options": options,
+                     "t_end": step_t_end, "trajectory": _Hold(ref), "q0": q0,
+                     "kind": "step"})
+    return {"arm": info, "peak_gripper_speed": peak, "step_t_end": step_t_end}, runs
+
+
+def claims_run(*, arm: Robot, label: str, method: str, options: dict, dt: float,
+               t_end: float, trajectory, q0, kind: str) -> dict:
+    """One closed-loop run of a cell (:func:`cell_plan`): the method on the turning drive,
+    the support PIDs on the lift and the reach, the general compiled kernels.
+
+    Returns:
+        {"label", "skipped": reason or None, "diverged": bool, "warning": text or None,
+        "saturation": fraction of samples, "metrics": {"max_error": rad} (tracking) or
+        {"rise_time": s, "overshoot": fraction, "sliding_rate": 1/s} (step), values None
+        where not finite}; metrics None when skipped.
+    """
+    from manipcad.control import synthesize
+    from manipcad.sim import SimulationDiverged, simulate
+
+    out = {"label": label, "skipped": None, "diverged": False, "warning": None,
+           "saturation": 0.0, "metrics": None}
+    period = control_period(dt)
+    try:
+        reg = synthesize(arm, TURN, method, period=period, **options)
+    except SKIP_ERRORS as exc:
+        out["skipped"] = f"{type(exc).__name__}: {exc}"
+        return out
+    sim = {"t_end": t_end, "trajectory": trajectory}
+    if q0 is not None:
+        sim["q0"] = q0
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ManipcadWarning)
+            res = simulate(arm, dt=dt, regulators=[reg, *support_regulators(arm, period)],
+                           use_generated=False, **sim)
+    except SimulationDiverged as exc:
+        out["diverged"] = True
+        out["skipped"] = f"diverged: {exc}"
+        return out
+    for w in caught:  # kept with the cell (e.g. joints past their limits), not printed
+        if issubclass(w.category, ManipcadWarning):
+            out["warning"] = str(w.message)
+    out["saturation"] = _saturation(res, arm)
+
+    def finite(v):
+        return float(v) if math.isfinite(v) else None
+
+    m = res.metrics[TURN]
+    if kind == "tracking":
+        out["metrics"] = {"max_error": finite(m["max_error"])}
+    else:
+        j1 = arm.joint_index(TURN)
+        out["metrics"] = {"rise_time": finite(m["rise_time"]),
+                          "overshoot": finite(m["overshoot"]),
+                          "sliding_rate": sliding_rate(res.t, res.q_ref[:, j1] - res.q[:, j1],
+                                                       STEP)}
+    return out
+
+
+def cell_result(state: dict, runs: list[dict]) -> dict:
+    """A cell's result from its plan's state and its runs' results (:func:`claims_cell`)."""
+    out: dict[str, Any] = {"max_error": {}, "rise_time": {}, "overshoot": {}, "ratio": {},
+                           "saturation": 0.0, "diverged": False, "skipped": {},
+                           "warnings": {}, "sliding_rate": {}, "arm": state["arm"],
+                           "peak_gripper_speed": state["peak_gripper_speed"]}
+    sat = 0.0
+    for r in runs:
+        label = r["label"]
+        out["diverged"] = out["diverged"] or r["diverged"]
+        if r["skipped"] is not None:
+            out["skipped"][label] = r["skipped"]
+            continue
+        if r["warning"] is not None:
+            out["warnings"][label] = r["warning"]
+        sat = max(sat, r["saturation"])
+        m = r["metrics"]
+        if "max_error" in m:
+            out["max_error"][label] = m["max_error"]
+        else:
+            out["rise_time"][label] = m["rise_time"]
+            out["overshoot"][label] = m["overshoot"]
+            out["sliding_rate"][label] = m["sliding_rate"]
+    out["step_t_end"] = state["step_t_end"]
+    step_t_end = state["step_t_end"]
     mx = out["max_error"]
     for cid, (a, b) in RATIOS.items():
         out["ratio"][cid] = _ratio(mx.get(a), mx.get(b))
@@ -515,9 +586,26 @@ def warm_worker() -> None:
                              *support_regulators(arm, period)])
 
 
-def cell_cost(task: dict) -> float:
-    """A cell's run time estimate, in units of laws (2) at speed scale 1 (for ordering)."""
-    return 1.0 / float(task["speed_scale"]) + 0.3
+#: a run's time estimate (:func:`run_cost`), s of simulated time: the cost of a step run's
+#: simulated second against a tracking run's, and the gain table of a scheduled LQR
+COST_STEP, COST_TABLE = 0.4, 1.3
+
+
+def run_cost(run: dict) -> float:
+    """A run's time estimate (for handing out the longest first), in simulated seconds of
+    a tracking run: its length, plus the gain table's synthesis of an ``lqr_gs`` over a
+    load range (measured on the light arm: a 1.6 s tracking run about 0.35 s, a table
+    about 0.3 s, a step run's second 0.4 of a tracking run's).
+
+    Example:
+        >>> run_cost({"t_end": 1.6, "kind": "tracking", "method": "lqr", "options": {}})
+        1.6
+    """
+    c = float(run["t_end"]) * (1.0 if run["kind"] == "tracking" else COST_STEP)
+    lr = run["options"].get("load_range")
+    if run["method"] == "lqr_gs" and not (isinstance(lr, tuple) and lr[0] == lr[1]):
+        c += COST_TABLE
+    return c
 
 
 def sliding_rate(t: np.ndarray, e: np.ndarray, step: float) -> float | None:
@@ -663,7 +751,7 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
 def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid: str,
                 dt: float, pool, progress: bool, workers: int | None,
                 scheduler: str | None) -> dict:
-    from manipcad.parallel import run_tasks
+    from manipcad.parallel import Split, run_tasks
 
     g = dict(GRIDS[grid])
     targets = [own_load_ratio(robot) if r is None else r for r in g["load_ratio"]]
@@ -691,13 +779,16 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
                 where[(rho, s_run)] = len(tasks)
                 tasks.append({"speed_scale": s_run, "load_ratio": rho})
     out.mkdir(exist_ok=True)
+    # each cell is cached whole; on a cluster its runs are the units of work, handed out
+    # longest first, so that the workers finish together
     done = run_tasks(claims_cell, tasks, common={"arm": robot, "dt": dt,
                                                  "max_payload": max_payload},
                      workers=None if pool is not None else workers,
                      scheduler=None if pool is not None else scheduler, pool=pool,
                      cache_dir=out / "cache",
                      progress=progress, desc="claims cells", version=CELL_VERSION,
-                     cost=cell_cost)
+                     cost=run_cost, split=Split(plan=lambda task, common: cell_plan(
+                         **common, **task), run=claims_run, combine=cell_result))
     cells = []
     for i, rho in enumerate(targets):
         for k, s_run in enumerate(runs[i]):

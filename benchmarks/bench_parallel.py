@@ -23,7 +23,7 @@ what the N-worker run spent beyond its own ideal schedule: cluster start,
 sizing, writing the files).
 
 ``--cli`` also times the user's command in fresh processes (``python -m
-manipcad.cli study claims --grid G --arm A --workers 1|N --out DIR``, each
+manipcad study claims --grid G --arm A --workers 1|N --out DIR``, each
 from interpreter start to exit: imports, python-control, the kernels loaded
 from their cache, the files written), after one untimed run that fills the
 kernel cache.
@@ -53,7 +53,7 @@ def schedule(times: list[float], workers: int) -> float:
 
 
 def _cli(grid: str, arm: str, workers: int, out: Path) -> float:
-    cmd = [sys.executable, "-m", "manipcad.cli", "study", "claims", "--grid", grid, "--arm",
+    cmd = [sys.executable, "-m", "manipcad", "study", "claims", "--grid", grid, "--arm",
            arm, "--workers", str(workers), "--out", str(out)]
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -36,10 +36,21 @@ def test_load_ratio_arms(arm):
     # 5: the payload alone is not enough, the reach stroke is moved in and lengthened
     assert info["payload_kg"] == claims_mod.MAX_PAYLOAD and 0.5 < info["stroke_m"] < 1.0
     assert new.limits[new.joint_index("reach"), 1] >= info["stroke_m"]
-    # 10 is beyond the light arm's levers: the arm at their ends, the ratio it gets, said
+    assert not info["over_rated"]
+    # 10: the rated 2 kg and the stroke at its end give H_max/H_min = 7.56 (the rotor can
+    # only lower ρ): a payload above the rated one (3.65 kg), the laws slowed to what the
+    # sizing passes
     new, info = arm_with_load_ratio(arm, 10.0)
+    assert info["reached"] and info["over_rated"] and info["stroke_m"] == claims_mod.STROKE_MAX
+    assert claims_mod.MAX_PAYLOAD < info["payload_kg"] < claims_mod.OVERLOAD_MAX * 2.0
+    d = new.drives[new.joint_index("turn")]
+    lo, hi = claims_mod.turn_load_range(new, info["stroke_m"])
+    assert (d.J * d.ratio**2 + hi) / (d.J * d.ratio**2 + lo) == pytest.approx(10.0, rel=1e-9)
+    s_run, fails = claims_mod.feasible_speed_scale(new, 1.0, info["stroke_m"])
+    assert fails and 0.2 < s_run < 1.0  # sized feasible, time-scaled (0.342)
+    # without the over-rated payload the arm at the levers' ends, the ratio it gets, said
+    new, info = arm_with_load_ratio(arm, 10.0, max_payload=2.0 / claims_mod.OVERLOAD_MAX)
     assert not info["reached"] and 5.0 < info["load_ratio"] < 10.0
-    assert info["stroke_m"] == claims_mod.STROKE_MAX
     with pytest.raises(InputError, match="load_ratio"):
         arm_with_load_ratio(arm, 0.5)
     with pytest.raises(InputError, match="max_payload"):

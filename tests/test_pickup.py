@@ -118,27 +118,32 @@ def test_estimator_complexity_is_counted(arm):
     ({"model_payload": "online"}, "needs an estimator"),
     ({"model_payload": "guess"}, "model_payload must be one of"),
     ({"pickup": {"mass": 1.0, "t": 0.05}, "integrator": "adaptive"}, "sample instant"),
-    ({"pickup": {"mass": 1.0, "t": 0.05}, "integrator": "adaptive-exact"}, "cannot take"),
+    ({"pickup": {"mass": 1.0, "t": 0.05}, "integrator": "adaptive-exact"}, "sample instant"),
 ])
 def test_bad_arguments(arm, kwargs, match):
     with pytest.raises(ManipcadError, match=match):
         manipcad.simulate(arm, t_end=0.1, dt=1e-3, **kwargs)
 
 
-def test_adaptive_integrator_takes_the_pickup_and_estimator(arm, setup, runs):
-    """integrator="adaptive" stops at the regulators' sample instants, where the pickup and
-    the estimator run (the same shared sampling step): the estimate and the error after the
-    pickup agree with RK4's."""
+@pytest.mark.parametrize("integrator", ["adaptive", "adaptive-exact"])
+def test_adaptive_integrator_takes_the_pickup_and_estimator(arm, setup, runs, integrator):
+    """The error-controlled integrators stop at the regulators' sample instants, where the
+    pickup and the estimator run (the same shared sampling step): the estimate and the
+    motion after the pickup agree with RK4's to the tolerance (rtol 1e-6, atol 1e-8: q
+    within 1e-6 rad, measured 5.5e-7 with "adaptive"). "adaptive-exact" carries q̈ from
+    one held interval to the next except over the pickup's instant, where the plant
+    changes: carried over, the step after the pickup would start from the unloaded arm's."""
     com, regs, traj = setup
     est = PayloadEstimator(arm, period=DT, com=com, forgetting=0.998, current_noise=0.02)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", manipcad.errors.ManipcadWarning)
         ada = manipcad.simulate(arm, t_end=T_END, dt=DT, trajectory=traj, regulators=regs,
                                 pickup={"mass": MASS, "t": T_PICK, "com": com}, estimator=est,
-                                integrator="adaptive")
+                                integrator=integrator)
     rk = runs["online"]
     np.testing.assert_allclose(ada.payload_estimate, rk.payload_estimate, rtol=0, atol=2e-4)
     assert np.abs(ada.q - rk.q).max() < 1e-6
+    assert ada.settings["integrator"] == integrator
 
 
 def test_bad_estimators(arm):

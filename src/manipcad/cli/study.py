@@ -142,6 +142,9 @@ def pickup(
         "--forgetting", help="The estimator's forgetting factor λ in (0, 1].")] = 0.998,
     methods: Annotated[str | None, typer.Option(
         "--methods", help="Comma-separated subset of ace_tf, ace_de, asvs, lqr_gs.")] = None,
+    integrator: Annotated[str, typer.Option(
+        "--integrator", help="rk4, adaptive or adaptive-exact (error-controlled; the "
+        "pickup time then a multiple of the period).")] = "rk4",
 ) -> None:
     """Pickup study: an unknown payload gripped mid-trajectory, identified online; each
     adaptive method with the true mass, the online estimate and no payload knowledge;
@@ -149,7 +152,8 @@ def pickup(
     from manipcad.study.pickup import run_pickup
 
     res = run_pickup(out, robot=robot, mass=mass, t_pick=t_pick, t_end=t_end, dt=dt,
-                     current_noise=noise, forgetting=forgetting, methods=methods)
+                     current_noise=noise, forgetting=forgetting, methods=methods,
+                     integrator=integrator)
     d = res.data
     ts = d["estimate_settling_time"]
     cx = d["estimator"]["operations_per_period"]

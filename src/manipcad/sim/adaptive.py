@@ -229,7 +229,8 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
     kend = k0 + K
     k = k0
     # q̈ at the state the last step ended on does not depend on U when every joint's
-    # torque comes from a current state (and the disturbance is constant): reuse it
+    # torque comes from a current state (and the disturbance is constant): reuse it,
+    # unless a payload was picked up at the sample instant in between
     reuse = exact and plant.use_drives and hold > 1
     for j in range(n):
         if int(plant.dtable[j, P_KIND]) != KIND_RIGID:
@@ -239,8 +240,11 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
     while True:
         kr = (k - k0) // stride
         dist = ref.dist[kr]
-        # sample the regulators due at step k, as RK4 does
+        # sample the regulators due at step k, as RK4 does (and pick up a payload due)
+        picked = plant.pick.done[0]
         sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait)
+        if plant.pick.done[0] != picked:
+            have = False  # the plant changed here: the carried q̈ is the old plant's
         if work.rec[0] * every == k:
             _torques(x, U, dist, n, plant, q, qd, xd, dxd, tau, Kd, 0)
             write_record(plant, rec, work.rec[0], k * dt, x, U, tau)

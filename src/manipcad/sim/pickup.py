@@ -121,7 +121,8 @@ def check_adaptive(integrator: str, pick_step: int | None, ctrl, dt: float) -> N
     their periods, :func:`manipcad.sim.loop.sample_due` runs there).
 
     ``"adaptive-exact"`` reuses the derivative at the end of a held interval as the next
-    one's start, which a mass step changes: it refuses a pickup.
+    one's start; at the pickup's instant it evaluates it again
+    (:func:`manipcad.sim.adaptive.run_adaptive`).
 
     Raises:
         ManipcadError: naming the pickup time or the estimator's period and the
@@ -130,10 +131,6 @@ def check_adaptive(integrator: str, pick_step: int | None, ctrl, dt: float) -> N
     periods = [int(s) for s in ctrl.steps]
     shown = ", ".join(f"{p * dt:g}" for p in sorted(set(periods))) or "(no regulator)"
     if pick_step is not None:
-        if integrator == "adaptive-exact":
-            raise ManipcadError("integrator='adaptive-exact' cannot take a pickup (it carries "
-                                "the derivative over a sample instant, which the mass step "
-                                "changes); use integrator='adaptive' or 'rk4'")
         if not any(pick_step % p == 0 for p in periods):
             raise ManipcadError(f"integrator={integrator!r}: pickup t = {pick_step * dt:g} s "
                                 f"must be a sample instant of a regulator (periods {shown} s), "

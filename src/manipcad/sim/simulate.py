@@ -226,8 +226,8 @@ def simulate(
         pickup: an unknown payload gripped mid-run: ``{"mass": kg, "t": s, "com": [x, y,
             z] m, "inertia": (3, 3) kg·m², "link": ...}`` (com, inertia and link as
             ``payload``): the plant's link takes it at the step of time t (0 < t < t_end;
-            :mod:`manipcad.sim.pickup`). With ``integrator="adaptive"`` t must be a
-            sample instant of a regulator; ``"adaptive-exact"`` refuses it.
+            :mod:`manipcad.sim.pickup`). With an adaptive integrator t must be a
+            sample instant of a regulator.
         estimator: a :class:`manipcad.control.estimator.PayloadEstimator`, the online
             payload estimator, run at its period inside the loop (after the regulators);
             its estimate is in ``result.payload_estimate``. With an adaptive integrator

@@ -110,6 +110,9 @@ ARMS = {"light": ("cylindrical", 2.0), "industrial": ("cylindrical_industrial", 
         "heavy": ("cylindrical_heavy", 5.0)}
 #: the largest payload at the gripper of an arm given as a file, kg
 MAX_PAYLOAD = 2.0
+#: the load-ratio levers' last resort: a payload up to this many times the arm's rated one
+#: (:func:`arm_with_load_ratio`; the sizing then slows laws (2) where a part fails)
+OVERLOAD_MAX = 2.5
 #: the reach-stroke lever (:func:`arm_with_load_ratio`): at its end the reach's retracted
 #: position is moved SHIFT_MAX m towards the turning axis and the stroke of laws (2)'s q3
 #: (0.5 m) lengthened to STROKE_MAX m
@@ -177,7 +180,7 @@ STEP, STEP_T_END = 0.1, 0.4
 #: |i_r of the arm| / |i_r of the cell| (the joint's torque is that much smaller), up to
 STEP_T_END_MAX = 4.0
 #: a cell's code version (part of its cache key)
-CELL_VERSION = "7"
+CELL_VERSION = "8"
 #: an amplifier counts as saturated within this fraction of its limit
 SATURATION_TOL = 1e-6
 
@@ -257,7 +260,12 @@ def arm_with_load_ratio(arm: Robot, rho: float, *, max_payload: float = MAX_PAYL
        towards the turning axis by up to ``SHIFT_MAX`` m and laws (2)'s q3 stroke
        lengthened from 0.5 m to up to ``STROKE_MAX`` m, together (one lever λ in [0, 1];
        the reach link's mass is kept: a longer tube is not added);
-    3. then the turning gear ratio so that J·i_r² = (H_max − ρ·H_min)/(ρ − 1) (its sign
+    3. with the stroke at its end still not enough, a payload above ``max_payload``, up
+       to ``OVERLOAD_MAX`` times it (``info["over_rated"]``: the rotor inertia can only
+       lower ρ, so past this point no gear ratio reaches it; the row's laws (2) are then
+       time-scaled by the sizing where a motor or gear fails, see
+       :func:`feasible_speed_scale`);
+    4. then the turning gear ratio so that J·i_r² = (H_max − ρ·H_min)/(ρ − 1) (its sign
        kept; |i_r| at least ``RATIO_MIN_FRACTION`` of the arm's own).
 
     When the levers at their ends do not reach ρ, the arm at those ends is returned and
@@ -269,9 +277,9 @@ def arm_with_load_ratio(arm: Robot, rho: float, *, max_payload: float = MAX_PAYL
         max_payload: the largest payload at the gripper, kg (>= 0).
 
     Returns:
-        ``(arm, info)``: the new arm and {"payload_kg", "shift_m", "stroke_m", "ratio",
-        "H_11_min", "H_11_max", "load_ratio", "target", "reached"} (kg, m, m, rad/rad,
-        kg·m², kg·m², 1, 1, bool).
+        ``(arm, info)``: the new arm and {"payload_kg", "over_rated", "shift_m", "stroke_m",
+        "ratio", "H_11_min", "H_11_max", "load_ratio", "target", "reached"} (kg, bool, m, m,
+        rad/rad, kg·m², kg·m², 1, 1, bool).
 
     The arm's own ratio (:func:`own_load_ratio`) returns the arm unchanged.
 
@@ -290,9 +298,9 @@ def arm_with_load_ratio(arm: Robot, rho: float, *, max_payload: float = MAX_PAYL
     d = arm.drives[j]
     own = own_load_ratio(arm)
     hmin, hmax = turn_load_range(arm)
-    base = {"payload_kg": 0.0, "shift_m": 0.0, "stroke_m": STROKE, "ratio": d.ratio,
-            "H_11_min": hmin, "H_11_max": hmax, "load_ratio": own, "target": float(rho),
-            "reached": True}
+    base = {"payload_kg": 0.0, "over_rated": False, "shift_m": 0.0, "stroke_m": STROKE,
+            "ratio": d.ratio, "H_11_min": hmin, "H_11_max": hmax, "load_ratio": own,
+            "target": float(rho), "reached": True}
     if abs(rho / own - 1.0) < 1e-9:
         return arm, base
     target = 1.05 * rho
@@ -303,6 +311,10 @@ def arm_with_load_ratio(arm: Robot, rho: float, *, max_payload: float = MAX_PAYL
     if _h_ratio(arm, m_p, 0.0) < target:
         lam = (1.0 if _h_ratio(arm, m_p, 1.0) < target
                else _bisect(lambda x: _h_ratio(arm, m_p, x), 0.0, 1.0, target))
+    if lam >= 1.0 and max_payload > 0 and _h_ratio(arm, m_p, 1.0) < target:
+        top = OVERLOAD_MAX * max_payload
+        m_p = (top if _h_ratio(arm, top, 1.0) < target
+               else _bisect(lambda m: _h_ratio(arm, m, 1.0), m_p, top, target))
     new, shift, stroke = _restroked(arm, lam)
     if m_p > 0:
         new = new.with_payload(m_p, _tool_point(arm), link=REACH)
@@ -313,8 +325,9 @@ def arm_with_load_ratio(arm: Robot, rho: float, *, max_payload: float = MAX_PAYL
     drives[j] = d.replace(ratio=ratio)
     new = new.replace(drives=tuple(drives))
     got = (d.J * ratio**2 + hmax) / (d.J * ratio**2 + hmin)
-    return new, {"payload_kg": m_p, "shift_m": shift, "stroke_m": stroke, "ratio": ratio,
-                 "H_11_min": hmin, "H_11_max": hmax, "load_ratio": got, "target": float(rho),
+    return new, {"payload_kg": m_p, "over_rated": bool(m_p > max_payload), "shift_m": shift,
+                 "stroke_m": stroke, "ratio": ratio, "H_11_min": hmin, "H_11_max": hmax,
+                 "load_ratio": got, "target": float(rho),
                  "reached": bool(abs(got / rho - 1.0) < 1e-6)}
 
 
@@ -857,7 +870,9 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
                      "levers": "load ratio raised by a payload at the gripper (up to "
                      "max_payload_kg), then the reach stroke (retracted position moved up "
                      f"to {SHIFT_MAX:g} m towards the turning axis, q3 stroke lengthened to "
-                     f"up to {STROKE_MAX:g} m), then the turning gear ratio; "
+                     f"up to {STROKE_MAX:g} m), then a payload above max_payload_kg (up to "
+                     f"{OVERLOAD_MAX:g} times it; arm.cells[..].over_rated, the laws "
+                     "time-scaled where the sizing fails), then the turning gear ratio; "
                      "load_ratio_achieved per row"},
         "units": {"ratio": "1", "saturation": "fraction of time", "peak_gripper_speed": "m/s",
                   "sliding_rate": "1/s",

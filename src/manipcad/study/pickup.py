@@ -128,7 +128,8 @@ def _setup(arm: Robot, period: float, t_end: float):
 def run_pickup(out_dir: str | Path, *, robot: Robot | str | None = None, mass: float = MASS,
                t_pick: float = T_PICK, t_end: float = T_END, dt: float = DT,
                period: float | None = None, current_noise: float = NOISE,
-               forgetting: float = FORGETTING, methods=None, seed: int = 0) -> PickupResult:
+               forgetting: float = FORGETTING, methods=None, seed: int = 0,
+               integrator: str = "rk4") -> PickupResult:
     """Run the pickup study and write pickup.json and pickup.png into ``out_dir``.
 
     Args:
@@ -145,6 +146,9 @@ def run_pickup(out_dir: str | Path, *, robot: Robot | str | None = None, mass: f
         forgetting: the estimator's forgetting factor λ (memory period/(1 − λ) s).
         methods: a subset of :data:`METHODS` (list or comma-separated string).
         seed: the current noise's seed.
+        integrator: the runs' integrator, "rk4", "adaptive" or "adaptive-exact"
+            (:func:`manipcad.simulate`; with an adaptive one ``t_pick`` must be a multiple
+            of ``period``).
 
     Returns:
         :class:`PickupResult`.
@@ -163,11 +167,19 @@ def run_pickup(out_dir: str | Path, *, robot: Robot | str | None = None, mass: f
     from manipcad.control.design import inertia_range
     from manipcad.control.estimator import PayloadEstimator
     from manipcad.sim import simulate
+    from manipcad.sim.simulate import INTEGRATORS
 
     _check(mass, t_pick, t_end, dt, current_noise, forgetting)
+    if integrator not in INTEGRATORS:
+        raise InputError("integrator", "", f"{integrator!r}: expected one of "
+                         f"{', '.join(INTEGRATORS)}")
     period = dt if period is None else period
     if not (isinstance(period, int | float) and math.isfinite(period) and period >= dt):
         raise InputError("period", "", f"must be a number of s >= dt, got {period!r}")
+    if integrator != "rk4" and abs(t_pick / period - round(t_pick / period)) > 1e-9:
+        raise InputError("t_pick", "", f"{t_pick:g} s: with integrator={integrator!r} the "
+                         f"pickup must fall on a sample instant (a multiple of the period "
+                         f"{period:g} s)")
     if isinstance(methods, str):
         methods = [m.strip() for m in methods.split(",") if m.strip()]
     methods = list(METHODS if methods is None else methods)
@@ -194,6 +206,7 @@ def run_pickup(out_dir: str | Path, *, robot: Robot | str | None = None, mass: f
                       "current_noise": current_noise, "seed": seed},
         "settings": {"robot": arm.name, "joints": [arm.joint_names[j] for j in joints],
                      "t_pick": t_pick, "t_end": t_end, "dt": dt, "period": period,
+                     "integrator": integrator,
                      "payload_com": com, "payload_link": arm.joint_names[-1],
                      "methods": methods, "band": BAND,
                      "trajectory": "laws (2) of the Fig. 3 study" if support else
@@ -224,7 +237,8 @@ def run_pickup(out_dir: str | Path, *, robot: Robot | str | None = None, mass: f
                     runs[meth][case] = simulate(
                         arm, t_end=t_end, dt=dt, trajectory=traj, regulators=[*regs, *support],
                         pickup={"mass": mass, "t": t_pick, "com": com},
-                        estimator=est if mode == "online" else None, model_payload=mode)
+                        estimator=est if mode == "online" else None, model_payload=mode,
+                        integrator=integrator)
                 except ManipcadError as exc:
                     data["skipped"][f"{meth}/{case}"] = f"run failed: {exc}"
     for meth, cases in runs.items():

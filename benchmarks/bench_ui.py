@@ -20,7 +20,9 @@ What is timed (wall clock, ``time.perf_counter``), in one run on one machine:
 * **the Robots page's 3-D view**: /robots from ``page.goto`` to its projected stick
   view (SVG) drawn; a pose slider clicked to the view redrawn (the server's round
   trip); the interactive WebGL view from its button's click to its canvas drawn
-  (software WebGL in headless Chromium); medians of ``--loads``.
+  (software WebGL in headless Chromium); medians of ``--loads``. Also, in a fresh
+  browser: the main menu, 3 s, then /robots to its view drawn (the first figure,
+  with plotly.js compiled while the main menu was idle).
 * **other pages while a run goes**: the load time of /robots while the page's
   run is in progress (the worker is a separate process).
 
@@ -92,6 +94,16 @@ def main() -> None:
     out: dict = {"t_end_s": args.t_end}
     try:
         with sync_playwright() as pw:
+            # a fresh browser: the main menu, 3 s of reading it, then /robots to its view
+            fresh = pw.chromium.launch(executable_path="/usr/bin/chromium", args=FLAGS)
+            page = fresh.new_page(viewport={"width": 1400, "height": 900})
+            _open(page, base + "/")
+            time.sleep(3.0)
+            t0 = time.perf_counter()
+            _open(page, base + "/robots")
+            page.locator("[data-testid=stick-view] .scatterlayer .trace").nth(5).wait_for()
+            out["fresh_robots_3d_view_s"] = time.perf_counter() - t0
+            fresh.close()
             browser = pw.chromium.launch(executable_path="/usr/bin/chromium", args=FLAGS)
             page = browser.new_page(viewport={"width": 1400, "height": 900})
             loads = {}
@@ -103,10 +115,11 @@ def main() -> None:
                     times.append(time.perf_counter() - t0)
                 loads[path] = statistics.median(times)
             out["page_load_s"] = loads
-            views, moves, gls = [], [], []
+            views, lives, moves, gls = [], [], [], []
             for _ in range(args.loads):
                 t0 = time.perf_counter()
                 _open(page, base + "/robots")
+                lives.append(time.perf_counter() - t0)
                 # the projected 3-D view's six traces drawn (SVG): floor ... gripper
                 page.locator("[data-testid=stick-view] .scatterlayer .trace").nth(5).wait_for()
                 views.append(time.perf_counter() - t0)
@@ -124,6 +137,7 @@ def main() -> None:
                 gls.append(time.perf_counter() - t0)
             out["robots_3d_view_s"] = statistics.median(views)
             out["robots_3d_view_samples_s"] = views
+            out["robots_live_samples_s"] = lives
             out["robots_pose_redraw_s"] = statistics.median(moves)
             out["robots_webgl_on_demand_s"] = statistics.median(gls)
 
@@ -164,7 +178,11 @@ def main() -> None:
         print(f"  {path:15s} {1e3 * t:7.0f} ms")
     print(f"  /robots with its 3-D view drawn {1e3 * out['robots_3d_view_s']:7.0f} ms "
           "(projected, SVG; each: "
-          f"{', '.join(f'{1e3 * t:.0f}' for t in out['robots_3d_view_samples_s'])} ms)")
+          f"{', '.join(f'{1e3 * t:.0f}' for t in out['robots_3d_view_samples_s'])} ms; "
+          "of which the page live: "
+          f"{', '.join(f'{1e3 * t:.0f}' for t in out['robots_live_samples_s'])} ms)")
+    print(f"  the same, first figure of a fresh browser (3 s on the main menu before) "
+          f"{1e3 * out['fresh_robots_3d_view_s']:5.0f} ms")
     print(f"  a pose slider moved -> view redrawn {1e3 * out['robots_pose_redraw_s']:5.0f} ms")
     print(f"  interactive WebGL view, on demand (click -> drawn) "
           f"{1e3 * out['robots_webgl_on_demand_s']:5.0f} ms")

@@ -208,3 +208,23 @@ def test_pool_started_ahead_longest_first(dask_scheduler, monkeypatch, tmp_path)
     with pytest.raises(InputError, match="cannot connect"), \
             Pool(scheduler="tcp://127.0.0.1:9") as p:
         p.client()
+
+
+def _threads_usable():
+    from manipcad.dynamics import _inputs
+
+    return _inputs._threads_usable[0]
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "register_at_fork"), reason="no fork here")
+def test_forked_process_runs_batches_serially():
+    """The default LocalCluster forks its workers (start_method); a forked process never
+    enters numba's thread pool, which is not fork-safe (its threads stay in the parent)."""
+    import multiprocessing
+
+    from manipcad.parallel.executor import start_method
+
+    assert start_method() in ("fork", "spawn")
+    assert _threads_usable()
+    with multiprocessing.get_context("fork").Pool(1) as p:
+        assert p.apply(_threads_usable) is False

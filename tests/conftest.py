@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 
 import numpy as np
 import pytest
@@ -10,6 +11,11 @@ from scipy.spatial.transform import Rotation
 
 from manipcad.model.dh import rot_x, rot_z
 from manipcad.model.robot import Drive, Robot
+
+# pytest-xdist's workers start with COLUMNS=80, LINES=24: the CLI's rich console would fix
+# its width at import and ignore the width each CliRunner test asks for
+for _name in ("COLUMNS", "LINES"):
+    os.environ.pop(_name, None)
 
 
 def random_tree(seed: int, n: int = 7, *, chain: bool = False, drives: bool = False) -> Robot:
@@ -95,3 +101,93 @@ def dask_scheduler():
                       dashboard_address=None, memory_limit=0,
                       silence_logs=logging.ERROR) as cluster:
         yield cluster.scheduler_address
+
+
+# ------------------------------------------------------------------ kernels compiled once
+# On a cold kernel cache four variants of the simulator's compiled core (RK4 and the
+# error-controlled integrator, each with and without the online payload estimator) and the
+# batched dynamics cost about 160 s of numba compile, most of the suite's time. Under
+# pytest-xdist the workers first share these out (a file lock per step in the kernel cache
+# folder, the costliest first, each worker starting at a different one) and wait for each
+# other's, so each variant compiles once, on all cores at once, and every test, subprocess
+# and Dask worker after that loads it from the cache. A plain `pytest` run compiles each
+# kernel where it is first needed, as before.
+
+
+def _prewarm_rk4() -> None:
+    from manipcad.cli.warmup import _simulator
+
+    _simulator()
+
+
+def _prewarm_runs(integrator: str, estimator: bool) -> None:
+    import warnings
+
+    import manipcad
+    from manipcad.control import pid
+    from manipcad.control.estimator import PayloadEstimator
+
+    arm = manipcad.load_robot("cylindrical")
+    regs = [pid(j, kp=10.0, kd=1.0) for j in range(arm.n)]
+    kw = {}
+    if estimator:
+        kw = {"estimator": PayloadEstimator(arm, period=1e-3, com=list(arm.tool_p)),
+              "pickup": {"mass": 0.1, "t": 1e-3, "com": list(arm.tool_p)}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", manipcad.errors.ManipcadWarning)
+        manipcad.simulate(arm, t_end=2e-3, dt=1e-3, regulators=regs, joint_limits="ignore",
+                          integrator=integrator, **kw)
+
+
+def _prewarm_dynamics() -> None:
+    from manipcad.cli.warmup import _dynamics
+
+    _dynamics()
+
+
+#: name -> compile step, the costliest first
+PREWARM = {
+    "rk4": _prewarm_rk4,
+    "adaptive": lambda: _prewarm_runs("adaptive", False),
+    "adaptive-estimator": lambda: _prewarm_runs("adaptive", True),
+    "rk4-estimator": lambda: _prewarm_runs("rk4", True),
+    "dynamics": _prewarm_dynamics,
+}
+
+
+def _prewarm(worker: int, workers: int) -> None:
+    """Run this worker's share of :data:`PREWARM`, then wait for (or take over) the rest."""
+    import fcntl
+
+    from manipcad.cli.warmup import cache_dir
+
+    folder = cache_dir()
+    if folder is None:
+        return
+    names = list(PREWARM)
+    start = (worker * len(names)) // workers
+    order = names[start:] + names[:start]
+
+    def step(name: str, wait: bool) -> None:
+        with open(folder / f"prewarm-{name}.lock", "w") as lock:
+            try:
+                fcntl.flock(lock, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+            except BlockingIOError:
+                return  # another worker is compiling it
+            done = folder / f"prewarm-{name}.done"
+            if not done.exists():
+                PREWARM[name]()
+                done.touch()
+
+    for name in order:
+        step(name, wait=False)
+    for name in order:
+        step(name, wait=True)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _kernels_compiled_once():
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    if workers > 1 and worker.startswith("gw"):
+        _prewarm(int(worker[2:]), workers)

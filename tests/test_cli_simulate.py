@@ -245,12 +245,13 @@ def test_interrupted_run_leaves_nothing(tmp_path, traj, monkeypatch):
 
 
 def test_interrupted_simulation_leaves_nothing(tmp_path, traj, monkeypatch):
-    import manipcad.sim
+    import importlib
 
     def interrupt(*_a, **_k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(manipcad.sim, "simulate", interrupt)
+    # the module the CLI imports from (not an attribute of the package object)
+    monkeypatch.setattr(importlib.import_module("manipcad.sim"), "simulate", interrupt)
     out = tmp_path / "r"
     res = run("puma560", "-t", traj, "-r", EXAMPLES / "pid_puma.yaml", "-o", out)
     assert res.exit_code == 130 and not out.exists()

@@ -137,12 +137,15 @@ def _shot(page, name: str) -> None:
     page.screenshot(path=str(SHOTS / f"{name}.png"), full_page=True, timeout=90_000)
 
 
-def _simulate(page, regulator: str, name: str) -> None:
+def _simulate(page, regulator: str, name: str, meanwhile=None) -> None:
+    """Run a simulation from the page; ``meanwhile()`` is done while it runs."""
     _pick(page, "sim-reg", regulator)
     _fill(page, "sim-tend", "0.3")
     _fill(page, "sim-dt", "1e-4")
     _fill(page, "sim-name", name)
     page.get_by_test_id("sim-run").click()
+    if meanwhile is not None:
+        meanwhile()
     status = page.get_by_test_id("sim-status")
     deadline = time.time() + 240   # the worker's first run may load compiled kernels
     while time.time() < deadline:
@@ -221,13 +224,6 @@ def test_designer_flow(browser, server):
     _see(page, page.get_by_text("saved trajectories/move"))
     _shot(page, "trajectories")
 
-    # per-tab state: a second tab of the same browser has its own robot and trajectory
-    other = page.context.new_page()
-    _open(other, server + "/robots")
-    _selected(other, "puma560", "-")
-    _pick(other, "robot-select", "cylindrical")
-    _selected(other, "cylindrical", "-")
-    other.close()
 
     # requirements -> recommended method with the rules that fired
     _open(page, server + "/requirements")
@@ -236,7 +232,7 @@ def test_designer_flow(browser, server):
     _see(page, methods)
     best = methods.inner_text().split(":", 1)[1].split(",")[0].strip()
     assert best == "asvs", methods.inner_text()
-    _selected(page, "puma560", "move")                  # the first tab's, unchanged
+    _selected(page, "puma560", "move")
     page.get_by_text("Rules that fired").wait_for()
     # verify by simulation along the trajectory, in the (pre-started) worker process
     page.get_by_test_id("req-verify").click()
@@ -288,15 +284,26 @@ def test_designer_flow(browser, server):
     assert "payload mass m_r = " in page.get_by_test_id("ident-mass").inner_text()
     _shot(page, "identification")
 
+    def second_tab() -> None:
+        """Per-tab state: a second tab of the same browser has its own robot and
+        trajectory (done while the first tab's run goes: the server answers it)."""
+        other = page.context.new_page()
+        _open(other, server + "/robots")
+        _selected(other, "puma560", "-")
+        _pick(other, "robot-select", "cylindrical")
+        _selected(other, "cylindrical", "-")
+        other.close()
+
     # simulate both, in the worker process
     _open(page, server + "/simulation")
-    _simulate(page, "best", "run-best")
+    _simulate(page, "best", "run-best", meanwhile=second_tab)
     page.locator(".js-plotly-plot").first.wait_for()
     _shot(page, "simulation")
     _simulate(page, "pid", "run-pid")
 
     # results: both listed and overlaid
     _open(page, server + "/results")
+    _selected(page, "puma560", "move")                  # this tab's, unchanged by the other
     table = page.get_by_test_id("res-table")
     table.get_by_text("run-best").wait_for()
     assert "run-pid" in table.inner_text()

@@ -155,6 +155,53 @@ def test_every_catalog_motor_loads_with_source(name):
         assert m.no_load_speed == pytest.approx(m.rated_voltage / m.k_w, rel=0.05)
 
 
+@pytest.mark.parametrize("name", catalog_names("motors"))
+def test_every_catalog_motor_ratings_are_plausible(name):
+    """The ratings a sizing reads (rated and peak torque, max speed, rated voltage and
+    current): positive where given, rated below peak, the rated torque within 10 % of
+    k_m x rated current (maxon's nominal current carries the no-load current; Beckhoff's
+    rated torque is K_T x I_n), a no-load speed under the max speed, and electrical and
+    mechanical time constants of a servo motor (SI: s)."""
+    m = load_motor(name)
+    for key in ("rated_torque", "peak_torque", "max_speed", "rated_voltage", "rated_current",
+                "no_load_speed", "mass"):
+        value = getattr(m, key)
+        assert value is None or value > 0, key
+    if m.rated_torque is not None and m.peak_torque is not None:
+        assert m.rated_torque < m.peak_torque
+    if m.rated_torque is not None and m.rated_current is not None:
+        assert m.k_m * m.rated_current == pytest.approx(m.rated_torque, rel=0.10)
+    if m.max_speed is not None and m.no_load_speed is not None:
+        assert m.no_load_speed < m.max_speed
+    assert 1e-5 < m.L / m.R < 1e-2                        # electrical time constant, s
+    assert 1e-4 < m.J * m.R / (m.k_m * m.k_w) < 0.1       # mechanical time constant, s
+
+
+@pytest.mark.parametrize("name, K_T, K_E, peak", [
+    ("beckhoff_am8112_0f21", 0.080, 5, 1.360), ("beckhoff_am8113_0f21", 0.108, 7, None),
+    ("beckhoff_am8122_0fh1", 0.200, 13, 4.060)])
+def test_beckhoff_servo_dc_equivalent(name, K_T, K_E, peak):
+    """A sinusoidally commutated servomotor as the DC drive of paper section 3.1
+    (catalog file headers): power-invariant in line-to-line quantities, so k_m = k_w =
+    K_T·sqrt(2/3) (K_T per A rms), R and L phase to phase, the 48 V DC bus as the voltage
+    (sqrt(2) x 33.9 V rms line to line). The type plate's EMF constant (rms line to line,
+    an integer in mV/rpm) agrees with k_w within its rounding and Beckhoff's +/-10 %
+    tolerance, so the conversion is checked against an independent datum."""
+    m = load_motor(name)
+    RPM = CONSTANTS["rpm"]
+    assert m.k_m == pytest.approx(K_T * (2.0 / 3.0) ** 0.5, rel=1e-12)
+    assert m.k_w == m.k_m
+    emf = 2.0 ** 0.5 * K_E * 1e-3 / RPM                   # V·s/rad, line-to-line amplitude
+    assert abs(emf - m.k_w) <= 2.0 ** 0.5 * 0.5e-3 / RPM + 0.10 * m.k_w
+    assert m.rated_voltage == pytest.approx(48.0, rel=2e-3)
+    # equivalent current sqrt(3/2)·I_rms: the rated torque is K_T x I_n in either unit
+    assert m.rated_torque == pytest.approx(K_T * m.rated_current / 1.5 ** 0.5, rel=1e-12)
+    assert m.peak_torque == peak                          # unknown stays unknown (None)
+    assert m.max_speed == pytest.approx(10000 * RPM, rel=1e-15)
+    text = " ".join(m.source.split())
+    assert "ecmccfg" in text and "phase to phase" in text and "not from a Beckhoff" in text
+
+
 def test_at_least_four_motors_and_three_gears():
     assert len(catalog_names("motors")) >= 4
     assert len(catalog_names("gears")) >= 3

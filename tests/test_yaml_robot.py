@@ -202,6 +202,45 @@ def test_beckhoff_servo_dc_equivalent(name, K_T, K_E, peak):
     assert "ecmccfg" in text and "phase to phase" in text and "not from a Beckhoff" in text
 
 
+def test_beckhoff_ratings_reach_the_sizing(tmp_path):
+    """One horizontal-axis joint (1 kg at 0.1 m) through a CSG-20-100, swung by a cosine
+    move: the AM8122's catalog ratings become the drive's (0.80 N·m rated, 4.06 N·m peak,
+    10000 rpm, the 48 V bus as the voltage limit), so its speed check is decided
+    ("pass" against 10000 rpm) where the EC 90 flat's, whose source gives no maximum
+    speed, is "unknown". The torque and voltage checks stay "unknown" while the CSG
+    efficiency is unknown, and are decided ("pass") once the drive states one."""
+    from manipcad.sizing import required_drive
+    from manipcad.trajectories import cosine
+
+    RPM = CONSTANTS["rpm"]
+
+    def robot(motor: str, **drive) -> Robot:
+        doc = {"name": "one", "joints": [{
+            "name": "j1", "type": "revolute",
+            "dh": {"a": 0, "alpha": "pi/2", "d": 0, "theta": 0},
+            "link": {"mass": 1.0, "com": [0.1, 0, 0],
+                     "inertia": {"ixx": 0.01, "iyy": 0.01, "izz": 0.01}},
+            "drive": {"motor": motor, "gear": "harmonic_csg20_100", **drive}}]}
+        return load_yaml_robot(write(tmp_path, doc, f"{motor}.yaml"))
+
+    traj = cosine([0.5], [2.0], 2.0)
+    arm = robot("beckhoff_am8122_0fh1")
+    d = arm.drives[0]
+    assert (d.rated_torque, d.peak_torque, d.u_max) == (0.80, 4.06, 48.0)
+    assert d.max_speed == pytest.approx(10000 * RPM, rel=1e-15)
+    req = required_drive(arm, traj)
+    assert req.checks["speed"].status == ("pass",)
+    assert req.checks["speed"].limit[0] == pytest.approx(10000 * RPM, rel=1e-15)
+    for k in ("continuous", "peak", "voltage"):
+        assert req.checks[k].status == ("unknown",), k
+    assert required_drive(robot("maxon_ec90flat_244879"), traj).checks["speed"].status \
+        == ("unknown",)
+    known = required_drive(robot("beckhoff_am8122_0fh1", efficiency=0.7), traj)
+    for k in ("continuous", "peak", "speed", "voltage"):
+        assert known.checks[k].status == ("pass",), k
+    assert known.checks["continuous"].limit[0] == 0.80
+
+
 def test_at_least_four_motors_and_three_gears():
     assert len(catalog_names("motors")) >= 4
     assert len(catalog_names("gears")) >= 3

@@ -3,6 +3,10 @@
 The main names are re-exported here; see the sub-packages for the rest.
 """
 
+from manipcad._blas_threads import configure as _configure_blas_threads
+
+_configure_blas_threads()  # before numpy is imported: see manipcad._blas_threads
+
 from manipcad._numba_cache import configure as _configure_numba_cache
 
 _configure_numba_cache()

@@ -216,14 +216,24 @@ def _writer_loop(out: Path, first_id: int, fd: int) -> None:
 _STOP = {signal.SIGINT, signal.SIGTERM}
 
 
+def _signal_state(pid: int) -> str:
+    """The process's signal masks from /proc (hexadecimal; bit k-1 is signal k)."""
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            return ", ".join(line.strip() for line in f if line.startswith(("State", "Sig")))
+    except OSError:
+        return "no /proc status"
+
+
 def _reap(pid: int, timeout: float = 20.0) -> None:
     """Wait for the killed child; one that outlives ``timeout`` s is a failure, not a hang."""
     end = time.monotonic() + timeout
     while os.waitpid(pid, os.WNOHANG) == (0, 0):
         if time.monotonic() > end:
+            state = _signal_state(pid)
             os.kill(pid, signal.SIGKILL)
             os.waitpid(pid, 0)
-            pytest.fail(f"the writer {pid} survived its signal for {timeout} s")
+            pytest.fail(f"the writer {pid} survived its signal for {timeout} s ({state})")
         time.sleep(0.01)
 
 

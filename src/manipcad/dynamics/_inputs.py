@@ -37,8 +37,25 @@ def as_states(n: int, **arrays) -> tuple[list[np.ndarray], bool]:
         elif a.shape != shape or (np.ndim(x) == 1) != single:
             raise ManipcadError(f"{name} has shape {np.shape(x)}, the first argument "
                                 f"{shape[1:] if single else shape}")
-        out.append(a if a.flags.c_contiguous else np.ascontiguousarray(a))
+        out.append(writable_c(a))
     return out, single
+
+
+def writable_c(a: np.ndarray) -> np.ndarray:
+    """``a`` itself if C-contiguous and writable, else a C-contiguous copy.
+
+    The compiled kernels are specialized on their arrays' layout and writability: a
+    readonly or strided state array would compile every kernel it reaches a second time
+    (5-15 s each on a cold cache) for no gain; the copy costs microseconds.
+
+    Example:
+        >>> a = np.zeros(3); a.setflags(write=False)
+        >>> writable_c(a).flags.writeable
+        True
+    """
+    if a.flags.c_contiguous and a.flags.writeable:
+        return a
+    return np.array(a, order="C", copy=True)
 
 
 def as_floats(name: str, x) -> np.ndarray:
@@ -81,7 +98,7 @@ def as_fext(n: int, N: int, single: bool, f_ext) -> tuple[np.ndarray, bool]:
                             f"got {f.shape}")
     if not np.isfinite(f).all():
         raise ManipcadError("f_ext holds NaN or infinite values")
-    return np.ascontiguousarray(f), True
+    return writable_c(f), True
 
 
 # ------------------------------------------------------------------ fast paths

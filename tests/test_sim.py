@@ -248,6 +248,42 @@ def test_pid_step_metrics():
     assert abs(res.q[-1, 3] - 0.1) < 2e-3
 
 
+def test_metrics_computed_when_first_read_are_the_runs():
+    """``simulate`` leaves the metrics to their first reading: they are then those of
+    :func:`joint_metrics` on the result (with the drives' energy), with the limit
+    excess of a joint that left its limits; a result pickled before reading them, or
+    copied by ``dataclasses.replace``, gives the same; assigning replaces them."""
+    import dataclasses
+    import pickle
+
+    from manipcad.drives.params import pack_drives
+    from manipcad.sim.metrics import joint_metrics
+    from manipcad.trajectories import quintic
+
+    robot = puma_without_dry_friction()
+    regs = load_regulators(EXAMPLES / "pid_puma.yaml", robot, dt=1e-4)
+    narrow = robot.replace(limits=np.array([[-0.05, 0.05]] + [[-3.0, 3.0]] * 5))
+    traj = quintic(np.zeros(6), [0.1, 0.2, 0.0, 0.0, 0.0, 0.0], 0.1)
+    with pytest.warns(ManipcadWarning, match="'waist' by up to"):
+        res = simulate(narrow, t_end=0.1, dt=1e-4, trajectory=traj, regulators=regs)
+    copy = pickle.loads(pickle.dumps(res))
+    replaced = dataclasses.replace(res, joint_types=res.joint_types)
+    want = joint_metrics(res, drives=True, dtable=pack_drives(robot.drives))
+    m = res.metrics
+    assert set(m) == set(robot.joint_names)
+    assert m["waist"]["limit_excess"] > 0.0
+    assert "limit_excess" not in m["shoulder"]
+    for nm in robot.joint_names:
+        assert {k: v for k, v in m[nm].items() if k != "limit_excess"} == \
+            pytest.approx(want[nm], nan_ok=True)
+        assert copy.metrics[nm] == pytest.approx(m[nm], nan_ok=True)
+        assert replaced.metrics[nm] == pytest.approx(m[nm], nan_ok=True)
+    assert m["shoulder"]["energy"] > 0.0  # the drives' electrical energy, J
+    assert res.metrics is m  # computed once
+    res.metrics = {"waist": {}}
+    assert res.metrics == {"waist": {}}
+
+
 # ------------------------------------------------------------------ divergence
 def test_divergent_simulation_names_time_and_joint():
     robot = puma()

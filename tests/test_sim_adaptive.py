@@ -26,6 +26,7 @@ from manipcad.drives.params import pack_drive
 from manipcad.errors import ManipcadError, ManipcadWarning
 from manipcad.model.robot import Drive
 from manipcad.sim import simulate
+from manipcad.sim.adaptive import TABLEAUS
 from manipcad.trajectories import quintic
 
 KP = np.array([-930.0, 950.0, -580.0, 320.0, 340.0, 320.0])
@@ -100,7 +101,8 @@ def test_armature_current_poly_is_the_exact_solution():
     assert phis(0.0) == (1.0, 1.0, 0.5, 1 / 6, 1 / 24)
 
 
-@pytest.mark.parametrize("integrator", ["adaptive", "adaptive-exact"])
+@pytest.mark.parametrize("integrator", ["adaptive", "adaptive-exact", "adaptive-bs32",
+                                        "adaptive-exact-bs32"])
 def test_puma_pd_matches_rk4_at_1e_5(puma, integrator):
     """PUMA 560, 6 drives with L, PD at 1 kHz: adaptive (rtol 1e-6, atol 1e-8, grid
     1e-4 s) within 1e-6 rad of RK4 at dt 1e-5 at every kept sample (1 kHz), the
@@ -266,3 +268,107 @@ def test_dry_friction_sticking_costs_at_most_steps_of_dt():
     s = res.settings
     assert s["steps"] <= 0.2 / 1e-4 + 200  # + the steps that land on a sample
     assert s["steps_at_dt_above_tolerance"] > 0
+
+
+@pytest.mark.parametrize("name", sorted(TABLEAUS))
+def test_pairs_satisfy_their_order_conditions(name):
+    """Each pair's propagated weights b satisfy the order conditions up to order p + 1,
+    its embedded weights b̂ = b − e up to order p and not p + 1 (the error estimate is of
+    order p + 1 in the step), c holds the row sums of a, and the last stage is the new
+    solution (first same as last: its row of a is b, its node 1)."""
+    tab = TABLEAUS[name]
+    a, b, c, p = tab.a, tab.b, tab.c, tab.p
+    bhat = b - tab.e
+    np.testing.assert_allclose(a.sum(axis=1), c, atol=1e-15)
+    np.testing.assert_allclose(a[-1], b, atol=0)
+    assert c[-1] == 1.0
+
+    def conditions(w, order):
+        """The residuals of the Butcher order conditions of orders 1..order (up to 5)."""
+        ac = a @ c
+        res = [w.sum() - 1, w @ c - 1 / 2, w @ c**2 - 1 / 3, w @ ac - 1 / 6,
+               w @ c**3 - 1 / 4, w @ (c * ac) - 1 / 8, w @ (a @ c**2) - 1 / 12,
+               w @ (a @ ac) - 1 / 24, w @ c**4 - 1 / 5, w @ (c**2 * ac) - 1 / 10,
+               w @ (c * (a @ c**2)) - 1 / 15, w @ (c * (a @ ac)) - 1 / 30,
+               w @ ac**2 - 1 / 20, w @ (a @ c**3) - 1 / 20, w @ (a @ (c * ac)) - 1 / 40,
+               w @ (a @ (a @ c**2)) - 1 / 60, w @ (a @ (a @ ac)) - 1 / 120]
+        return np.array(res[:{1: 1, 2: 2, 3: 4, 4: 8, 5: 17}[order]])
+
+    assert np.abs(conditions(b, p + 1)).max() < 1e-14
+    assert np.abs(conditions(bhat, p)).max() < 1e-14
+    assert np.abs(conditions(bhat, p + 1)).max() > 1e-4
+
+
+@pytest.fixture(scope="module")
+def ur5():
+    from pathlib import Path
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        return manipcad.load_robot(str(Path(__file__).resolve().parents[1] / "examples"
+                                       / "ur5" / "ur5_robot.urdf"))
+
+
+UR5_Q0 = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
+UR5_Q1 = np.array([0.5, -1.2, 0.6, -1.2, 0.4, 0.3])
+UR5_KP = np.array([400.0, 400.0, 300.0, 50.0, 50.0, 20.0])      # N·m/rad
+
+
+class _Hold:
+    """The reference: hold UR5_Q1."""
+
+    def sample(self, t):
+        z = np.zeros((len(t), 6))
+        return np.tile(UR5_Q1, (len(t), 1)), z, z.copy()
+
+
+@pytest.mark.parametrize("integrator", ["adaptive", "adaptive-bs32"])
+def test_rigid_ur5_pd_at_1khz_matches_rk4_at_1e_5(ur5, integrator):
+    """The rigid UR5 PD job of benchmarks/bench_simulator.py --part ur5 (torque PD at 1
+    kHz, no drives): both pairs within 1e-7 rad of RK4 at dt 1e-5 at every 1 ms sample,
+    one step per sample period (the period bounds the steps, not the tolerance): 1 + 6
+    right-hand sides per period with Dormand–Prince, 1 + 3 with Bogacki–Shampine."""
+    def run(**kw):
+        regs = [pid(j, kp=UR5_KP[j], kd=UR5_KP[j] / 10, period=1e-3) for j in range(6)]
+        return simulate(ur5, t_end=0.2, trajectory=_Hold(), q0=UR5_Q0, regulators=regs,
+                        drives=False, joint_limits="ignore", **kw)
+
+    ref = run(dt=1e-5, record_every=100)
+    ada = run(dt=1e-4, record_every=10, integrator=integrator)
+    np.testing.assert_allclose(ada.t, ref.t, atol=1e-15, rtol=0)
+    dq = np.abs(ada.q - ref.q).max()
+    assert 0.0 < dq <= 1e-7, dq
+    np.testing.assert_allclose(sample_instants(ada), sample_instants(ref), rtol=0,
+                               atol=1e-12)
+    s = ada.settings
+    # (the first period in 2-3 steps: the first step is 1e-4 s, growing at most 5x a step)
+    assert s["steps"] <= 203 and s["rejected"] == 0, s
+    per_period = {"adaptive": 7, "adaptive-bs32": 4}[integrator]
+    assert s["rhs_evaluations"] <= 200 * per_period + 3 * (per_period - 1), s
+
+
+@pytest.mark.parametrize("integrator, order", [("adaptive", 5), ("adaptive-bs32", 3)])
+def test_pairs_converge_with_the_tolerance_at_their_order(puma, integrator, order):
+    """The passive PUMA (no regulator: the steps set by the tolerance alone) falling
+    for 1 s: the error at the end against RK4 at dt 1e-5 falls in proportion to the
+    tolerance, and the steps grow as tol^(-1/order), the step control's exponent and the
+    order of its estimate (Dormand–Prince: a 4th-order estimate of a 5th-order step;
+    Bogacki–Shampine: 2nd of 3rd). Measured: DP54 90, 218, 544 steps and BS32 1007, 4684,
+    21755 at tol 1e-7, 1e-9, 1e-11; errors 8.8 and 13.7 times the tolerance."""
+    kw = dict(t_end=1.0, drives=False, q0=[0.0, 0.5, -0.5, 0.0, 0.3, 0.0],
+              joint_limits="ignore", record_every=100000)
+    ref = simulate(puma, dt=1e-5, **kw)
+    errors, steps = [], []
+    tols = (1e-7, 1e-9, 1e-11)
+    for tol in tols:
+        res = simulate(puma, dt=1e-5, integrator=integrator, rtol=tol, atol=tol, **kw)
+        assert res.t[-1] == 1.0
+        errors.append(np.abs(res.q[-1] - ref.q[-1]).max())
+        steps.append(res.settings["steps"])
+    for tol, err in zip(tols, errors, strict=True):
+        assert tol < err < 30 * tol, (tols, errors)
+    assert errors[0] / errors[1] > 50 and errors[1] / errors[2] > 50, errors
+    # 100x tighter: 100^(1/order) times the steps (DP54 2.51, BS32 4.64)
+    growth = [steps[1] / steps[0], steps[2] / steps[1]]
+    want = 100 ** (1 / order)
+    assert all(0.8 * want <= g <= 1.25 * want for g in growth), (growth, want, steps)

@@ -145,7 +145,10 @@ def simulate(
         "(error-controlled Dormand-Prince 5(4); steps never cross a regulator sample; --dt "
         "is then the sample/record grid and the smallest step) or adaptive-exact (the "
         "same with the armature currents solved exactly: no step limit from L/R, their "
-        "error controlled too; fastest on drive jobs with stiff currents).")] = "rk4",
+        "error controlled too; fastest on drive jobs with stiff currents); adaptive-bs32, "
+        "adaptive-exact-bs32: the same two with the Bogacki-Shampine 3(2) pair (3 "
+        "right-hand sides per step against 6: faster where the regulator's period bounds "
+        "the steps, slower at tight tolerances).")] = "rk4",
     rtol: Annotated[float | None, typer.Option(
         "--rtol", help="Adaptive integrator: relative tolerance of the local error "
         "(default 1e-6).")] = None,

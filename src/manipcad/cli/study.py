@@ -143,7 +143,8 @@ def pickup(
     methods: Annotated[str | None, typer.Option(
         "--methods", help="Comma-separated subset of ace_tf, ace_de, asvs, lqr_gs.")] = None,
     integrator: Annotated[str, typer.Option(
-        "--integrator", help="rk4, adaptive or adaptive-exact (error-controlled; the "
+        "--integrator", help="rk4, adaptive, adaptive-exact, adaptive-bs32 or "
+        "adaptive-exact-bs32 (error-controlled, see manipcad simulate --help; the "
         "pickup time then a multiple of the period).")] = "rk4",
 ) -> None:
     """Pickup study: an unknown payload gripped mid-trajectory, identified online; each

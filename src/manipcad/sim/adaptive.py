@@ -8,7 +8,10 @@ Here the step is set by the accuracy and by the regulators' sample instants:
   same dispatch) and their outputs U held in between (zero-order hold); no step
   crosses a sample instant (nor a step of dt where the disturbance changes);
 * the mechanics (q, q̇) are advanced by an explicit embedded Runge–Kutta pair,
-  Dormand–Prince 5(4) (or Bogacki–Shampine 3(2)), the local error of the lower
+  Dormand–Prince 5(4) (``integrator="adaptive"``, ``"adaptive-exact"``) or
+  Bogacki–Shampine 3(2) (``"adaptive-bs32"``, ``"adaptive-exact-bs32"``: 3
+  right-hand sides per step against 6, for steps the sample period bounds anyway),
+  one stepping code for any pair (:class:`Tableau`), the local error of the lower
   order kept below ``atol + rtol·|y|`` (RMS over q and q̇);
 * the armature currents: either in the pair with q, q̇ (``exact=False``,
   ``integrator="adaptive"``: the step then also bounded by the pair's stability,
@@ -47,6 +50,7 @@ import numpy as np
 from manipcad.analysis.realtime import components_one  # noqa: F401  (loaded with _signals)
 from manipcad.drives.dc import armature_current_phis, armature_current_poly, phis
 from manipcad.drives.params import KIND_RIGID, P_J, P_KIND, P_KM, P_L, P_R, P_RATIO
+from manipcad.sim.borrow import borrowed, keep
 from manipcad.sim.loop import (
     _rates,
     _torques,
@@ -209,6 +213,28 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
     and counted in ``stats[4]``, so the run is never slower than the pair at ``dt``.
     """
     n = plant.rtable.shape[0]
+    nx = work.x.shape[0]
+    S = tab.c.shape[0]
+    own = (np.empty((S, nx)), np.empty(nx), np.empty(nx), np.empty((1, nx)),
+           np.zeros((S, n, 5)), np.empty((0, 5)), scratch(n, nx))
+    # every array counts no reference inside the integration (:func:`borrowed`: the
+    # caller holds the arguments, ``own`` is kept to the end): handed to the functions
+    # called at every sample and step, they would count each, at every call
+    status = _integrate(borrowed(plant), borrowed(ctrl), borrowed(ref), borrowed(rec),
+                        borrowed(work), k0, K, dt, every, last, stop_at_limits, stride,
+                        hold, borrowed(tab), rtol, atol, borrowed(stats), exact,
+                        borrowed(own))
+    keep(own)
+    return status
+
+
+@nb.njit(cache=True)
+def _integrate(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits,
+               stride, hold, tab, rtol, atol, stats, exact, own):
+    """:func:`run_adaptive`'s integration, its work arrays in ``own``."""
+    Ks, xs, xr, Kd, ph, noph, sc = own
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = sc
+    n = plant.rtable.shape[0]
     x = work.x
     nx = x.shape[0]
     m = 2 * n
@@ -216,13 +242,6 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
     wait = work.wait
     R = ctrl.kind.shape[0]
     S = tab.c.shape[0]
-    Ks = np.empty((S, nx))
-    xs = np.empty(nx)
-    xr = np.empty(nx)
-    Kd = np.empty((1, nx))
-    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scratch(n, nx)
-    noph = np.empty((0, 5))
-    ph = np.zeros((S, n, 5))
     hph = -1.0
     expo = -1.0 / (tab.p + 1.0)
     hmin = dt * (1.0 + 1e-9)

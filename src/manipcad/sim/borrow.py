@@ -8,6 +8,14 @@ arrays outlive every view made of them, so the views need no count: :func:`row` 
 ``i`` of a C-contiguous 2-D array as a 1-D view with no owner (numba skips the count of a
 null owner) and :func:`address` the address of an array's data.
 
+A compiled function also counts a reference to every array of every argument when it
+is called (a tuple of arrays: each of them): passing the simulator's named structures
+(:class:`~manipcad.sim.loop.Plant` alone holds some twenty arrays) to the functions
+called at every sample and step cost the adaptive integrator some 40 % of its time on
+the UR5 job (``perf``: ``NRT_incref``/``NRT_decref`` 34 % of the whole process).
+:func:`borrowed` gives such a structure (an argument of the compiled call, which its
+caller keeps alive) with every array in it holding no reference.
+
 Example:
     >>> import numba as nb, numpy as np
     >>> from manipcad.sim.borrow import address, row
@@ -62,5 +70,53 @@ def address(typingctx, arr):
     def codegen(context, builder, signature, args):
         a = context.make_array(signature.args[0])(context, builder, args[0])
         return builder.ptrtoint(a.data, context.get_value_type(types.uintp))
+
+    return sig, codegen
+
+
+def _strip(context, builder, ty, val):
+    """``val`` of type ``ty`` with the owner (meminfo) of every array in it set to null."""
+    if isinstance(ty, types.Array):
+        a = context.make_array(ty)(context, builder, val)
+        a.meminfo = cgutils.get_null_value(a.meminfo.type)
+        return a._getvalue()
+    if isinstance(ty, types.BaseTuple):
+        out = val
+        for k, ety in enumerate(ty.types):
+            out = builder.insert_value(
+                out, _strip(context, builder, ety, builder.extract_value(val, k)), k)
+        return out
+    return val
+
+
+@intrinsic
+def borrowed(typingctx, obj):
+    """``obj`` (an array, or a tuple or named tuple of arrays and other values, nested)
+    with every array in it a view that holds no reference: passed on to other compiled
+    functions, its arrays cost no atomic count. The caller keeps ``obj`` alive while the
+    result is used (an argument of the running compiled call is)."""
+    if not isinstance(obj, types.Array | types.BaseTuple):
+        return None
+    sig = obj(obj)
+
+    def codegen(context, builder, signature, args):
+        out = _strip(context, builder, signature.args[0], args[0])
+        # the result is a new reference: the values left as they were (a structure
+        # reference, say) are counted once more, as the caller will release them
+        context.nrt.incref(builder, signature.return_type, out)
+        return out
+
+    return sig, codegen
+
+
+@intrinsic
+def keep(typingctx, obj):
+    """Nothing, but a use of ``obj``: numba releases a variable after its last use, so
+    ``keep(owner)`` after the last use of a :func:`borrowed` view of it keeps the owner
+    (and the view's data) alive until there."""
+    sig = types.none(obj)
+
+    def codegen(context, builder, signature, args):
+        return context.get_dummy_value()
 
     return sig, codegen

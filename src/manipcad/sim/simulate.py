@@ -58,7 +58,9 @@ class SimulationResult:
         current: (K, n) armature currents, A (nan without a drive model).
         tau: (K, n) joint torques from the drives (plus disturbance), N·m or N.
         metrics: per joint name: max and RMS error, overshoot, rise and
-            settling time (of a step), control effort, energy.
+            settling time (of a step), control effort, energy
+            (:func:`manipcad.sim.metrics.joint_metrics`; for a result of
+            :func:`simulate`, computed from its arrays when first read).
         robot: the robot's name; joint_names, joint_types: its joints ("revolute" in rad,
             "prismatic" in m; ``units`` maps each joint to its unit).
         settings: dt, t_end and the regulators' descriptions (and the pickup, the
@@ -117,6 +119,12 @@ class SimulationResult:
         return pd.DataFrame(dict(cols[1:]), index=pd.Index(np.asarray(cols[0][1]),
                                                            name="t [s]"))
 
+    def _lazy_metrics(self, drives: bool, dtable: np.ndarray, excess: dict) -> None:
+        """Compute :attr:`metrics` when first read (:func:`joint_metrics` with these
+        arguments, then each joint's ``limit_excess`` of ``excess``): most callers of
+        :func:`simulate` in a loop never read them."""
+        self.__dict__["_metrics_of"] = (drives, dtable, excess)
+
     def _repr_html_(self) -> str:
         """The per-joint metrics as an HTML table (Jupyter)."""
         from html import escape
@@ -135,6 +143,30 @@ class SimulationResult:
                 f"t = 0 … {t_end:.4g} s</p><table><thead><tr><th>joint</th><th>unit</th>"
                 "<th>max |e|</th><th>RMS e</th><th>effort RMS</th><th>energy J</th></tr>"
                 f"</thead><tbody>{rows}</tbody></table>")
+
+
+def _get_metrics(self) -> dict:
+    d = self.__dict__
+    of = d.pop("_metrics_of", None)
+    if of is not None:
+        drives, dtable, excess = of
+        m = joint_metrics(self, drives=drives, dtable=dtable)
+        for nm, v in excess.items():
+            m[nm]["limit_excess"] = v
+        d["_metrics"] = m
+    if "_metrics" not in d:  # unpickled from before the metrics were computed lazily
+        d["_metrics"] = d.pop("metrics", {})
+    return d["_metrics"]
+
+
+def _set_metrics(self, value: dict) -> None:
+    self.__dict__.pop("_metrics_of", None)
+    self.__dict__["_metrics"] = value
+
+
+# a property over the dataclass field (its __init__ assigns through the setter)
+SimulationResult.metrics = property(_get_metrics, _set_metrics,
+                                    doc="Per-joint metrics (see the class docstring).")
 
 
 def simulate(
@@ -167,10 +199,11 @@ def simulate(
     Each regulator is sampled at its own period (a multiple of ``dt``) and held
     between samples, as a digital controller runs it, so switching (sliding-mode)
     regulators are integrated as they run. Compiled integrators: ``"rk4"``,
-    fixed-step RK4 at ``dt`` (the reference), and the error-controlled
-    Dormand–Prince 5(4) of :mod:`manipcad.sim.adaptive` (``"adaptive"``,
-    ``"adaptive-exact"``) whose steps never cross a sample instant (the regulators
-    see the same sample times), kept samples at the same times k·dt as RK4.
+    fixed-step RK4 at ``dt`` (the reference), and the error-controlled pairs of
+    :mod:`manipcad.sim.adaptive`, Dormand–Prince 5(4) (``"adaptive"``,
+    ``"adaptive-exact"``) and Bogacki–Shampine 3(2) (``"adaptive-bs32"``,
+    ``"adaptive-exact-bs32"``), whose steps never cross a sample instant (the
+    regulators see the same sample times), kept samples at the same times k·dt as RK4.
 
     Args:
         robot: the manipulator (a drive per joint for ``drives=True``; joints
@@ -216,9 +249,13 @@ def simulate(
             one ``dt`` only sets the grid of the sample and record times and of a
             time-varying disturbance (held over each ``dt`` as RK4 holds it), and the
             smallest step: where the tolerance asks for less, e.g. a joint sticking in
-            dry friction, steps of ``dt`` are taken and counted in ``settings``. Elastic
-            gears and backlash
-            (``transmissions``) need "rk4".
+            dry friction, steps of ``dt`` are taken and counted in ``settings``.
+            "adaptive-bs32", "adaptive-exact-bs32": the same two with the
+            Bogacki–Shampine 3(2) pair (3 right-hand sides per step against 6, a
+            3rd-order solution against a 5th-order one): cheaper where the steps are
+            bounded by the sample period rather than by the tolerance (a rigid arm
+            with a 1 kHz regulator: see docs/performance.md), costlier at tight
+            tolerances. Elastic gears and backlash (``transmissions``) need "rk4".
         rtol: relative tolerance of the adaptive integrator's local error (-, in
             [1e-12, 0.1]; default 1e-6); only with an adaptive integrator.
         atol: absolute tolerance on q (rad or m) and q̇ (rad/s or m/s) (> 0; default
@@ -341,8 +378,7 @@ def simulate(
         status, step, joint, stats = _run_adaptive(plant, ctrl, rec, work, K, float(dt),
                                                    every, joint_limits, trajectory, x_q,
                                                    dist_of, _varies(disturbance), n,
-                                                   rtol, atol, progress,
-                                                   integrator == "adaptive-exact")
+                                                   rtol, atol, progress, *adaptive)
     else:
         status, step, joint = _run_rk4(plant, ctrl, rec, work, K, float(dt), every,
                                        joint_limits, trajectory, x_q, dist_of, n, progress)
@@ -382,15 +418,15 @@ def simulate(
         where = f"joint {robot.joint_names[joint]!r}" if joint >= 0 else "a drive state"
         raise SimulationDiverged(f"simulation diverged at t = {step * dt:.6g} s: {what} "
                                  f"at {where}", res)
-    res.metrics = joint_metrics(res, drives=bool(drives) and robot.has_drives, dtable=dtable)
     out = []
+    excesses = {}
     for j, nm in enumerate(robot.joint_names):
         if work.excess[j, 0] > 0.0:
-            excess = float(work.excess[j, 0] + tol[j])
-            res.metrics[nm]["limit_excess"] = excess
+            excess = excesses[nm] = float(work.excess[j, 0] + tol[j])
             out.append(f"{nm!r} by up to {excess:.3g} {unit[nm]} (first at "
                        f"t = {work.excess[j, 1]:.6g} s; limits [{limits[j, 0]:.6g}, "
                        f"{limits[j, 1]:.6g}])")
+    res._lazy_metrics(bool(drives) and robot.has_drives, dtable, excesses)
     if out:
         warnings.warn(f"{robot.name}: joints beyond their limits (not modelled as stops): "
                       + "; ".join(out), ManipcadWarning, stacklevel=2)
@@ -409,15 +445,22 @@ def simulate(
 
 
 
-#: the adaptive integrator's default tolerances: relative (-), absolute (rad, rad/s)
-INTEGRATORS = ("rk4", "adaptive", "adaptive-exact")
+#: the integrators by name: None for the fixed-step RK4, else (the embedded pair of
+#: :data:`manipcad.sim.adaptive.TABLEAUS`, the rigid drives' currents advanced exactly)
+INTEGRATORS = {"rk4": None,
+               "adaptive": ("dp54", False),
+               "adaptive-exact": ("dp54", True),
+               "adaptive-bs32": ("bs32", False),
+               "adaptive-exact-bs32": ("bs32", True)}
+#: the adaptive integrators' default tolerances: relative (-), absolute (rad, rad/s)
 RTOL = 1e-6
 ATOL = 1e-8
 
 
 def _integrator_options(integrator, rtol, atol):
-    """(adaptive?, rtol, atol) checked; one clear error naming the argument."""
-    if integrator not in INTEGRATORS:
+    """(None or (pair, exact) of :data:`INTEGRATORS`, rtol, atol) checked; one clear error
+    naming the argument."""
+    if not isinstance(integrator, str) or integrator not in INTEGRATORS:
         raise ManipcadError(f"integrator must be one of {', '.join(INTEGRATORS)}, got "
                             f"{integrator!r}")
     if integrator == "rk4":
@@ -425,7 +468,7 @@ def _integrator_options(integrator, rtol, atol):
             if v is not None:
                 raise ManipcadError(f"{name} applies to the adaptive integrators only "
                                     "(the fixed-step RK4's accuracy is set by dt)")
-        return False, None, None
+        return None, None, None
     rtol = RTOL if rtol is None else rtol
     atol = ATOL if atol is None else atol
     try:
@@ -438,7 +481,7 @@ def _integrator_options(integrator, rtol, atol):
     if not (atol > 0 and math.isfinite(atol)):
         raise ManipcadError(f"atol must be a finite number > 0 (rad, m, rad/s or m/s), "
                             f"got {atol}")
-    return True, rtol, atol
+    return INTEGRATORS[integrator], rtol, atol
 
 
 def _references(trajectory, x_q, t_rows, n):
@@ -477,7 +520,7 @@ def _varies(disturbance) -> bool:
 
 
 def _run_adaptive(plant, ctrl, rec, work, K, dt, every, joint_limits, trajectory, x_q,
-                  dist_of, varies, n, rtol, atol, progress, exact):
+                  dist_of, varies, n, rtol, atol, progress, pair, exact):
     """The adaptive run, chunk by chunk; (status, step, joint, counters).
 
     The reference is sampled only at the regulators' sample grid (the gcd of their
@@ -489,7 +532,7 @@ def _run_adaptive(plant, ctrl, rec, work, K, dt, every, joint_limits, trajectory
     if varies:
         stride, hold = 1, 1
     stats = np.zeros(STATS)
-    tab = TABLEAUS["dp54"]
+    tab = TABLEAUS[pair]
     chunk = CHUNK * stride
     status, step, joint = 0, 0, -1
     for k0 in range(0, K + 1, chunk):

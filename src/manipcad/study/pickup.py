@@ -146,9 +146,9 @@ def run_pickup(out_dir: str | Path, *, robot: Robot | str | None = None, mass: f
         forgetting: the estimator's forgetting factor λ (memory period/(1 − λ) s).
         methods: a subset of :data:`METHODS` (list or comma-separated string).
         seed: the current noise's seed.
-        integrator: the runs' integrator, "rk4", "adaptive" or "adaptive-exact"
-            (:func:`manipcad.simulate`; with an adaptive one ``t_pick`` must be a multiple
-            of ``period``).
+        integrator: the runs' integrator, "rk4" or an adaptive one ("adaptive",
+            "adaptive-exact", ... of :func:`manipcad.simulate`; with an adaptive one
+            ``t_pick`` must be a multiple of ``period``).
 
     Returns:
         :class:`PickupResult`.

@@ -294,6 +294,33 @@ def test_python_control_export_closes_the_same_loop(arm, method):
     np.testing.assert_allclose(res.q[:, 0], qs, atol=1e-9, rtol=0)
 
 
+def test_fixed_lqr_exports_as_a_static_gain(arm):
+    """The fixed-gain ``lqr`` is linear in its signals: a state-space system with no state
+    whose gains are the design's (U = D_e·(q* − q) + D_v·(q̇* − q̇) − D_i·i + feed-forward);
+    with the feed-forward at the current load (H_ii a signal) or a scheduled table
+    (``lqr_gs``) the law is not linear: a nonlinear I/O system."""
+    from manipcad.control.lqr import LQ_ADAPT
+
+    reg = synthesize(arm, "turn", "lqr", period=1e-3)
+    sysc = reg.to_control()
+    assert isinstance(sysc, ct.StateSpace) and sysc.nstates == 0 and sysc.dt == 1e-3
+    D = dict(zip(sysc.input_labels, np.ravel(sysc.D), strict=True))
+    De, Dv, Di = reg.design["gains"][:3]
+    assert D["q_ref"] == pytest.approx(De) and D["q"] == pytest.approx(-De)
+    assert D["q_dot"] == pytest.approx(-Dv) and D["i"] == pytest.approx(-Di)
+    # the feed-forward of J_q·q̈* through the current i* (the law's text writes it out)
+    d, H = arm.drives[arm.joint_index("turn")], reg.design["H_nominal"]
+    kf = (Di + d.R / d.k_u) / (d.k_m * d.ratio)
+    assert D["q_ddot_ref"] == pytest.approx(kf * (H + d.J * d.ratio ** 2))
+    p = reg.params.copy()
+    p[LQ_ADAPT] = 1.0
+    adapt = manipcad.Regulator(method="lqr", joints=reg.joints, period=1e-3, params=p,
+                               needs=reg.needs + ("H_ii",))
+    assert not isinstance(adapt.to_control(), ct.StateSpace)
+    gs = synthesize(arm, "turn", "lqr_gs", period=1e-3).to_control()
+    assert not isinstance(gs, ct.StateSpace)
+
+
 def test_sampled_loop_is_checked_at_the_period(arm):
     """The regulator as it runs, closed around its drive sampled at its period: a gain that
     is unstable at that period is refused, naming the stable period range."""

@@ -50,7 +50,7 @@ from manipcad.control.design import (
     joint_drive,
     packed,
 )
-from manipcad.control.export import nonlinear_system
+from manipcad.control.export import nonlinear_system, static_gain
 from manipcad.control.kernels import load_rates, table_lookup
 from manipcad.control.regulator import Method, Regulator, TableLayout, u_limit
 from manipcad.control.signals import (
@@ -658,6 +658,25 @@ def gain_table_entries(p: np.ndarray) -> range:
     return range(LQ_TAB, LQ_TAB + int(p[LQ_NH] * p[LQ_NV] * p[LQ_NG]))
 
 
+def export_lqr(reg: Regulator):
+    """``lqr`` in python-control: a static gain (:func:`static_gain`, the clip left out)
+    while its gains are fixed and its feed-forward at the design load, the law then linear
+    in its signals (q, q̇, i, q*, q̇*, q̈*, ... ); with the feed-forward at the current
+    load (``feedforward_at_current_load``) a discrete-time nonlinear I/O system.
+
+    Example:
+        >>> import manipcad
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> sys_ = manipcad.synthesize(arm, "turn", "lqr", period=1e-3).to_control()
+        >>> sys_.nstates, sys_.input_labels
+        (0, ['q_ref', 'q_dot_ref', 'q_ddot_ref', 'q', 'q_dot', 'i'])
+    """
+    p = reg.params
+    fixed = int(p[LQ_NH]) == 1 and int(p[LQ_NV]) == 1 and p[LQ_ADAPT] == 0.0
+    gain_sys = static_gain(reg, LQ_ULIM) if fixed else None
+    return nonlinear_system(reg) if gain_sys is None else gain_sys
+
+
 #: the LQR gain table's place in the regulator file and in the parameters
 GAIN_TABLE = TableLayout(to_file=gain_table_to_file, from_file=gain_table_from_file,
                          entries=gain_table_entries)
@@ -666,7 +685,7 @@ GAIN_TABLE = TableLayout(to_file=gain_table_to_file, from_file=gain_table_from_f
 LQR = Method(
     name="lqr", synthesize=synthesize_lqr, update=lqr_update, section="3.3 (7), fixed",
     summary="LQR gains at the nominal load (no scheduling), with feed-forward",
-    fields=FIELDS, table=GAIN_TABLE, export=nonlinear_system,
+    fields=FIELDS, table=GAIN_TABLE, export=export_lqr,
     linear=True)
 
 LQR_GS = Method(

@@ -40,6 +40,7 @@ from manipcad.drives.params import (
 from manipcad.drives.transmission import elastic_rhs
 from manipcad.errors import ModelError
 from manipcad.model.robot import Drive
+from manipcad.rk4 import rk4_stage, rk4_update
 
 
 @numba.njit(cache=True)
@@ -66,7 +67,7 @@ def standalone_rhs(x: np.ndarray, U: float, H_ii: float, h_i: float, tau_load: f
 @numba.njit(cache=True)
 def rk4_drive(x0: np.ndarray, u: np.ndarray, dt: float, H_ii: float, h_i: float,
               tau_load: float, p: np.ndarray) -> np.ndarray:
-    """Fixed-step RK4 of one drive; U held constant over each step.
+    """Fixed-step RK4 (:mod:`manipcad.rk4`) of one drive; U held constant over each step.
 
     Args:
         x0: initial state.
@@ -82,26 +83,15 @@ def rk4_drive(x0: np.ndarray, u: np.ndarray, dt: float, H_ii: float, h_i: float,
     nx = x0.shape[0]
     X = np.empty((n + 1, nx))
     X[0] = x0
-    k1 = np.empty(nx)
-    k2 = np.empty(nx)
-    k3 = np.empty(nx)
-    k4 = np.empty(nx)
+    K = np.empty((4, nx))
     xs = np.empty(nx)
     for s in range(n):
         x = X[s]
         U = u[s]
-        standalone_rhs(x, U, H_ii, h_i, tau_load, p, k1)
-        for j in range(nx):
-            xs[j] = x[j] + 0.5 * dt * k1[j]
-        standalone_rhs(xs, U, H_ii, h_i, tau_load, p, k2)
-        for j in range(nx):
-            xs[j] = x[j] + 0.5 * dt * k2[j]
-        standalone_rhs(xs, U, H_ii, h_i, tau_load, p, k3)
-        for j in range(nx):
-            xs[j] = x[j] + dt * k3[j]
-        standalone_rhs(xs, U, H_ii, h_i, tau_load, p, k4)
-        for j in range(nx):
-            X[s + 1, j] = x[j] + dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        for st in range(4):
+            rk4_stage(x, K, st, dt, xs)
+            standalone_rhs(xs, U, H_ii, h_i, tau_load, p, K[st])
+        rk4_update(x, K, dt, X[s + 1])
     return X
 
 

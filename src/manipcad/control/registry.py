@@ -77,7 +77,9 @@ def _dispatch_source() -> str:
         if (mod, fn) not in alias:
             alias[(mod, fn)] = f"_u{len(alias)}"
             lines.append(f"from {mod} import {fn} as {alias[(mod, fn)]}")
-    lines += ["", "", "@nb.njit(cache=True)",
+    # inlined (numba IR) where the simulator calls it: one call per regulator and sample
+    # otherwise passes every array's fields (about 50 words) on the stack
+    lines += ["", "", '@nb.njit(cache=True, inline="always")',
               "def regulator_update(kind, p, s, sig, H, joints, nj, Ts, U):",
               '    """One control period of a regulator of the given kind: writes U of its '
               'joints."""']
@@ -122,7 +124,7 @@ def dispatch():
         sys.modules[name] = mod
         spec.loader.exec_module(mod)
     except OSError:  # no writable cache: compile without a file cache
-        src_nc = src.replace("@nb.njit(cache=True)", "@nb.njit")
+        src_nc = src.replace("cache=True, ", "")
         mod = type(sys)(name)
         exec(compile(src_nc, name, "exec"), mod.__dict__)
         sys.modules[name] = mod

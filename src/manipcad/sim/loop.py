@@ -16,6 +16,13 @@ The compiled core takes four named structures (numba-typed namedtuples):
 - :class:`Reference`: the reference and disturbance rows of the steps being run;
 - :class:`Record`: the kept samples; and :class:`Work`, the state carried from one
   chunk of steps to the next (so memory follows the kept samples, not the steps).
+
+Speed (docs/performance.md, issue 14 session 5): :func:`run` makes every array it
+touches in the step loop one without an owner (:func:`manipcad.sim.borrow.borrowed`), and
+the functions called every step (sampling and signals, the regulators' dispatch,
+recording, divergence checks) are inlined into it (``inline="always"``, numba IR): a call
+of a compiled function passes every field of every array it takes (a 2-D array: nine
+words; the :class:`Plant` alone some twenty arrays) and counts a reference to each.
 """
 
 from __future__ import annotations
@@ -59,7 +66,7 @@ from manipcad.drives.params import (
 from manipcad.dynamics.aba import ABA_WORK, aba_state
 from manipcad.dynamics.crba import CRBA_WORK
 from manipcad.dynamics.rnea import RNEA_WORK
-from manipcad.sim.borrow import address, row
+from manipcad.sim.borrow import address, borrowed, keep, row
 
 #: divergence: joint speeds beyond this (rad/s or m/s) count as a runaway
 MAX_SPEED = 1.0e4
@@ -145,7 +152,7 @@ def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work, 
         K4[st, n + j] = qdd[j]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _current(dtable, off, x, m, U, qd, j):
     """Armature current of joint j's drive from the state x (drive states from index m)."""
     kind = int(dtable[j, P_KIND])
@@ -160,7 +167,7 @@ def _current(dtable, off, x, m, U, qd, j):
     return math.nan
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _signals(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp):
     """Fill the signal matrix (one row per joint) at step k (reference row kr)."""
     n = plant.rtable.shape[0]
@@ -203,7 +210,7 @@ def _signals(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp):
             sig[j, S_QI] = qg[j]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def write_record(plant, rec, row, t, x, U, tau):
     """Kept sample ``row``: time t s, q, q̇, U, armature currents (A) and torques tau."""
     n = plant.rtable.shape[0]
@@ -217,7 +224,7 @@ def write_record(plant, rec, row, t, x, U, tau):
         rec.tau[row, j] = tau[j]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def check_state(plant, work, x, xdot, t, stop_at_limits):
     """Divergence and joint limits at state x (rate xdot), time t s: (status, joint).
 
@@ -278,7 +285,7 @@ def _estimate_impl(est, sig, ctable, dt):
     return lambda est, sig, ctable, dt: estimator_update(est, sig, ctable, est.steps * dt)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait):
     """Sample the regulators due at step k (``wait[r] == 0``): fill the signal matrix once,
     run each due regulator through the registry's dispatch (its output held in U) and set
@@ -344,14 +351,17 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
     its limits.
     """
     n = plant.rtable.shape[0]
+    nx = work.x.shape[0]
+    own = (np.empty(nx), np.empty((4, nx)), scratch(n, nx))
+    # every array of the steps without an owner (borrow.borrowed): no atomic reference
+    # counts in the step loop; the caller holds the arguments, ``own`` is held to the end
+    plant, ctrl, ref, rec, work, bare = borrowed((plant, ctrl, ref, rec, work, own))
+    xs, K4, scr = bare
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scr
     x = work.x
-    nx = x.shape[0]
     U = work.U
     wait = work.wait
     R = ctrl.kind.shape[0]
-    xs = np.empty(nx)
-    K4 = np.empty((4, nx))
-    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scratch(n, nx)
     h2 = 0.5 * dt
     h6 = dt / 6.0
     kend = K + 1 if last else K
@@ -387,4 +397,5 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
                 return status, k, joint
         for j in range(nx):
             x[j] = x[j] + h6 * (K4[0, j] + 2.0 * K4[1, j] + 2.0 * K4[2, j] + K4[3, j])
+    keep(own)
     return 0, k0 + K, -1

@@ -63,7 +63,7 @@ class Friction:
 
 @dataclass
 class Check:
-    """Stop with the failure value unless ``name`` (a Cholesky pivot) is > 0."""
+    """Stop with the failure value unless ``name`` (a pivot of the factorization) is > 0."""
 
     name: str
     joint: int
@@ -266,7 +266,9 @@ def count_ops(source: str, function: str) -> dict[str, int]:
     Returns:
         ``{"mul": ..., "add": ..., "trig": ..., "sqrt": ...}`` (divisions count as
         multiplications, subtractions as additions; unary minus is not counted;
-        ``s, c = sincos(x)`` counts as the trigonometric values it gives, ``_`` not).
+        ``s, c = sincos(x)`` counts as the trigonometric values it gives, ``_`` not, and
+        so does each read ``s0 = TS[p]`` / ``c0 = TC[p]`` of the single-state kernels'
+        vectorized angle block (the unused entries of the block are not counted).
 
     Example:
         >>> count_ops("def f(a, b):\\n    return a*b - a/b + math.sin(a)\\n", "f")
@@ -304,6 +306,12 @@ def _count(nodes) -> dict[str, int]:
             # s, c = sincos(x): counted as the sin and the cos it gives that are used
             c["trig"] += sum(1 for t in node.targets[0].elts if t.id != "_")
             merge(_count(node.value.args))
+            continue
+        elif isinstance(node, ast.Assign) and isinstance(node.value, ast.Subscript) \
+                and isinstance(node.value.value, ast.Name) and node.value.value.id in ("TS",
+                                                                                    "TC"):
+            # s0 = TS[p]: a sine (cosine) of the single-state kernels' angle block
+            c["trig"] += 1
             continue
         elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
             if node.func.attr in ("sin", "cos"):

@@ -42,6 +42,9 @@ from manipcad.model.robot import Robot
 MAX_JOINTS = 20
 FUNCTIONS = ("inverse_dynamics", "mass_matrix", "moment_components", "forward_dynamics")
 _PREFIX_TOKEN = "@PREFIX@"
+#: the single-state kernels' angle block is padded to a multiple of this (4 float64: one
+#: AVX2 register; the vectorized loop then needs no scalar remainder)
+_BLOCK = 4
 _loaded: dict[str, object] = {}  # hash -> module
 
 
@@ -167,31 +170,73 @@ def _fd_stmts(d: Dynamics) -> list:
         if d.rotor[i] and H[i][i] == 0:
             raise ManipcadError("internal: a rotor on a joint that moves no mass")
     st.append(IfDrives(body))
-    # Cholesky H = L Lᵀ, then L y = tau - b, Lᵀ x = y; inv_j = 1/L_jj
-    L = [[se.Integer(0)] * n for _ in range(n)]
+    # H = L·D·Lᵀ (L unit lower triangular, D diagonal: the square-root-free Cholesky), then
+    # L·y = tau - b and D·Lᵀ·x = y; W_ij = L_ij·D_j, iv_j = 1/D_j. A simulator calls this
+    # once per stage and waits for the result, so the code is ordered for latency: each
+    # column's pivot waits for the previous one through one division (no square root),
+    # and every sum takes its terms in the order they become ready, the newest last, as
+    # its own statement (the printed expression's order is symengine's), so the chain from
+    # one pivot to the next is a multiplication, a subtraction and the division; the
+    # newest term of a pivot or of W is (W_ik·W_jk)·iv_k with W_ik·W_jk formed earlier.
+    L = [[None] * n for _ in range(n)]
+    W = [[None] * n for _ in range(n)]
     inv = [None] * n
+
+    def chain(name, first, terms):
+        """``name = first - t_1 - t_2 - ...``, in this order (terms: (a, b) for a·b)."""
+        if not terms:
+            if first == 0 or isinstance(first, se.Symbol):
+                return first
+            st.append(Let(name, first))
+            return se.Symbol(name)
+        if first == 0:  # no constant part: start from the first term
+            (a, b), terms = terms[0], terms[1:]
+            first = -(a * b)
+        st.append(Let(name, first, mutable=True))
+        for a, b in terms:
+            st.append(AddTo(name, -(a * b)))
+        return se.Symbol(name)
+
+    def products(i, j):
+        """The terms W_ik·L_jk (k < j) of entry (i, j), oldest first; the newest as
+        (W_ik·W_jk)·iv_k."""
+        ks = [k for k in range(j) if W[i][k] is not None and W[j][k] is not None]
+        terms = [(W[i][k], L[j][k]) for k in ks[:-1]]
+        if ks:
+            k = ks[-1]
+            st.append(Let(f"P{i}_{j}", W[i][k] * W[j][k]))
+            terms.append((se.Symbol(f"P{i}_{j}"), inv[k]))
+        return terms
+
     for j in range(n):
-        dj = H[j][j] - sum((L[j][k] ** 2 for k in range(j)), se.Integer(0))
-        st.append(Let(f"d{j}", dj))
+        dj = chain(f"d{j}", H[j][j], products(j, j))
+        if not isinstance(dj, se.Symbol) or str(dj) != f"d{j}":
+            st.append(Let(f"d{j}", dj))
         st.append(Check(f"d{j}", j))
-        st.append(Let(f"iv{j}", se.Pow(se.Symbol(f"d{j}"), se.Rational(-1, 2))))
+        st.append(Let(f"iv{j}", se.Pow(se.Symbol(f"d{j}"), se.Integer(-1))))
         inv[j] = se.Symbol(f"iv{j}")
         for i in range(j + 1, n):
-            e = (H[i][j] - sum((L[i][k] * L[j][k] for k in range(j)), se.Integer(0))) * inv[j]
-            if e != 0:
-                st.append(Let(f"L{i}_{j}", e))
-                L[i][j] = se.Symbol(f"L{i}_{j}")
+            w = chain(f"W{i}_{j}", H[i][j], products(i, j))
+            if w == 0:
+                continue
+            W[i][j] = w
+            st.append(Let(f"L{i}_{j}", w * inv[j]))
+            L[i][j] = se.Symbol(f"L{i}_{j}")
+    b = [se.Symbol(f"b{i}") for i in range(n)]
     tau = [se.Symbol(f"tau{i}") for i in range(n)]
     y = [None] * n
     for i in range(n):
-        e = (tau[i] - se.Symbol(f"b{i}")
-             - sum((L[i][k] * y[k] for k in range(i)), se.Integer(0))) * inv[i]
-        st.append(Let(f"y{i}", e))
+        st.append(Let(f"y{i}", tau[i] - b[i], mutable=True))
+        for k in range(i):
+            if L[i][k] is not None:
+                st.append(AddTo(f"y{i}", -(L[i][k] * y[k])))
         y[i] = se.Symbol(f"y{i}")
     x = [None] * n
     for i in range(n - 1, -1, -1):
-        e = (y[i] - sum((L[k][i] * x[k] for k in range(i + 1, n)), se.Integer(0))) * inv[i]
-        st.append(Let(f"sol{i}", e))
+        st.append(Let(f"sol{i}", y[i] * inv[i], mutable=True))
+        for k in range(n - 1, i, -1):  # the oldest solution first
+            if L[k][i] is not None:
+                st.append(AddTo(f"sol{i}", -(L[k][i] * x[k])))
         x[i] = se.Symbol(f"sol{i}")
         st.append(Store(("qdd", i), x[i]))
     return st
@@ -244,7 +289,21 @@ def _read_lines(func: str, d: Dynamics, stmts: list, lang: str, indent: str, bat
                     out.append(f"{indent}const double {name} = {arg}[{i}];")
                 else:
                     out.append(f"{indent}{name} = {src}")
-    for p, ((j, off), ks) in enumerate(_trig_pairs(d, used).items()):
+    pairs = _trig_pairs(d, used)
+    if lang == "python" and not batch and pairs:
+        # one state's angles in a block of a multiple of 4 on the stack, sin and cos of
+        # all of them in one vectorized loop (trig.sincos_block); unused slots are 0
+        size = -(-len(pairs) // _BLOCK) * _BLOCK
+        out += [f"{indent}T{w} = stack_vector({size})" for w in "XSC"]
+        for p, (j, off) in enumerate(pairs):
+            arg = f"q{j}" if off == 0.0 else f"q{j} + {emit._num(off)}"
+            out.append(f"{indent}TX[{p}] = {arg}")
+        out += [f"{indent}TX[{p}] = 0.0" for p in range(len(pairs), size)]
+        out.append(f"{indent}sincos_block(TX, TS, TC)")
+        for p, ks in enumerate(pairs.values()):
+            out += [f"{indent}{ks[w]} = T{w[0].upper()}[{p}]" for w in ("sin", "cos") if w in ks]
+        return out
+    for p, ((j, off), ks) in enumerate(pairs.items()):
         arg = f"q{j}" if off == 0.0 else f"q{j} + {emit._num(off)}"
         sn, cn = str(ks.get("sin", "_")), str(ks.get("cos", "_"))
         if lang == "c":
@@ -254,8 +313,6 @@ def _read_lines(func: str, d: Dynamics, stmts: list, lang: str, indent: str, bat
         elif batch:  # from the vectorized pass before the loop (_trig_pass)
             out += [f"{indent}{x} = T{w}[{p} * NB + k]" for x, w in ((sn, "S"), (cn, "C"))
                     if x != "_"]
-        else:
-            out.append(f"{indent}{sn}, {cn} = sincos({arg})")
     return out
 
 
@@ -348,8 +405,8 @@ def _python_source(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> st
         "from numba import carray",
         "",
         "import numpy as np",
-        "from manipcad.codegen.cabi import f64_ptr",
-        "from manipcad.codegen.trig import sincos, sincos_many",
+        "from manipcad.codegen.cabi import f64_ptr, stack_vector",
+        "from manipcad.codegen.trig import sincos_block, sincos_many",
         "",
         f"N = {n}",
         f'ROBOT_HASH = "{digest}"',
@@ -406,8 +463,8 @@ _C_DOCS = {
     "moment_components": "The moment components of paper 4.1: H_ii[n] (links only), h[n] "
                          "(velocity constituent,\n   N·m or N) and Qg[n] (gravity constituent).",
     "forward_dynamics": "Joint accelerations qdd[n] (rad/s² or m/s²) under torques tau[n], "
-                        "drive terms included\n   (mass matrix and Cholesky). Returns -1, or "
-                        "the joint index where H is not positive definite.",
+                        "drive terms included\n   (mass matrix and L·D·Lᵀ factorization). Returns "
+                        "-1, or the joint index where H is not positive definite.",
 }
 
 
@@ -836,7 +893,8 @@ class GeneratedDynamics:
         """Joint accelerations (rad/s² or m/s²) under torques tau (N·m or N).
 
         The generated mass matrix and bias (inverse dynamics at q̈ = 0) with an
-        unrolled Cholesky factorization; the same as :func:`manipcad.forward_dynamics`.
+        unrolled L·D·Lᵀ factorization (the square-root-free Cholesky); the same as
+        :func:`manipcad.forward_dynamics`.
 
         Args:
             q, qd, tau: (n,) or (N, n).

@@ -91,6 +91,42 @@ def sincos_many(X, S, C):
             C[i] = math.cos(x)
 
 
+@nb.njit(cache=True, inline="always")
+def sincos_block(X, S, C):
+    """:func:`sincos_many` inlined (numba IR) into the caller: for the few angles of ONE
+    state in a small fixed-size block (the generated single-state kernels put a joint's
+    angles, padded to a multiple of 4, in :func:`manipcad.codegen.cabi.stack_vector`
+    buffers), so the loop's trip count is a constant and LLVM vectorizes it with no
+    remainder. The same numbers as :func:`sincos` and :func:`sincos_many`.
+
+    Example:
+        >>> import numba as nb
+        >>> from manipcad.codegen.cabi import stack_vector
+        >>> from manipcad.codegen.trig import sincos, sincos_block
+        >>> @nb.njit
+        ... def f(a, b):
+        ...     X, S, C = stack_vector(4), stack_vector(4), stack_vector(4)
+        ...     X[0], X[1], X[2], X[3] = a, b, 0.0, 0.0
+        ...     sincos_block(X, S, C)
+        ...     return S[1], C[1]
+        >>> f(0.3, 2.5) == sincos(2.5)
+        True
+    """
+    for i in range(X.shape[0]):
+        s, c = _reduced(X[i])
+        S[i] = s
+        C[i] = c
+    ok = True
+    for i in range(X.shape[0]):
+        ok = ok & (abs(X[i]) <= LIMIT)  # false for NaN too
+    if not ok:
+        for i in range(X.shape[0]):
+            x = X[i]
+            if not (x <= LIMIT and x >= -LIMIT):
+                S[i] = math.sin(x)
+                C[i] = math.cos(x)
+
+
 def _lit(v: float) -> str:
     return repr(float(v))
 

@@ -284,6 +284,29 @@ def test_metrics_computed_when_first_read_are_the_runs():
     assert res.metrics == {"waist": {}}
 
 
+def test_reference_of_the_result_is_the_trajectory_at_the_kept_times():
+    """q_ref and q̇_ref are the trajectory sampled at the kept times, whether the loop's own
+    rows serve (one chunk, every step kept) or they are sampled again (every 3rd step
+    kept; a run cut short by divergence)."""
+    from manipcad.trajectories import quintic
+
+    robot = puma_without_dry_friction()
+    regs = load_regulators(EXAMPLES / "pid_puma.yaml", robot, dt=1e-4)
+    traj = quintic(np.zeros(6), [0.1, 0.2, 0.0, 0.0, 0.0, 0.0], 0.1)
+    for every in (1, 3):
+        res = simulate(robot, t_end=0.05, dt=1e-4, trajectory=traj, regulators=regs,
+                       record_every=every)
+        q, qd, _ = traj.sample(res.t)
+        assert len(res.t) == 500 // every + 1
+        assert np.array_equal(res.q_ref, q) and np.array_equal(res.qd_ref, qd)
+    bad = [pid("elbow", kp=-1e6, kd=-1e4, period=1e-3)]  # absurd negative gains
+    with pytest.raises(SimulationDiverged) as err:
+        simulate(puma(), t_end=2.0, dt=1e-4, trajectory=traj, regulators=bad, drives=False)
+    part = err.value.result
+    assert 0 < len(part.t) < 20001
+    assert np.array_equal(part.q_ref, traj.sample(part.t)[0])
+
+
 # ------------------------------------------------------------------ divergence
 def test_divergent_simulation_names_time_and_joint():
     robot = puma()

@@ -66,6 +66,7 @@ from manipcad.drives.params import (
 from manipcad.dynamics.aba import ABA_WORK, aba_state
 from manipcad.dynamics.crba import CRBA_WORK
 from manipcad.dynamics.rnea import RNEA_WORK
+from manipcad.rk4 import rk4_stage, rk4_update
 from manipcad.sim.borrow import address, borrowed, keep, row
 
 #: divergence: joint speeds beyond this (rad/s or m/s) count as a runaway
@@ -362,25 +363,16 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
     U = work.U
     wait = work.wait
     R = ctrl.kind.shape[0]
-    h2 = 0.5 * dt
-    h6 = dt / 6.0
     kend = K + 1 if last else K
     for kr in range(kend):
         k = k0 + kr
         sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait)
         for r in range(R):
             wait[r] -= 1
-        # the four RK4 stages with U held and the disturbance at the step's start
+        # the four RK4 stages (manipcad.rk4) with U held and the disturbance at the
+        # step's start
         for st in range(4):
-            if st == 0:
-                for j in range(nx):
-                    xs[j] = x[j]
-            elif st == 3:
-                for j in range(nx):
-                    xs[j] = x[j] + dt * K4[2, j]
-            else:
-                for j in range(nx):
-                    xs[j] = x[j] + h2 * K4[st - 1, j]
+            rk4_stage(x, K4, st, dt, xs)
             _rates(xs, U, row(ref.dist, kr), n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext,
                    awork, tmp)
             if st != 0:
@@ -395,7 +387,6 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
             status, joint = check_state(plant, work, x, row(K4, 0), k * dt, stop_at_limits)
             if status:
                 return status, k, joint
-        for j in range(nx):
-            x[j] = x[j] + h6 * (K4[0, j] + 2.0 * K4[1, j] + 2.0 * K4[2, j] + K4[3, j])
+        rk4_update(x, K4, dt, x)
     keep(own)
     return 0, k0 + K, -1

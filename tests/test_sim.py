@@ -307,6 +307,28 @@ def test_reference_of_the_result_is_the_trajectory_at_the_kept_times():
     assert np.array_equal(part.q_ref, traj.sample(part.t)[0])
 
 
+def test_reference_beyond_the_limits_warns_with_joint_excess_and_time():
+    """A reference that leaves a joint's limits is named with how far and when first;
+    one that touches a limit within the rounding tolerance (a millionth of the range) is
+    not."""
+    from manipcad.trajectories import quintic
+
+    robot = puma_without_dry_friction()
+    regs = load_regulators(EXAMPLES / "pid_puma.yaml", robot, dt=1e-4)
+    lim = np.array([[-3.0, 3.0]] * 6)
+    lim[1] = [-1.0, 0.15]   # the shoulder's reference ends 0.05 rad beyond
+    lim[0] = [-1.0, 0.1 - 1e-7]  # the waist's ends 1e-7 rad beyond: within the tolerance
+    arm = robot.replace(limits=lim)
+    traj = quintic(np.zeros(6), [0.1, 0.2, 0.0, 0.0, 0.0, 0.0], 0.05)
+    with pytest.warns(ManipcadWarning, match="the reference leaves the joint limits") as rec:
+        simulate(arm, t_end=0.06, dt=1e-4, trajectory=traj, regulators=regs)
+    msg = next(str(w.message) for w in rec if "the reference leaves" in str(w.message))
+    assert "'shoulder' by up to 0.05 rad" in msg and "'waist'" not in msg
+    t_first = float(msg.split("first at t = ")[1].split(" s")[0])
+    q = traj.sample(np.arange(601) * 1e-4)[0][:, 1]
+    assert t_first == pytest.approx(np.argmax(q - 0.15 > 1e-6 * 1.15) * 1e-4)
+
+
 # ------------------------------------------------------------------ divergence
 def test_divergent_simulation_names_time_and_joint():
     robot = puma()

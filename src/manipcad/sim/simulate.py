@@ -437,9 +437,15 @@ def simulate(
         warnings.warn(f"{robot.name}: joints beyond their limits (not modelled as stops): "
                       + "; ".join(out), ManipcadWarning, stacklevel=2)
     if trajectory is not None and joint_limits != "ignore" and len(res.t):
-        ex = np.maximum(limits[:, 0] - res.q_ref, res.q_ref - limits[:, 1]) - tol
-        bad = [j for j in range(n) if ex[:, j].max() > 0.0]
+        # a joint's reference leaves its limits iff its smallest or largest value does
+        # (the differences round monotonically): two reductions per column, the (K, n)
+        # excursions only for a joint that leaves (0.5 ms of a 1 s run at dt 1e-4 before)
+        qr = res.q_ref
+        bad = [j for j in range(n)
+               if max(limits[j, 0] - qr[:, j].min(), qr[:, j].max() - limits[j, 1]) - tol[j]
+               > 0.0]
         if bad:
+            ex = np.maximum(limits[:, 0] - qr, qr - limits[:, 1]) - tol
             warnings.warn(
                 f"{robot.name}: the reference leaves the joint limits: " + "; ".join(
                     f"{robot.joint_names[j]!r} by up to {ex[:, j].max() + tol[j]:.3g} "

@@ -20,10 +20,15 @@ What is timed (``time.perf_counter``, wall clock, per state):
   generated kernel and the general ABA kernel in a batch of N states, per
   state; and a compiled loop calling the generated C-ABI kernel
   (``gen.cfunc``, passed as an argument) against the same loop with the
-  general ``aba_state`` inlined, as the simulator's right-hand side does;
+  general ``aba_state`` inlined, as the simulator's right-hand side does; and
+  the closed loop's whole right-hand side as the simulator evaluates it
+  (``sim/loop.py`` ``_rates``: the drives' equations, then the forward dynamics),
+  generated and general, on states with random currents and amplifier inputs;
 * the closed loop of ``benchmarks/bench_simulator.py`` (PUMA 560, drives with
   inductance, PD, dt = 1e-4 s, RK4, 1 s): ``simulate`` with
-  ``use_generated=True`` and ``False``, wall time and real-time factor;
+  ``use_generated=True`` and ``False``, wall time and real-time factor; and,
+  labelled as variants (not the benchmark's job), the generated run with the PD
+  sampled every 1 ms, and that with only every 10th step kept (``record_every``);
 * generation: ``generate`` of a 7-joint arm (the xArm7 URDF) into an empty
   cache (symbolic work, cse and printing), then the first numba compile of
   its inverse dynamics kernel, then a second ``generate`` (cache hit).
@@ -54,6 +59,8 @@ import manipcad
 from manipcad.codegen import generate
 from manipcad.dynamics.aba import ABA_WORK, aba_state
 from manipcad.errors import ManipcadWarning
+from manipcad.sim.borrow import address, borrowed, keep, row
+from manipcad.sim.loop import Plant, _rates, scratch
 
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_dynamics import ur5_urdf  # noqa: E402  (the one locator of the data set)
@@ -91,6 +98,18 @@ def loop_cfunc(f, Q, QD, T, OUT):
 
 
 @numba.njit(cache=True)
+def chain_cfunc(f, q, qd, tau, N):
+    """N calls of a generated C-ABI forward dynamics, each waiting for the previous one's
+    accelerations (q += 1e-12·q̈ between them), as RK4's stages wait: the call's latency."""
+    n = q.shape[0]
+    qdd = np.empty(n)
+    for _ in range(N):
+        f(address(q), address(qd), address(tau), address(qdd))
+        for j in range(n):
+            q[j] += 1e-12 * qdd[j]
+
+
+@numba.njit(cache=True)
 def loop_aba(table, g, Q, QD, T, OUT):
     """The same loop with the general ABA inlined (what sim/loop.py does today)."""
     n = Q.shape[1]
@@ -104,6 +123,44 @@ def loop_aba(table, g, Q, QD, T, OUT):
         aba_state(table, g, q, qd, tau, fext, False, True, work, tmp, qdd)
         for j in range(n):
             OUT[k, j] = qdd[j]
+
+
+@numba.njit(cache=True)
+def loop_rates(plant, X, U, D, OUT):
+    """The closed loop's whole right-hand side per state, as the simulator evaluates it:
+    ``sim/loop.py`` ``_rates`` (the drives' equations, then the forward dynamics)."""
+    n = plant.rtable.shape[0]
+    nx = X.shape[1]
+    own = (np.empty((4, nx)), scratch(n, nx))
+    # as in sim/loop.py run: the arrays without owners (no reference counts per state)
+    plant, bare = borrowed((plant, own))
+    K4, scr = bare
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scr
+    for k in range(X.shape[0]):
+        _rates(row(X, k), row(U, k), row(D, k), n, plant, q, qd, xd, dxd, tau, qdd, K4, 0,
+               fext, awork, tmp)
+        for j in range(nx):
+            OUT[k, j] = K4[0, j]
+    keep(own)
+
+
+def closed_loop_plant(robot, use_generated: bool):
+    """The simulator's :class:`~manipcad.sim.loop.Plant` of the benchmark's closed loop
+    (rigid drives with inductance, the drive terms in the body table), as ``simulate``
+    builds it."""
+    from manipcad.codegen import simulation_kernels
+    from manipcad.drives.params import joint_referred_terms, pack_drives, state_offsets
+    from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR
+    from manipcad.sim.pickup import no_pickup
+
+    dtable = pack_drives(robot.drives, None, order=3)
+    rtable = np.array(robot.table)
+    rtable[:, [COL_JR, COL_BV, COL_FCP, COL_FCN]] = joint_referred_terms(dtable)
+    gen = simulation_kernels(robot, rtable, use_generated=use_generated)
+    assert gen[0] == use_generated
+    limits = np.tile([-np.inf, np.inf], (robot.n, 1))
+    return Plant(rtable, np.array(robot.table), np.asarray(robot.gravity, float), dtable,
+                 state_offsets(dtable), True, False, limits, *gen, no_pickup())
 
 
 def per_state(fn, *args, **kwargs):
@@ -171,13 +228,26 @@ def bench_rhs(rounds: int, rng) -> dict:
     out = np.empty_like(Q)
     kf = gen.kernel("forward_dynamics_batch")
     cf = gen.cfunc("forward_dynamics")
-    cases = {"generated forward (chol), batch kernel": per_state(kf, Q, QD, T, True, out),
+    # the whole right-hand side (drives + dynamics) as the simulator evaluates it
+    X = np.concatenate([Q, QD, rng.uniform(-2.0, 2.0, (N_BATCH, n))], axis=1)
+    UU = rng.uniform(-10.0, 10.0, (N_BATCH, n))
+    DD = np.zeros((N_BATCH, n))
+    XD = np.empty_like(X)
+    pg, pl = closed_loop_plant(robot, True), closed_loop_plant(robot, False)
+    cases = {"generated forward (H + bias + L·D·Lᵀ), batch kernel": per_state(
+                 kf, Q, QD, T, True, out),
              "general forward (aba), batch kernel": per_state(
                  manipcad.forward_dynamics, robot, Q, QD, T, use_generated=False),
              "generated forward, C-ABI call in a compiled loop": per_state(
                  loop_cfunc, cf, Q, QD, T, out),
              "general aba_state inlined in a compiled loop": per_state(
-                 loop_aba, robot.table, robot.gravity, Q, QD, T, out)}
+                 loop_aba, robot.table, robot.gravity, Q, QD, T, out),
+             "generated forward, C-ABI call, each call waiting for the previous one":
+                 per_state(chain_cfunc, cf, Q[0].copy(), QD[0], T[0], N_BATCH),
+             "whole right-hand side (sim/loop.py _rates: drives + dynamics), generated":
+                 per_state(loop_rates, pg, X, UU, DD, XD),
+             "whole right-hand side (sim/loop.py _rates: drives + dynamics), general":
+                 per_state(loop_rates, pl, X, UU, DD, XD)}
     for f in cases.values():
         f()
     return {"robot": "puma560 with drives", "n": n, "times": interleave(cases, rounds, rng)}
@@ -201,19 +271,26 @@ def bench_simulator(rounds: int, rng) -> dict:
     traj = quintic(Q_START, Q_END, 1.0)
     regs = [pid(j, kp=KP[j], kd=KD[j], kff=KFF[j], u_limit=U_LIMIT, period=DT)
             for j in range(robot.n)]
+    regs_1ms = [pid(j, kp=KP[j], kd=KD[j], kff=KFF[j], u_limit=U_LIMIT, period=10 * DT)
+                for j in range(robot.n)]
     used = {}
 
-    def case(use):
+    def case(use, regulators=regs, every=1):
         def run() -> float:
             t = time.perf_counter()
-            res = simulate(robot, t_end=1.0, dt=DT, trajectory=traj, regulators=regs,
-                           use_generated=use)
-            used[use] = (res.settings["generated"], res.q[-1])
+            res = simulate(robot, t_end=1.0, dt=DT, trajectory=traj, regulators=regulators,
+                           use_generated=use, record_every=every)
+            if regulators is regs and every == 1:
+                used[use] = (res.settings["generated"], res.q[-1])
             return time.perf_counter() - t
         return run
 
+    # the benchmark's job (the first two rows), and two variants of it, labelled: the
+    # PD sampled every 1 ms instead of every step, and also only every 10th step kept
     cases = {"simulate, generated kernels": case(True),
-             "simulate, general kernels": case(False)}
+             "simulate, general kernels": case(False),
+             "(variant) generated, the PD sampled every 1 ms": case(True, regs_1ms),
+             "(variant) generated, PD every 1 ms, record_every=10": case(True, regs_1ms, 10)}
     for f in cases.values():
         f()
     times = interleave(cases, rounds, rng)

@@ -498,3 +498,27 @@ def test_constructor_errors_name_the_field(call, field):
     with pytest.raises(InputError) as info:
         call()
     assert info.value.field == field
+
+
+def test_point_to_point_rows_compiled_are_the_broadcast_numbers():
+    """A long sample (>= 64 times, compiled rows) equals numpy's broadcast of the same
+    formula bit for bit: q = q_start + s·D, q̇ = ṡ·D, q̈ = s̈·D (quintic and trapezoid)."""
+    from manipcad.trajectories import quintic, trapezoidal
+
+    rng = np.random.default_rng(5)
+    for traj in (quintic(rng.uniform(-2, 2, 7), rng.uniform(-2, 2, 7), 0.8),
+                 trapezoidal(rng.uniform(-2, 2, 3), rng.uniform(-2, 2, 3), v_max=2.0,
+                             a_max=5.0)):
+        t = np.sort(rng.uniform(0.0, 1.2 * traj.duration, 500))
+        q, qd, qdd = traj.sample(t)
+        s, sd, sdd = traj._profile(np.minimum(t, traj.duration))
+        D = traj.q_end - traj.q_start
+        held = t > traj.duration
+        want = (traj.q_start + s[:, None] * D, sd[:, None] * D, sdd[:, None] * D)
+        want[1][held] = 0.0
+        want[2][held] = 0.0
+        for got, w in zip((q, qd, qdd), want, strict=True):
+            assert got.shape == (500, traj.n) and got.flags.c_contiguous
+            assert np.array_equal(got, w)
+        short = traj.sample(t[:10])
+        assert all(np.array_equal(a, b[:10]) for a, b in zip(short, (q, qd, qdd), strict=True))

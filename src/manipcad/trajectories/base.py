@@ -13,6 +13,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import Any
 
+import numba as nb
 import numpy as np
 
 from manipcad.errors import InputError
@@ -131,7 +132,24 @@ class PointToPoint(Trajectory):
     def _evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         s, sd, sdd = self._profile(t)
         D = self.q_end - self.q_start
-        return (self.q_start + s[:, None] * D, sd[:, None] * D, sdd[:, None] * D)
+        if len(t) < 64:
+            return (self.q_start + s[:, None] * D, sd[:, None] * D, sdd[:, None] * D)
+        # numpy broadcasts (K, 1) against (n,) with an inner loop of n: about 0.2 ms per
+        # product for the 10,001 rows of a 1 s simulation at 1e-4 s; the same products
+        # and sums compiled (the same numbers)
+        out = tuple(np.empty((len(t), len(D))) for _ in range(3))
+        _along(np.ascontiguousarray(self.q_start, dtype=float), s, sd, sdd, D, *out)
+        return out
+
+
+@nb.njit(cache=True)
+def _along(q0, s, sd, sdd, D, Q, QD, QDD):
+    """Q = q0 + s·D, QD = sd·D, QDD = sdd·D row by row (s, sd, sdd (K,); q0, D (n,))."""
+    for k in range(s.shape[0]):
+        for j in range(D.shape[0]):
+            Q[k, j] = q0[j] + s[k] * D[j]
+            QD[k, j] = sd[k] * D[j]
+            QDD[k, j] = sdd[k] * D[j]
 
 
 # ------------------------------------------------------------------ argument checks

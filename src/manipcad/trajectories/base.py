@@ -131,14 +131,15 @@ class PointToPoint(Trajectory):
 
     def _evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         s, sd, sdd = self._profile(t)
-        D = self.q_end - self.q_start
-        if len(t) < 64:
-            return (self.q_start + s[:, None] * D, sd[:, None] * D, sdd[:, None] * D)
-        # numpy broadcasts (K, 1) against (n,) with an inner loop of n: about 0.2 ms per
-        # product for the 10,001 rows of a 1 s simulation at 1e-4 s; the same products
-        # and sums compiled (the same numbers)
+        q0 = np.ascontiguousarray(self.q_start, dtype=float)
+        D = np.ascontiguousarray(self.q_end - q0)
+        # compiled rather than numpy's broadcast of (K, 1) against (n,), whose inner loop
+        # is n long: the same numbers, 2.0 against 3.6 µs for one row, 12.7 against
+        # 49.8 µs for 1,000 (about 0.2 ms per product for the 10,001 rows of a 1 s
+        # simulation at 1e-4 s)
         out = tuple(np.empty((len(t), len(D))) for _ in range(3))
-        _along(np.ascontiguousarray(self.q_start, dtype=float), s, sd, sdd, D, *out)
+        _along(q0, np.ascontiguousarray(s, dtype=float), np.ascontiguousarray(sd, dtype=float),
+               np.ascontiguousarray(sdd, dtype=float), D, *out)
         return out
 
 

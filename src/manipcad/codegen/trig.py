@@ -76,28 +76,14 @@ def sincos(x):
     return _reduced(x)
 
 
-@nb.njit(cache=True)
-def sincos_many(X, S, C):
-    """S[i], C[i] = sin X[i], cos X[i] for float64 vectors (rad): a vectorized loop, then
-    libm for the entries beyond 1e5 rad or not finite. The same numbers as :func:`sincos`."""
-    for i in range(X.shape[0]):
-        s, c = _reduced(X[i])
-        S[i] = s
-        C[i] = c
-    for i in range(X.shape[0]):
-        x = X[i]
-        if not (x <= LIMIT and x >= -LIMIT):
-            S[i] = math.sin(x)
-            C[i] = math.cos(x)
-
-
 @nb.njit(cache=True, inline="always")
 def sincos_block(X, S, C):
-    """:func:`sincos_many` inlined (numba IR) into the caller: for the few angles of ONE
-    state in a small fixed-size block (the generated single-state kernels put a joint's
-    angles, padded to a multiple of 4, in :func:`manipcad.codegen.cabi.stack_vector`
-    buffers), so the loop's trip count is a constant and LLVM vectorizes it with no
-    remainder. The same numbers as :func:`sincos` and :func:`sincos_many`.
+    """S[i], C[i] = sin X[i], cos X[i], inlined (numba IR) into the caller; also the body
+    of :func:`sincos_many`. For the few angles of ONE state in a small fixed-size block
+    (the generated single-state kernels put a joint's angles, padded to a multiple of 4,
+    in :func:`manipcad.codegen.cabi.stack_vector` buffers), the loop's trip count is a
+    constant and LLVM vectorizes it with no remainder. The same numbers as
+    :func:`sincos`.
 
     Example:
         >>> import numba as nb
@@ -125,6 +111,14 @@ def sincos_block(X, S, C):
             if not (x <= LIMIT and x >= -LIMIT):
                 S[i] = math.sin(x)
                 C[i] = math.cos(x)
+
+
+@nb.njit(cache=True)
+def sincos_many(X, S, C):
+    """S[i], C[i] = sin X[i], cos X[i] for float64 vectors (rad): a vectorized loop, then
+    libm for the entries beyond 1e5 rad or not finite. The same numbers as :func:`sincos`
+    (the loop is :func:`sincos_block`'s, compiled here as a function of its own)."""
+    sincos_block(X, S, C)
 
 
 def _lit(v: float) -> str:

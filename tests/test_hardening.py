@@ -482,14 +482,13 @@ def test_kill_during_folder_write(tmp_path, sig):
         ready.clear()
         time.sleep(rng.uniform(0.0, 0.03))
         os.kill(p.pid, getattr(signal, sig))
-        p.join(30)
-        if p.exitcode is None:
-            from test_store import _signal_state
+        from killing import wait_dead
 
-            state = _signal_state(p.pid)
+        reason = wait_dead(p.pid, lambda p=p: p.join(0.01) or p.exitcode is not None, 30.0)
+        if reason is not None:
             p.kill()
             p.join()
-            pytest.fail(f"the writer survived its {sig} for 30 s ({state})")
+            pytest.fail(f"the writer {reason} ({sig})")
         files = sorted(out.iterdir())
         assert [f.name for f in files] == ["fig3.json", "fig3.png", "report.html"]
         texts = {f.read_text() for f in files}

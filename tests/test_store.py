@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from killing import wait_dead
 
 from manipcad.errors import InputError
 from manipcad.sim.simulate import SimulationResult
@@ -216,25 +217,31 @@ def _writer_loop(out: Path, first_id: int, fd: int) -> None:
 _STOP = {signal.SIGINT, signal.SIGTERM}
 
 
-def _signal_state(pid: int) -> str:
-    """The process's signal masks from /proc (hexadecimal; bit k-1 is signal k)."""
-    try:
-        with open(f"/proc/{pid}/status") as f:
-            return ", ".join(line.strip() for line in f if line.startswith(("State", "Sig")))
-    except OSError:
-        return "no /proc status"
-
-
 def _reap(pid: int, timeout: float = 20.0) -> None:
-    """Wait for the killed child; one that outlives ``timeout`` s is a failure, not a hang."""
-    end = time.monotonic() + timeout
-    while os.waitpid(pid, os.WNOHANG) == (0, 0):
-        if time.monotonic() > end:
-            state = _signal_state(pid)
-            os.kill(pid, signal.SIGKILL)
-            os.waitpid(pid, 0)
-            pytest.fail(f"the writer {pid} survived its signal for {timeout} s ({state})")
-        time.sleep(0.01)
+    """Wait for the killed child; one that outlives ``timeout`` s (not counting disk
+    waits, where no signal is taken: see tests/killing.py) fails, it does not hang."""
+    reason = wait_dead(pid, lambda: os.waitpid(pid, os.WNOHANG) != (0, 0), timeout)
+    if reason is not None:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        pytest.fail(f"the writer {pid} {reason}")
+
+
+def test_reap_fails_a_writer_that_ignores_its_signal():
+    """The kill tests' wait can say "fail": a child that ignores SIGTERM is reported
+    with its signal masks once it has spent the allowed time awake."""
+    child = subprocess.Popen([sys.executable, "-c", "import signal, sys, time; "
+                              "signal.signal(signal.SIGTERM, signal.SIG_IGN); "
+                              "print(flush=True); time.sleep(60)"], stdout=subprocess.PIPE)
+    try:
+        child.stdout.readline()  # its handler is set
+        child.send_signal(signal.SIGTERM)
+        reason = wait_dead(child.pid, lambda: child.poll() is not None, 0.5)
+        assert reason is not None and "survived its signal" in reason
+        assert "SigIgn" in reason and "State" in reason
+    finally:
+        child.kill()
+        child.wait()
 
 
 @pytest.mark.parametrize("mode", ["exchange", "versioned"])

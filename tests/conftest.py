@@ -103,6 +103,34 @@ def dask_scheduler():
         yield cluster.scheduler_address
 
 
+# ------------------------------------------------------------------ longest files first
+# With -n the files are the units of work (--dist loadfile) and xdist hands them out in
+# collection order (--no-loadscope-reorder in pyproject; its default orders them by how
+# many tests they hold, which put the 2-test, half-minute browser file near the end and
+# left one worker running it alone). Longest first is the classic schedule for the least
+# idle tail. Weights: each file's share of the suite's test time in seconds, from a
+# timestamp log of a whole run (session 6); files not listed follow in their own order.
+FILE_SECONDS = {
+    "tests/test_codegen.py": 149, "tests/test_ui_browser.py": 88,
+    "tests/test_sim_adaptive.py": 48, "tests/test_hardening.py": 33, "tests/test_ui.py": 31,
+    "tests/test_drives.py": 29, "tests/test_workspace.py": 26,
+    "tests/test_identification_sim.py": 23, "tests/test_synthesis.py": 18,
+    "tests/test_claims.py": 16, "tests/test_cli_simulate.py": 14, "tests/test_expert.py": 13,
+    "tests/test_dynamics_pinocchio.py": 13, "tests/test_study.py": 12,
+    "tests/test_ws_commands.py": 11, "tests/test_trajectories.py": 10,
+    "tests/test_control_registry.py": 10, "tests/test_parallel.py": 9,
+}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Order the collected tests by their file's weight in :data:`FILE_SECONDS`, longest
+    first (a stable sort: within a file, and among unlisted files, the order stays)."""
+    def weight(item) -> int:
+        path = item.nodeid.split("::", 1)[0]
+        return -FILE_SECONDS.get(path, 0)
+    items.sort(key=weight)
+
+
 # ------------------------------------------------------------------ kernels compiled once
 # On a cold kernel cache four variants of the simulator's compiled core (RK4 and the
 # error-controlled integrator, each with and without the online payload estimator) and the

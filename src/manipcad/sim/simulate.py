@@ -7,6 +7,7 @@ import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
+import numba as nb
 import numpy as np
 
 from manipcad.codegen import simulation_kernels
@@ -24,9 +25,17 @@ from manipcad.drives.params import (
 )
 from manipcad.errors import ManipcadError, ManipcadWarning
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot
-from manipcad.sim.adaptive import STATS, TABLEAUS, run_adaptive
-from manipcad.sim.loop import Control, Plant, Record, Reference, Work, run
+from manipcad.sim import adaptive as _adaptive
+from manipcad.sim import loop as _loop
+from manipcad.sim.adaptive import STATS, TABLEAUS
+from manipcad.sim.direct import DirectCall
+from manipcad.sim.loop import Control, Plant, Record, Reference, Work
 from manipcad.sim.metrics import joint_metrics
+
+#: the compiled cores, called without numba's typing of the named structures at every
+#: call once their types are known (:mod:`manipcad.sim.direct`: about 0.1 ms a call)
+run = DirectCall(_loop.run)
+run_adaptive = DirectCall(_adaptive.run_adaptive)
 
 #: steps integrated per call of the compiled core (the reference is sampled per chunk,
 #: so memory follows the kept samples)
@@ -317,10 +326,20 @@ def simulate(
     if int(record_every) > K:
         raise ManipcadError(f"record_every = {record_every} keeps one sample of the {K} steps "
                             f"of the run (t_end = {t_end:g} s, dt = {dt:g} s); at most {K}")
+    # RK4 along a trajectory: the first chunk's rows sampled once, here; where each row
+    # depends on its own time only (Trajectory.rows_independent), their first row is the
+    # start (the same numbers as a sample of t = 0 alone)
+    first = None
     if trajectory is None:
         q_start = np.zeros(n) if q0 is None else _vec(q0, n, "q0")
     else:
-        q_start = _reference(trajectory, np.zeros(1), n)[0][0]
+        if not adaptive:
+            t_first = np.arange(min(CHUNK, K) + 1) * float(dt)
+            first = (t_first, *_reference(trajectory, t_first, n))
+        if first is not None and getattr(trajectory, "rows_independent", False):
+            q_start = first[1][0]
+        else:
+            q_start = _reference(trajectory, np.zeros(1), n)[0][0]
     x_q = q_start.copy() if q0 is None else _vec(q0, n, "q0")
     x_qd = np.zeros(n) if qd0 is None else _vec(qd0, n, "qd0")
     # a joint that moves no mass (and no rotor) has no acceleration: say so by name here,
@@ -334,15 +353,9 @@ def simulate(
         raise ManipcadError(f"cannot simulate {robot.name!r} from its initial state: {exc}"
                             ) from None
 
-    if drives:
-        if not robot.has_drives:
-            raise ManipcadError(f"robot {robot.name!r} has no drives; use drives=False")
-        dtable = pack_drives(robot.drives, transmissions, order=order)
-    else:
-        dtable = pack_drives([None] * n)
-    off = state_offsets(dtable)
-    rtable = np.array(robot.table)
-    rtable[:, [COL_JR, COL_BV, COL_FCP, COL_FCN]] = joint_referred_terms(dtable)
+    if drives and not robot.has_drives:
+        raise ManipcadError(f"robot {robot.name!r} has no drives; use drives=False")
+    dtable, off, rtable = _packed_drives(robot, bool(drives), transmissions, order)
     x0 = np.concatenate([x_q, x_qd, _drive_initial_state(dtable, off, x_q, x_qd)])
     generic = any(int(dtable[j, P_KIND]) not in (KIND_NONE, KIND_RIGID, KIND_RIGID_STATIC)
                   for j in range(n))
@@ -383,7 +396,7 @@ def simulate(
     else:
         status, step, joint, sampled = _run_rk4(plant, ctrl, rec, work, K, float(dt),
                                                 every, joint_limits, trajectory, x_q,
-                                                dist_of, n, progress)
+                                                dist_of, n, progress, first)
     kept = int(work.rec[0])
     t = rec.t[:kept]
     if sampled is not None and np.array_equal(sampled[0], t):
@@ -436,14 +449,15 @@ def simulate(
     if out:
         warnings.warn(f"{robot.name}: joints beyond their limits (not modelled as stops): "
                       + "; ".join(out), ManipcadWarning, stacklevel=2)
-    if trajectory is not None and joint_limits != "ignore" and len(res.t):
+    if (trajectory is not None and joint_limits != "ignore" and len(res.t)
+            and np.isfinite(limits).any()):
         # a joint's reference leaves its limits iff its smallest or largest value does
-        # (the differences round monotonically): two reductions per column, the (K, n)
+        # (the differences round monotonically): each column's extremes, the (K, n)
         # excursions only for a joint that leaves (0.5 ms of a 1 s run at dt 1e-4 before)
         qr = res.q_ref
-        bad = [j for j in range(n)
-               if max(limits[j, 0] - qr[:, j].min(), qr[:, j].max() - limits[j, 1]) - tol[j]
-               > 0.0]
+        lo, hi = _extremes(qr)  # one compiled pass (12 strided reductions: some 0.1 ms)
+        over = np.maximum(limits[:, 0] - lo, hi - limits[:, 1]) - tol
+        bad = np.flatnonzero(over > 0.0).tolist()
         if bad:
             ex = np.maximum(limits[:, 0] - qr, qr - limits[:, 1]) - tol
             warnings.warn(
@@ -504,17 +518,22 @@ def _references(trajectory, x_q, t_rows, n):
 
 
 def _run_rk4(plant, ctrl, rec, work, K, dt, every, joint_limits, trajectory, x_q, dist_of,
-             n, progress):
+             n, progress, first=None):
     """The fixed-step RK4 run, chunk by chunk; (status, step, joint, sampled): ``sampled``
     the times, q* and q̇* of the reference rows the loop ran on when the whole run was one
-    chunk along a trajectory (else None)."""
+    chunk along a trajectory (else None). ``first``: the first chunk's times and reference
+    rows (t, q*, q̇*, q̈*) when sampled already."""
     status, step, joint = 0, 0, -1
     sampled = None
     for k0 in range(0, K + 1, CHUNK):
         steps = min(CHUNK, K - k0)
         last = k0 + steps == K
-        t_rows = np.arange(k0, k0 + steps + 1) * dt
-        ref = Reference(*_references(trajectory, x_q, t_rows, n), dist_of(k0, t_rows))
+        if k0 == 0 and first is not None:
+            t_rows, rows = first[0], first[1:]
+        else:
+            t_rows = np.arange(k0, k0 + steps + 1) * dt
+            rows = _references(trajectory, x_q, t_rows, n)
+        ref = Reference(*rows, dist_of(k0, t_rows))
         status, step, joint = run(plant, ctrl, ref, rec, work, k0, steps, dt, every,
                                   last, joint_limits == "stop")
         if progress is not None:
@@ -628,6 +647,49 @@ def _disturbance_source(disturbance, K: int, n: int):
     if d.shape == (n,):
         return lambda k0, t: np.ascontiguousarray(np.broadcast_to(d, (len(t), n)))
     return lambda k0, t: np.ascontiguousarray(d[k0:k0 + len(t)])
+
+
+def _packed_drives(robot: Robot, drives: bool, transmissions, order):
+    """(dtable, off, rtable): the drives packed (:func:`pack_drives`; none with ``drives``
+    False), their states' offsets and the robot's body table with the drives'
+    joint-referred terms (:func:`joint_referred_terms`); new arrays at every call (the
+    loop writes rtable at a pickup).
+
+    Packed once per robot, ``drives`` and ``order`` when the drives' own transmissions
+    serve (``transmissions`` None), and kept on the robot as its :attr:`Robot.table` is
+    (a Robot and its Drives are frozen): 0.05-0.1 ms of every :func:`simulate` call
+    (docs/performance.md, session 6).
+    """
+    key = (drives, order)
+    cache = (robot.__dict__.setdefault("_sim_drives", {})
+             if transmissions is None and type(order) is int else {})
+    hit = cache.get(key)
+    if hit is None:
+        dtable = (pack_drives(robot.drives, transmissions, order=order) if drives
+                  else pack_drives([None] * robot.n))
+        rtable = np.array(robot.table)
+        rtable[:, [COL_JR, COL_BV, COL_FCP, COL_FCN]] = joint_referred_terms(dtable)
+        hit = cache[key] = (dtable, state_offsets(dtable), rtable)
+    return tuple(a.copy() for a in hit)
+
+
+@nb.njit(cache=True)
+def _extremes(a):
+    """Each column's smallest and largest value of a (K, n) array, K >= 1: (2, n), one pass
+    (numpy's per-column reductions stride through the rows; the same values)."""
+    K, n = a.shape
+    out = np.empty((2, n))
+    for j in range(n):
+        out[0, j] = a[0, j]
+        out[1, j] = a[0, j]
+    for k in range(1, K):
+        for j in range(n):
+            v = a[k, j]
+            if v < out[0, j]:
+                out[0, j] = v
+            if v > out[1, j]:
+                out[1, j] = v
+    return out
 
 
 def _drive_initial_state(dtable, off, q, qd) -> np.ndarray:

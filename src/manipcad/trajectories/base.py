@@ -38,6 +38,11 @@ class Trajectory(ABC):
     #: the ``type`` key of the YAML schema
     kind: str = ""
 
+    #: each row of :meth:`sample` depends on its own time only, not on the other times
+    #: sampled with it (so a row is the same in any batch; the simulator then takes the
+    #: start q(0) from the first chunk's rows instead of sampling t = 0 apart)
+    rows_independent: bool = True
+
     @property
     @abstractmethod
     def n(self) -> int:

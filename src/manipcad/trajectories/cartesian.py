@@ -145,6 +145,10 @@ class CartesianTrajectory(Trajectory):
         (3, 6)
     """
 
+    #: the Newton projection iterates over all the rows sampled together until the worst
+    #: is on the path, so a row's last bits depend on the batch
+    rows_independent = False
+
     def __init__(self, robot: Robot | str | Path, duration: float, q0: Sequence[float],
                  profile: str, orientation: str, source: str) -> None:
         self.robot, self._robot_ref = _robot_and_ref(robot)

@@ -251,3 +251,18 @@ def test_memory_reading_reused_only_for_a_small_recent_need(monkeypatch):
     assert len(reads) == 3
     with pytest.raises(budget.InputError, match="more than the"):
         budget.check_steps(1.0, 1e-9, floats_per_step=10)  # 80 GB: a new reading refuses
+
+
+def test_quintic_profile_compiled_equals_numpys_expressions():
+    """The compiled pass gives numpy's numbers bit for bit, for any shape and layout."""
+    from manipcad.trajectories.quintic import quintic_profile
+
+    rng = np.random.default_rng(5)
+    for tau in (np.arange(10001) * 1e-4 / 1.3, rng.random(9), np.array(0.3), rng.random((7, 3)),
+                rng.random((20, 4))[:, 1], np.array([0.0, 1.0, 0.5, 1e-300])):
+        want = (tau**3 * (10.0 + tau * (-15.0 + 6.0 * tau)),
+                30.0 * tau**2 * (1.0 - tau) ** 2,
+                60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau))
+        got = quintic_profile(tau)
+        assert all(g.shape == w.shape and np.array_equal(g, w) for g, w in zip(got, want,
+                                                                                 strict=True))

@@ -399,9 +399,10 @@ def simulate(
                                                 dist_of, n, progress, first)
     kept = int(work.rec[0])
     t = rec.t[:kept]
-    if sampled is not None and np.array_equal(sampled[0], t):
-        # one chunk, every step kept: the reference the loop ran on is the result's (the
-        # same samples at the same times; sampling 10,001 rows again costs about 0.6 ms)
+    if sampled is not None and len(sampled[0]) == kept and sampled[0][-1] == t[-1]:
+        # one chunk, every step kept (as many rows as steps + 1: rows k·dt, k = 0, 1, ...
+        # both): the reference the loop ran on is the result's (the same samples at the
+        # same times; sampling 10,001 rows again costs about 0.6 ms)
         QR, QDR = sampled[1], sampled[2]
     elif trajectory is not None:
         QR, QDR, _ = _reference(trajectory, t, n)

@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+import numba as nb
 import numpy as np
 
 from manipcad.trajectories.base import PointToPoint, floats, positive, vector
@@ -28,10 +29,26 @@ def quintic_profile(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
         [0.5, 1.875, 0.0]
     """
     tau = np.asarray(tau, dtype=float)
-    s = tau**3 * (10.0 + tau * (-15.0 + 6.0 * tau))
-    sd = 30.0 * tau**2 * (1.0 - tau) ** 2
-    sdd = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau)
-    return s, sd, sdd
+    # numpy's τ³ (its pow, whose last bit a compiled pow need not share), the rest in one
+    # compiled pass with numpy's operations in numpy's order (the same numbers): 18 array
+    # passes were some 0.1 ms of the 10,001 rows of a 1 s simulation at 1e-4 s
+    flat = np.ascontiguousarray(tau).reshape(-1)
+    out = tuple(np.empty(flat.shape[0]) for _ in range(3))
+    _quintic_rows(flat, flat**3, *out)
+    return tuple(a.reshape(tau.shape) for a in out)
+
+
+@nb.njit(cache=True)
+def _quintic_rows(tau, tau3, s, sd, sdd):
+    """s, ṡ, s̈ of :func:`quintic_profile` from τ and τ³ (1-D), each operation as numpy
+    evaluates ``tau**3 * (10.0 + tau * (-15.0 + 6.0 * tau))``, ``30.0 * tau**2 * (1.0 -
+    tau) ** 2`` (a square is x·x) and ``60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau)``."""
+    for k in range(tau.shape[0]):
+        x = tau[k]
+        u = 1.0 - x
+        s[k] = tau3[k] * (10.0 + x * (-15.0 + 6.0 * x))
+        sd[k] = (30.0 * (x * x)) * (u * u)
+        sdd[k] = ((60.0 * x) * u) * (1.0 - 2.0 * x)
 
 
 class QuinticTrajectory(PointToPoint):

@@ -87,7 +87,8 @@ def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm, dask_scheduler):
     figures as `study fig3` (to 1e-6: the cells run the general kernels, study fig3 may
     run the robot's generated ones, which agree to about 1e-8); the files have issue 13's
     layout; a rerun computes nothing; on a 2-worker cluster (the cell's runs spread over
-    the workers) the results are identical."""
+    the workers, the rows sized and the figure's panels drawn there) the results and the
+    figure are identical."""
     from manipcad.study import run_fig3
 
     monkeypatch.setitem(claims_mod.GRIDS, "quick", {"speed_scale": [1.0], "load_ratio": [None]})
@@ -133,6 +134,13 @@ def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm, dask_scheduler):
     assert dist["settings"]["cells_computed"] == 1
     for key in ("claims", "max_error", "rise_time", "sliding_rate", "saturation", "arm"):
         assert dist[key] == doc[key], key
+    # the figure's panels drawn in two groups on the workers: the same pixels as drawn whole
+    from PIL import Image
+
+    serial_png = np.asarray(Image.open(tmp_path / "c" / "claims.png"))
+    dist_png = np.asarray(Image.open(tmp_path / "d" / "claims.png"))
+    assert serial_png.shape == dist_png.shape and np.array_equal(serial_png, dist_png)
+    assert (serial_png[..., :3] < 128).any()  # not a blank canvas
     again = run_claims(tmp_path / "c", workers=1, progress=False)
     assert again["settings"]["cells_cached"] == 1 and again["settings"]["cells_computed"] == 0
     assert again["claims"] == doc["claims"]

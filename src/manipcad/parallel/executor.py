@@ -579,6 +579,16 @@ class Pool:
             raise self._error
         return self._client
 
+    def slots(self) -> int:
+        """The tasks the cluster runs at once: its workers' threads (waits for the start).
+
+        Example:
+            >>> with Pool(workers=1) as pool:   # doctest: +SKIP
+            ...     pool.slots()
+            1
+        """
+        return max(1, sum(self.client().nthreads().values()))
+
     def close(self) -> None:
         """Close the client and the cluster."""
         self._thread.join()

@@ -27,13 +27,48 @@ def plot_claims(doc: Mapping[str, Any], path: str | Path, *, dpi: int = 100) -> 
     """One heat map per claim: cells coloured by the measured ratio (log scale), the
     paper's threshold drawn as a contour, saturated cells hatched, values written in.
 
+    The same as :func:`save_panels` of one :func:`draw_panels` of every claim (a caller
+    with workers draws groups of panels, :func:`panel_groups`, on them: the same PNG).
+
     Args:
         doc: the claims.json document.
         path: the PNG file.
-        dpi: resolution.
+        dpi: resolution, dots per inch.
 
     Returns:
         The path written.
+    """
+    return save_panels([draw_panels(doc, list(doc["claims"]), dpi=dpi)], path, dpi=dpi)
+
+
+def panel_groups(doc: Mapping[str, Any], groups: int) -> list[list[str]]:
+    """The claims' panels cut into ``groups`` (>= 1) groups of consecutive claims, as even
+    as they go (none empty), for :func:`draw_panels` on separate workers.
+
+    Example:
+        >>> panel_groups({"claims": dict.fromkeys("abcde")}, 2)
+        [['a', 'b'], ['c', 'd', 'e']]
+    """
+    ids = list(doc["claims"])
+    n = max(1, min(int(groups), len(ids)))
+    cuts = [round(k * len(ids) / n) for k in range(n + 1)]
+    return [ids[cuts[k]:cuts[k + 1]] for k in range(n)]
+
+
+def draw_panels(doc: Mapping[str, Any], ids: list[str], *, dpi: int = 100) -> np.ndarray:
+    """The whole figure of :func:`plot_claims` with only the panels of the claims ``ids``
+    drawn (each at its place; the rest of the canvas white), as an RGBA image.
+
+    Panels do not overlap, so the pixel-wise minimum of the images of groups that cover
+    every claim is the figure drawn whole (:func:`save_panels`).
+
+    Args:
+        doc: the claims.json document.
+        ids: the claims to draw (keys of ``doc["claims"]``).
+        dpi: resolution, dots per inch.
+
+    Returns:
+        uint8 array (height, width, 4).
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.colors import LogNorm
@@ -45,17 +80,19 @@ def plot_claims(doc: Mapping[str, Any], path: str | Path, *, dpi: int = 100) -> 
     sat = _grid(doc["saturation"])
     achieved = [row[0] for row in doc.get("load_ratio_achieved", [[r] for r in rhos])]
     runs = doc.get("speed_scale_run", [[s for s in speeds] for _ in rhos])
-    ids = list(claims)
+    order = list(claims)
     cols = 3
-    rows = math.ceil(len(ids) / cols)
+    rows = math.ceil(len(order) / cols)
     # a fixed layout (a constrained one doubles the drawing time for the same look)
-    fig = Figure(figsize=(4.2 * cols, 3.6 * rows))
+    fig = Figure(figsize=(4.2 * cols, 3.6 * rows), dpi=dpi)
     fig.subplots_adjust(left=0.09, right=0.98, bottom=0.04, top=0.97, wspace=0.62,
                         hspace=0.42)
-    FigureCanvasAgg(fig)
-    axes = np.atleast_1d(fig.subplots(rows, cols)).ravel()
+    canvas = FigureCanvasAgg(fig)
+    spec = fig.add_gridspec(rows, cols)
     x, y = np.arange(len(speeds)), np.arange(len(rhos))
-    for ax, cid in zip(axes, ids, strict=False):
+    for cid in ids:
+        place = order.index(cid)
+        ax = fig.add_subplot(spec[place // cols, place % cols])
         c = claims[cid]
         z = _grid(c["ratio"])
         finite = z[np.isfinite(z) & (z > 0)]
@@ -88,9 +125,27 @@ def plot_claims(doc: Mapping[str, Any], path: str | Path, *, dpi: int = 100) -> 
         ax.set_ylabel("load ratio ρ")
         unit = "overshoot" if overshoot else f"ratio (threshold {c['threshold']:g})"
         ax.set_title(f"{cid}: {unit}", fontsize=9)
-    for ax in axes[len(ids):]:
-        ax.set_visible(False)
-    fig.savefig(path, dpi=dpi)
+    canvas.draw()
+    return np.array(canvas.buffer_rgba())
+
+
+def save_panels(images: list[np.ndarray], path: str | Path, *, dpi: int = 100) -> Path:
+    """The PNG of the figure from the images of :func:`draw_panels` (their pixel-wise
+    minimum: each panel is drawn on white in one of them).
+
+    Args:
+        images: RGBA images of the same shape, one per group of panels.
+        path: the PNG file.
+        dpi: the resolution written into the file, dots per inch.
+
+    Returns:
+        The path written.
+    """
+    from PIL import Image
+
+    rgba = images[0] if len(images) == 1 else np.minimum.reduce(images)
+    dots = (float(dpi), float(dpi))
+    Image.fromarray(rgba, "RGBA").save(path, format="png", dpi=dots)
     return Path(path)
 
 

@@ -183,6 +183,8 @@ STEP_T_END_MAX = 4.0
 CELL_VERSION = "8"
 #: an amplifier counts as saturated within this fraction of its limit
 SATURATION_TOL = 1e-6
+#: claims.png's resolution, dots per inch
+FIGURE_DPI = 100
 
 
 def _tool_point(arm: Robot) -> np.ndarray:
@@ -585,7 +587,12 @@ def cell_result(state: dict, runs: list[dict]) -> dict:
 
 def warm_worker() -> None:
     """Load the simulator's compiled kernels in this process (a worker, at its start):
-    a 1 ms closed-loop run of the Fig. 2 arm, so the first cell does not pay for it."""
+    a 1 ms closed-loop run of the Fig. 2 arm, so the first cell does not pay for it;
+    and import what draws the figure's panels (matplotlib's Agg canvas and its font
+    list), so the last task does not either."""
+    import matplotlib.backends.backend_agg  # noqa: F401 - imported ahead (see above)
+    import matplotlib.figure  # noqa: F401
+
     import manipcad
     from manipcad.control import synthesize
     from manipcad.sim import simulate
@@ -771,20 +778,14 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
     g["load_ratio"] = targets
     # per row the arm; per cell the speed scale the sizing allows (laws (2) time-scaled
     # where the motors or gears are over their limits)
-    rows, runs, fails = [], [], []
-    for rho in targets:
-        row_arm, info = arm_with_load_ratio(robot, rho, max_payload=max_payload)
-        rows.append(info)
-        # one bisection per row (from the grid's largest speed scale), so that the
-        # time-scaled cells of a row run at one speed scale (computed once)
-        s_max, _ = feasible_speed_scale(row_arm, max(g["speed_scale"]), info["stroke_m"])
-        r_runs, r_fails = [], []
-        for s in g["speed_scale"]:
-            f = sizing_failures(row_arm, s, info["stroke_m"])
-            r_runs.append(s if not f else (None if s_max is None else min(s, s_max)))
-            r_fails.append(f)
-        runs.append(r_runs)
-        fails.append(r_fails)
+    # (the rows are independent: on a cluster each is a task, sized while the others are)
+    sized = run_tasks(size_row, [{"load_ratio": rho} for rho in targets],
+                      common={"arm": robot, "max_payload": max_payload,
+                              "speed_scales": g["speed_scale"]},
+                      workers=None if pool is not None else 1, pool=pool, progress=False)
+    rows = [r["arm"] for r in sized]
+    runs = [r["speed_scale_run"] for r in sized]
+    fails = [r["sizing_failures"] for r in sized]
     tasks, where = [], {}
     for i, rho in enumerate(targets):
         for s_run in runs[i]:
@@ -879,8 +880,38 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
                   "max_error": "rad", "rise_time": "s", "overshoot": "fraction of the step"},
     }
     doc = json_safe(doc)
-    _write(out, doc)
+    _write(out, doc, pool)
     return doc
+
+
+def size_row(*, arm: Robot, load_ratio: float, max_payload: float,
+             speed_scales: list[float]) -> dict:
+    """One row of the grid: the arm at the load ratio and, per speed scale, the speed scale
+    its cell runs at (the sizing's, see :func:`feasible_speed_scale`).
+
+    One bisection per row, from the row's largest speed scale, so that the time-scaled
+    cells of a row run at one speed scale (computed once).
+
+    Returns:
+        {"arm": the load-ratio change (:func:`arm_with_load_ratio`), "speed_scale_run":
+        per speed scale the one run (None: infeasible even at ``SPEED_SCALE_MIN``),
+        "sizing_failures": per speed scale the limits failed there}.
+
+    Example:
+        >>> import manipcad
+        >>> row = size_row(arm=manipcad.load_robot("cylindrical"), load_ratio=2.5,
+        ...                max_payload=2.0, speed_scales=[0.5, 1.0, 2.0])
+        >>> row["speed_scale_run"], row["sizing_failures"][0]
+        ([0.5, 0.575, 0.575], [])
+    """
+    row_arm, info = arm_with_load_ratio(arm, load_ratio, max_payload=max_payload)
+    s_max, _ = feasible_speed_scale(row_arm, max(speed_scales), info["stroke_m"])
+    runs, fails = [], []
+    for s in speed_scales:
+        f = sizing_failures(row_arm, s, info["stroke_m"])
+        runs.append(s if not f else (None if s_max is None else min(s, s_max)))
+        fails.append(f)
+    return {"arm": info, "speed_scale_run": runs, "sizing_failures": fails}
 
 
 def _infeasible_cell(info: dict, speed_scale: float) -> dict:
@@ -898,15 +929,25 @@ def _where_below(grid, vals, limit):
     return f"in {ok} of {total} cells the overshoot is at most {limit:g}"
 
 
-def _write(out: Path, doc: dict) -> None:
-    """claims.json, claims.png and report.html, each written to a temporary file and renamed."""
-    from manipcad.report.claims import claims_html, plot_claims
+def _write(out: Path, doc: dict, pool=None) -> None:
+    """claims.json, claims.png and report.html, each written to a temporary file and renamed.
+
+    With a ``pool`` the figure's panels are drawn in groups, one per worker
+    (:func:`manipcad.report.claims.draw_panels`): the same PNG as drawn whole.
+    """
+    from manipcad.parallel import run_tasks
+    from manipcad.report.claims import claims_html, draw_panels, panel_groups, save_panels
 
     tmp = Path(tempfile.mkdtemp(prefix=".claims.", dir=out))
     try:
         (tmp / "claims.json").write_text(json.dumps(doc, indent=2, ensure_ascii=False) + "\n",
                                          encoding="utf-8")
-        plot_claims(doc, tmp / "claims.png")
+        groups = panel_groups(doc, 1 if pool is None else pool.slots())
+        images = run_tasks(draw_panels, [{"ids": ids} for ids in groups],
+                           common={"doc": doc, "dpi": FIGURE_DPI},
+                           workers=None if pool is not None else 1, pool=pool,
+                           progress=False)
+        save_panels(list(images), tmp / "claims.png", dpi=FIGURE_DPI)
         (tmp / "report.html").write_text(claims_html(doc, tmp / "claims.png"), encoding="utf-8")
         for name in ("claims.json", "claims.png", "report.html"):
             os.replace(tmp / name, out / name)

@@ -266,3 +266,10 @@ def test_quintic_profile_compiled_equals_numpys_expressions():
         got = quintic_profile(tau)
         assert all(g.shape == w.shape and np.array_equal(g, w) for g, w in zip(got, want,
                                                                                  strict=True))
+
+
+@pytest.mark.parametrize("shape", [(10001, 6), (1, 6), (3, 6), (5, 7), (100, 1), (7, 3),
+                                   (1000, 9), (4, 8), (333, 5), (2, 16)])
+def test_column_extremes_equal_numpys(shape):
+    a = np.random.default_rng(sum(shape)).normal(size=shape)
+    assert np.array_equal(SIM._extremes(a), np.stack([a.min(axis=0), a.max(axis=0)]))

@@ -273,3 +273,15 @@ def test_quintic_profile_compiled_equals_numpys_expressions():
 def test_column_extremes_equal_numpys(shape):
     a = np.random.default_rng(sum(shape)).normal(size=shape)
     assert np.array_equal(SIM._extremes(a), np.stack([a.min(axis=0), a.max(axis=0)]))
+
+
+def test_shared_zero_disturbance_rows_stay_zero():
+    """The zero disturbance rows shared by runs without a disturbance are only read."""
+    robot = _puma()
+    kw = dict(t_end=0.02, dt=1e-4, q0=np.full(6, 0.1), regulators=_pd(robot))
+    a = simulate(robot, **kw)
+    b = simulate(robot, integrator="adaptive", **kw)
+    c = simulate(robot, disturbance=np.zeros(6), **kw)
+    assert np.array_equal(a.q, c.q) and np.isfinite(b.q).all()
+    z = SIM._ZEROS[6]
+    assert z.shape[0] >= SIM.CHUNK + 1 and not z.any()

@@ -285,3 +285,14 @@ def test_shared_zero_disturbance_rows_stay_zero():
     assert np.array_equal(a.q, c.q) and np.isfinite(b.q).all()
     z = SIM._ZEROS[6]
     assert z.shape[0] >= SIM.CHUNK + 1 and not z.any()
+
+
+def test_direct_call_from_threads():
+    """Threads calling with keys new and old at once all get the dispatcher's results."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    f = DirectCall(_total, size=3)
+    arrays = [np.ones(5, dtype=dt) for dt in (np.float64, np.int64, np.float32, np.int32)]
+    with ThreadPoolExecutor(4) as pool:
+        got = list(pool.map(lambda i: f(arrays[i % 4], 2), range(400)))
+    assert got == [10] * 400 and len(f._entry) <= 3

@@ -39,6 +39,8 @@ Example:
 
 from __future__ import annotations
 
+import threading
+
 from numba._dispatcher import compute_fingerprint
 from numba.core.ccallback import CFunc
 
@@ -75,6 +77,7 @@ class DirectCall:
         self.dispatcher = dispatcher
         self.size = int(size)
         self._entry: dict = {}
+        self._lock = threading.Lock()
 
     def __call__(self, *args):
         try:
@@ -95,9 +98,10 @@ class DirectCall:
         cres = d.overloads.get(sig)
         if cres is None or getattr(cres, "objectmode", False):
             return
-        if len(self._entry) >= self.size:
-            self._entry.pop(next(iter(self._entry)))
-        self._entry[key] = cres.entry_point
+        with self._lock:  # threads may remember keys at once (the lookup needs no lock)
+            if len(self._entry) >= self.size:
+                self._entry.pop(next(iter(self._entry)))
+            self._entry[key] = cres.entry_point
 
     def __repr__(self) -> str:
         return f"DirectCall({getattr(self.dispatcher, '__name__', self.dispatcher)!r})"

@@ -539,8 +539,8 @@ class Pool:
 
     Example:
         >>> with Pool(workers=1) as pool:   # a one-worker LocalCluster (about 2 s)
-        ...     run_tasks(pow, [{"base": 2, "exp": 3}], pool=pool, progress=False)
-        [8]
+        ...     run_tasks(pow, [{"base": 2, "exp": 3}], pool=pool, progress=False), pool.slots()
+        ([8], 1)
     """
 
     def __init__(self, workers: int | None = None, scheduler: str | None = None,
@@ -582,10 +582,7 @@ class Pool:
     def slots(self) -> int:
         """The tasks the cluster runs at once: its workers' threads (waits for the start).
 
-        Example:
-            >>> with Pool(workers=1) as pool:   # doctest: +SKIP
-            ...     pool.slots()
-            1
+        Example: see :class:`Pool` (one worker of one thread: 1).
         """
         return max(1, sum(self.client().nthreads().values()))
 

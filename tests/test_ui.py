@@ -122,6 +122,101 @@ def test_upload_adds_a_valid_urdf_and_names_the_file_of_a_bad_one(ws):
     assert [i.name for i in ws.list("robots")] == ["one", "two"]   # nothing else added
 
 
+def _lol(root: str, levels: int = 9) -> str:
+    """The 'billion laughs' entity bomb: 10**levels copies of 'lol' from a few lines."""
+    decl = '<!ENTITY l0 "lol">' + "".join(
+        f'<!ENTITY l{k} "{f"&l{k - 1};" * 10}">' for k in range(1, levels + 1))
+    return f'<?xml version="1.0"?>\n<!DOCTYPE {root} [{decl}]>\n'
+
+
+MJCF = """<mujoco model="m"><worldbody><body name="b">
+  <joint name="%s" type="hinge" axis="0 0 1"/>
+  <inertial pos="0 0 0" mass="1" diaginertia="0.1 0.1 0.1"/></body></worldbody></mujoco>"""
+
+
+def test_xml_entities_are_never_expanded(ws, tmp_path):
+    """URDF: ElementTree (expat) would expand an internal entity, and a billion-laughs bomb
+    up to expat's amplification limit: any entity declaration is refused before it parses,
+    through the loader (the CLI's path) and the upload. MJCF: MuJoCo's parser expands none
+    (the text stays as written); an uploaded MJCF declaring one is refused too."""
+    internal = GOOD_URDF.replace(b'name="one"', b'name="&x;"').replace(
+        b"<robot", b'<!DOCTYPE robot [<!ENTITY x "expanded">]>\n<robot', 1)
+    bomb = _lol("robot").encode() + GOOD_URDF.replace(b'name="one"', b'name="&l9;"')
+    for name, text in (("internal.urdf", internal), ("lol.urdf", bomb),
+                       ("evil.urdf", ENTITY_URDF)):
+        with pytest.raises(InputError, match=rf"^{name}: declares the XML entity "):
+            logic.add_upload(ws, name, text, kind="robots")
+        path = tmp_path / name
+        path.write_bytes(text)
+        with pytest.raises(InputError, match="entity declarations are refused"):
+            manipcad.load_robot(str(path))
+        with pytest.raises(InputError, match="entity declarations are refused"):
+            manipcad.load_robot(text)                        # URDF text
+    assert logic.add_upload(ws, "plain.urdf", b"<!DOCTYPE robot>" + GOOD_URDF,
+                            kind="robots").ref == "robots/plain"   # a bare DOCTYPE is fine
+    # MJCF through MuJoCo (the CLI's path): the entity is not expanded
+    mj = '<?xml version="1.0"?>\n<!DOCTYPE mujoco [<!ENTITY x "expanded">]>\n' + MJCF % "&x;"
+    (tmp_path / "m.xml").write_text(mj)
+    assert manipcad.load_robot(str(tmp_path / "m.xml")).joint_names == ("&x;",)
+    for name, text in (("m.xml", mj), ("lol.mjcf", _lol("mujoco") + MJCF % "&l9;")):
+        with pytest.raises(InputError, match=rf"^{name}: declares the XML entity "):
+            logic.add_upload(ws, name, text.encode(), kind="robots")
+    assert [i.name for i in ws.list("robots")] == ["plain"]
+
+
+def test_uploaded_robot_files_must_stand_alone(ws, tmp_path):
+    """An upload naming other files (a URDF, a motor or gear file by path, an MJCF
+    include or mesh) would read them from outside the workspace: refused, naming the
+    field; nothing added, nothing of the outside file stored."""
+    secret = tmp_path / "outside"
+    secret.mkdir()
+    (secret / "arm.urdf").write_bytes(GOOD_URDF.replace(b"one", b"SECRET"))
+    (secret / "motor.yaml").write_text("source: x\nJ: 1.234e-5\nR: 9.87\nL: 1e-4\n"
+                                       "k_m: 0.05\nk_w: 0.05\n")
+    dh = ("name: arm\njoints:\n  - name: j1\n    type: revolute\n"
+          "    dh: {a: 0, alpha: 0, d: 0, theta: 0}\n"
+          "    link: {mass: 1.0, com: [0.1, 0, 0], inertia: {ixx: 0.01, iyy: 0.01, izz: 0.01}}\n"
+          "    drive: {motor: %s, ratio: 10}\n")
+    cases = {
+        "a.yaml": (f"name: a\nurdf: {secret}/arm.urdf\ndrives: {{}}\n", "urdf"),
+        "b.yaml": ("name: b\nurdf: ../../outside/arm.urdf\ndrives: {}\n", "urdf"),
+        "c.yaml": (dh % f"{secret}/motor.yaml", r"joints\[0\]\.drive\.motor"),
+        "d.xml": (MJCF.replace("<worldbody>", f'<include file="{secret}/x.xml"/><worldbody>')
+                  % "j", "include"),
+        "e.mjcf": (MJCF.replace("<worldbody>", f'<asset><mesh name="m" file="{secret}/m.stl"/>'
+                                "</asset><worldbody>") % "j", r"mesh\.file"),
+    }
+    for name, (text, field) in cases.items():
+        with pytest.raises(InputError, match=rf"^{name}: {field}: names the file .*must "
+                                             "stand alone"):
+            logic.add_upload(ws, name, text.encode(), kind="robots")
+    # a motor named as a catalog name that is a path is no catalog name (it read
+    # outside/motor.yaml before)
+    with pytest.raises(InputError, match=r"unknown motor '.*outside/motor'"):
+        logic.add_upload(ws, "f.yaml", (dh % f"{secret}/motor").encode(), kind="robots")
+    assert ws.list("robots") == []
+    ok = logic.add_upload(ws, "g.yaml", (dh % "maxon_re40_148877").encode(), kind="robots")
+    assert logic.load_robot_ref(ws, ok.ref)[0].drives[0].R == pytest.approx(
+        manipcad.load_robot("cylindrical").drives[0].R)
+
+
+def test_links_out_of_the_workspace_are_refused(ws, tmp_path):
+    """An item whose file was replaced by a link leading outside is refused by every read
+    the pages make (the robot, its file route's resolve)."""
+    import os
+
+    item = logic.add_upload(ws, "one.urdf", GOOD_URDF, kind="robots")
+    outside = tmp_path / "outside.urdf"
+    outside.write_bytes(GOOD_URDF.replace(b"one", b"other"))
+    path = ws.path(item)
+    path.unlink()
+    os.symlink(outside, path)
+    with pytest.raises(InputError, match="outside the workspace"):
+        logic.load_robot_ref(ws, "robots/one")
+    with pytest.raises(InputError, match="outside the workspace"):
+        ws.resolve("robots", "one")
+
+
 def test_robot_refs_outside_the_workspace_are_refused(ws):
     for ref in ("robots/../../etc/passwd", "/etc/passwd", "trajectories/x", "robots/.x"):
         with pytest.raises(InputError):
@@ -221,6 +316,73 @@ def test_token_gate_refuses_requests_without_the_token():
     assert closed == [{"type": "websocket.close", "code": 1008}]
 
 
+def _body_call(gate, chunks, headers=()):
+    """Send a request with ``chunks`` as its body through ``gate``; (status, bytes read)."""
+    sent, got = [], []
+    queue = [{"type": "http.request", "body": c, "more_body": k < len(chunks) - 1}
+             for k, c in enumerate(chunks)]
+
+    async def inner(scope, receive, send):
+        while True:
+            msg = await receive()
+            got.append(len(msg.get("body", b"")))
+            if not msg.get("more_body"):
+                break
+        await send({"type": "http.response.start", "status": 200, "headers": []})
+        await send({"type": "http.response.body", "body": b"ok"})
+
+    async def receive():
+        return queue.pop(0)
+
+    async def send(msg):
+        sent.append(msg)
+
+    scope = {"type": "http", "method": "POST", "path": "/_nicegui/client/c/upload/1",
+             "headers": list(headers)}
+    asyncio.run(gate(inner)(scope, receive, send))
+    return sent[0]["status"], sum(got)
+
+
+def test_body_cap_refuses_large_uploads_before_reading_them():
+    """The upload field's size limit is the browser's; the server's is BodyCap: a declared
+    Content-Length above the cap gets 413 with nothing read, a body streamed without one is
+    cut off once it passes the cap; a body within it passes whole."""
+    from manipcad.ui.security import MULTIPART_SLACK, BodyCap
+
+    def gate(app):
+        return BodyCap(app, limit=1000)
+
+    assert _body_call(gate, [b"x" * 600, b"x" * 400],
+                      [(b"content-length", b"1000")]) == (200, 1000)
+    assert _body_call(gate, [b"x" * 1001], [(b"content-length", b"1001")]) == (413, 0)
+    assert _body_call(gate, [b"x"], [(b"content-length", b"nonsense")]) == (413, 0)
+    status, read = _body_call(gate, [b"x" * 600] * 5)        # chunked: no Content-Length
+    assert status == 413 and read == 600       # the chunk passing the cap never reaches it
+    # serve() installs it with room for the largest upload and its multipart headers
+    assert logic.MAX_UPLOAD < logic.MAX_UPLOAD + MULTIPART_SLACK <= 1.1 * logic.MAX_UPLOAD
+
+
+def test_cli_ui_options_reach_the_server(monkeypatch, tmp_path):
+    """``manipcad ui`` [--ws --port --host --open --token]: 127.0.0.1, port 8080, no
+    browser and no token by default; each option reaches serve()."""
+    from typer.testing import CliRunner
+
+    import manipcad.ui
+    from manipcad.cli.app import app
+
+    calls = []
+    monkeypatch.setattr(manipcad.ui, "serve", lambda ws, **kw: calls.append((ws, kw)))
+    runner = CliRunner()
+    assert runner.invoke(app, ["ui", "--ws", str(tmp_path / "a")]).exit_code == 0
+    assert calls[-1] == (tmp_path / "a", {"host": "127.0.0.1", "port": 8080, "show": False,
+                                          "token": None})
+    res = runner.invoke(app, ["ui", "--ws", str(tmp_path / "b"), "--port", "9001", "--host",
+                              "0.0.0.0", "--open", "--token", "t0k"])
+    assert res.exit_code == 0, res.output
+    assert calls[-1] == (tmp_path / "b", {"host": "0.0.0.0", "port": 9001, "show": True,
+                                          "token": "t0k"})
+
+
 def test_worker_runs_stores_and_cancels(ws):
     """The worker's run equals manipcad.simulate's; its voltage and power series give the
     run's own energy metric; a cancel stores nothing. (The worker's body runs in this
@@ -272,6 +434,33 @@ def test_worker_runs_stores_and_cancels(ws):
 
     with pytest.raises(InputError, match="may not contain"):
         run_spec(SimSpec(str(ws.root), "cylindrical", "../move", ["pid"]))
+
+
+def test_a_diverged_run_says_where_and_keeps_its_part_only_if_asked(ws):
+    """A run that blows up (no regulator, a 2 ms step: the drives' electrical dynamics are
+    unstable under RK4) reports the time and the joint; nothing is stored unless the
+    page's "keep a diverged run's partial result" is ticked, then it is stored marked
+    diverged, up to that time."""
+    from manipcad.store.results import load_result
+    from manipcad.ui.worker import SimSpec, run_spec
+
+    arm = manipcad.load_robot("cylindrical")
+    traj = logic.make_trajectory({"type": "quintic", "q_start": [0.0, 0.1, 0.1],
+                                  "q_end": [0.3, 0.2, 0.2], "duration": 0.1}, arm)
+    logic.save_trajectory_to(ws, traj, "move")
+    spec = SimSpec(str(ws.root), "cylindrical", "move", [], t_end=0.1, dt=2e-3, name="blow")
+    with pytest.raises(ManipcadError, match=r"diverged at t = ([0-9.]+) s: .* joint 'lift'; "
+                                            "nothing was stored") as err:
+        run_spec(spec)
+    assert ws.list("results") == []
+    t_div = float(str(err.value).split("t = ")[1].split(" s")[0])
+    spec.save_diverged = True
+    with pytest.raises(ManipcadError, match="the partial result is blow"):
+        run_spec(spec)
+    (item,) = ws.list("results")
+    assert item.name == "blow" and item.status == "diverged"
+    res, doc = load_result(ws.path(item))
+    assert res.t[-1] == pytest.approx(t_div, abs=2e-3) and res.t[-1] < 0.1
 
 
 # ----------------------------------------------------------------- NiceGUI's simulated user

@@ -259,6 +259,55 @@ def read_bytes(path: str | Path | Traversable, name: str | None = None) -> bytes
     return data
 
 
+class _XmlStop(Exception):
+    """Ends :func:`scan_xml` at the root element."""
+
+
+def scan_xml(text: str | bytes, source: str,
+             element: Callable[[str, dict[str, str]], None] | None = None) -> None:
+    """Check XML text before a parser that expands entities (ElementTree) reads it.
+
+    Any entity declaration (internal, external, parameter or unparsed) is refused, so
+    no entity is ever expanded: not the 'billion laughs' bomb (which expat would expand
+    up to its amplification limit), not a file named by an external entity.
+    ``element(tag, attributes)`` is called for every element in document order (it may
+    raise :class:`InputError`); without it the scan ends at the root element (the
+    prolog, where entities are declared, is all it reads).
+
+    Raises:
+        InputError: an entity declaration (naming it), malformed XML (line and column),
+            or what ``element`` raises; naming ``source``.
+
+    Example:
+        >>> scan_xml('<!DOCTYPE r [<!ENTITY a "b">]><r>&a;</r>', "f.urdf")  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        manipcad.errors.InputError: f.urdf: declares the XML entity 'a': entity ...
+    """
+    from xml.parsers import expat
+
+    parser = expat.ParserCreate()
+
+    def declared(name: str, *_: Any) -> None:
+        raise InputError(source, "", f"declares the XML entity {name!r}: entity declarations "
+                         "are refused (no entity is expanded)")
+
+    def start(tag: str, attrs: dict[str, str]) -> None:
+        if element is None:
+            raise _XmlStop
+        element(tag, attrs)
+
+    parser.EntityDeclHandler = declared
+    parser.UnparsedEntityDeclHandler = declared
+    parser.StartElementHandler = start
+    try:
+        parser.Parse(text, True)
+    except _XmlStop:
+        pass
+    except expat.ExpatError as exc:
+        raise InputError(source, "", f"malformed XML: {exc}") from None
+
+
 def read_text(path: str | Path | Traversable, name: str | None = None, *,
               encoding: str = "utf-8") -> str:
     """The text of a file (UTF-8; ``"utf-8-sig"`` drops a byte-order mark), read by

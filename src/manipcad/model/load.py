@@ -88,3 +88,68 @@ def _load_path(path: Path) -> Robot:
     if is_tree_file(data):
         return load_tree_robot(path)
     return load_yaml_robot(path)
+
+
+#: MJCF elements that read other files whatever their attributes
+_MJCF_FILE_ELEMENTS = ("include",)
+
+
+def referenced_files(path: str | Path) -> list[tuple[str, str]]:
+    """The other files a robot file makes its loader read, as (field, reference) pairs.
+
+    A robot YAML file: its ``urdf:`` (URDF + drives) and the motors and gears it gives
+    as .yaml paths (``joints[2].drive.motor``; catalog names are not files). An MJCF
+    file: its ``<include>`` elements and every ``file*`` attribute (meshes, textures,
+    height fields, skins, models), which MuJoCo reads from wherever they point. A URDF
+    names none that manipcad reads (meshes are not read). A file that must stand alone
+    (an upload in ``manipcad ui``) is one for which this is empty.
+
+    Args:
+        path: the robot file (.yaml/.yml, .xml/.mjcf, .urdf).
+
+    Returns:
+        ``[(field, reference), ...]`` in file order; ``[]`` for a self-contained file.
+
+    Raises:
+        InputError: the file cannot be read or parsed (YAML; XML with an entity
+            declaration or not well-formed).
+
+    Example:
+        >>> import pathlib, tempfile
+        >>> p = pathlib.Path(tempfile.mkdtemp()) / "arm.yaml"
+        >>> _ = p.write_text("name: arm\\nurdf: /elsewhere/arm.urdf\\ndrives: {}\\n")
+        >>> referenced_files(p)
+        [('urdf', '/elsewhere/arm.urdf')]
+    """
+    from manipcad.fileio import read_bytes, read_yaml, scan_xml
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    found: list[tuple[str, str]] = []
+    if suffix in (".yaml", ".yml"):
+        def walk(node, where: str) -> None:
+            if isinstance(node, dict):
+                for key, value in node.items():
+                    field = f"{where}.{key}" if where else str(key)
+                    if key == "urdf" and not where and isinstance(value, str):
+                        found.append((field, value))
+                    elif key in ("motor", "gear"):
+                        names = value if isinstance(value, list) else [value]
+                        found.extend((field, v) for v in names if isinstance(v, str)
+                                     and v.lower().endswith((".yaml", ".yml")))
+                    else:
+                        walk(value, field)
+            elif isinstance(node, list):
+                for k, value in enumerate(node):
+                    walk(value, f"{where}[{k}]")
+
+        walk(read_yaml(path), "")
+    elif suffix in (".xml", ".mjcf"):
+        def element(tag: str, attrs: dict[str, str]) -> None:
+            if tag in _MJCF_FILE_ELEMENTS:
+                found.append((tag, attrs.get("file", "")))
+            found.extend((f"{tag}.{key}", value) for key, value in attrs.items()
+                         if key.startswith("file") and tag not in _MJCF_FILE_ELEMENTS)
+
+        scan_xml(read_bytes(path), str(path), element)
+    return found

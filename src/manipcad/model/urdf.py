@@ -54,6 +54,9 @@ Mapping onto :class:`~manipcad.model.robot.Robot` (joint motion about local z):
 An inertia that is positive semi-definite but breaks the triangle inequality
 (no rigid body has it) loads with a :class:`~manipcad.errors.ManipcadWarning`.
 
+No entity is expanded: a file declaring an XML entity (the 'billion laughs' bomb, an
+external entity naming another file) is refused (:func:`manipcad.fileio.scan_xml`).
+
 Every error in the file (malformed XML, a missing or duplicated element, a bad
 number, an unknown or unsupported joint type, a joint naming a link that does
 not exist, several root links, a link with two parents, a cycle) raises
@@ -72,7 +75,7 @@ from pathlib import Path
 import numpy as np
 
 from manipcad.errors import InputError, ManipcadWarning, ModelError
-from manipcad.fileio import read_bytes
+from manipcad.fileio import read_bytes, scan_xml
 from manipcad.model.robot import PRISMATIC, REVOLUTE, Robot, combine_bodies
 
 MOVABLE = {"revolute": REVOLUTE, "continuous": REVOLUTE, "prismatic": PRISMATIC}
@@ -171,6 +174,7 @@ class _Inertial:
 
 
 def _parse_xml(text: str | bytes, source: str) -> ET.Element:
+    scan_xml(text, source)       # no entity declarations: ElementTree would expand them
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:

@@ -510,7 +510,10 @@ def validate(model: type[BaseModel], data: Any, label: str, prefix: str = "") ->
 
 
 def catalog_entry(kind: str, name: str) -> Traversable | None:
-    """The catalog file of a motor, gear or robot name, or None."""
+    """The catalog file of a motor, gear or robot name, or None (also for a name that is a
+    path: ``/x/motor`` or ``../x`` would lead out of the catalog folder)."""
+    if not name or "/" in name or "\\" in name or name.startswith("."):
+        return None
     entry = CATALOG / kind / f"{name}.yaml"
     return entry if entry.is_file() else None
 

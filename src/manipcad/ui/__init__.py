@@ -36,8 +36,8 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
 
     from manipcad.errors import InputError
     from manipcad.ui import pages
-    from manipcad.ui.logic import open_workspace
-    from manipcad.ui.security import TokenGate, token_for
+    from manipcad.ui.logic import MAX_UPLOAD, open_workspace
+    from manipcad.ui.security import MULTIPART_SLACK, BodyCap, TokenGate, token_for
 
     if not 0 < int(port) < 65536:
         raise InputError("--port", "", f"must be 1..65535, got {port}")
@@ -47,6 +47,8 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
     pages.register()
     required = token_for(host, token)
     url = f"http://{host}:{port}/"
+    # the body cap first, then the gate outside it: without the token nothing is read
+    app.add_middleware(BodyCap, limit=MAX_UPLOAD + MULTIPART_SLACK)
     if required:
         app.add_middleware(TokenGate, token=required)
         url += f"?token={required}"

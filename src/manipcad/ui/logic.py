@@ -369,7 +369,8 @@ def add_upload(ws: Workspace, filename: str, data: bytes, *, kind: str, name: st
         The new :class:`~manipcad.workspace.Item`.
 
     Raises:
-        InputError: too big, a suffix not accepted, an unsafe name, or the
+        InputError: too big, a suffix not accepted, an unsafe name, a robot file that
+            names other files (read from outside the workspace otherwise), or the
             loader's error (file, field, reason) naming the uploaded file.
     """
     base = Path(filename or "").name
@@ -385,10 +386,31 @@ def add_upload(ws: Workspace, filename: str, data: bytes, *, kind: str, name: st
         path = Path(tmp) / f"{item_name}{suffix}"
         path.write_bytes(data)
         try:
+            if kind == "robots":
+                _self_contained(path)
             return ws.add(path, kind=kind, name=item_name, robot=robot)
         except InputError as exc:
             # name the file as the user knows it, not the temporary copy
             raise InputError(base, exc.field, exc.reason.replace(str(path), base)) from None
+
+
+def _self_contained(path: Path) -> None:
+    """Refuse an uploaded robot file that names other files (a URDF, motor or gear file,
+    an MJCF include, mesh or texture): those would be read from wherever they point,
+    outside the workspace (:func:`manipcad.model.load.referenced_files`).
+
+    Raises:
+        InputError: naming the field and the file it names.
+    """
+    from manipcad.model.load import referenced_files
+
+    refs = referenced_files(path)
+    if refs:
+        field, ref = refs[0]
+        raise InputError(str(path), field, f"names the file {ref!r}: an uploaded robot file "
+                         "must stand alone (catalog motors and gears by name, no URDF, "
+                         "include, mesh or texture files); add robots that need their own "
+                         "files with `manipcad ws add`")
 
 
 def make_trajectory(form: Mapping[str, Any], robot):

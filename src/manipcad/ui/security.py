@@ -5,6 +5,11 @@ static files, uploads and the websocket): every request must carry the token,
 as ``?token=T`` (the link printed at start; the gate then sets a cookie so the
 page's own requests carry it), a ``manipcad_token`` cookie, or an
 ``X-Manipcad-Token`` header. Without it: HTTP 401, or the websocket is closed.
+
+:class:`BodyCap` caps every HTTP request's body (uploads: the upload field's own
+limit is the browser's only): a larger declared ``Content-Length`` gets HTTP 413
+before the application reads a byte, and a body sent without one is cut off with
+413 once it passes the cap, so an upload never fills the server's memory or disk.
 """
 
 from __future__ import annotations
@@ -15,6 +20,8 @@ from http.cookies import SimpleCookie
 from urllib.parse import parse_qs
 
 COOKIE = "manipcad_token"
+#: bytes an upload's multipart body may hold beyond the file (boundaries, part headers)
+MULTIPART_SLACK = 64 * 1024
 HEADER = b"x-manipcad-token"
 
 
@@ -102,3 +109,66 @@ class TokenGate:
             await send(message)
 
         return await self.app(scope, receive, send_with_cookie)
+
+
+class _TooLarge(Exception):
+    """A request body passed :class:`BodyCap`'s limit while it was being read."""
+
+
+class BodyCap:
+    """ASGI middleware refusing HTTP request bodies larger than ``limit`` bytes (413).
+
+    Args:
+        app: the ASGI application.
+        limit: the largest body accepted, bytes (an upload's multipart body is the file
+            plus a few hundred bytes of headers).
+    """
+
+    def __init__(self, app, limit: int) -> None:
+        self.app = app
+        self.limit = int(limit)
+
+    async def _refuse(self, send, size: str) -> None:
+        body = (f"manipcad ui: request body {size}larger than the {self.limit} bytes "
+                "accepted\n").encode()
+        await send({"type": "http.response.start", "status": 413,
+                    "headers": [(b"content-type", b"text/plain; charset=utf-8"),
+                                (b"content-length", str(len(body)).encode()),
+                                (b"connection", b"close")]})
+        await send({"type": "http.response.body", "body": body})
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        for key, value in scope.get("headers", ()):
+            if key == b"content-length":
+                try:
+                    declared = int(value)
+                except ValueError:
+                    declared = self.limit + 1
+                if declared > self.limit:
+                    return await self._refuse(send, f"of {value.decode('latin-1')} bytes: ")
+        seen = 0
+        started = False
+
+        async def counted():
+            nonlocal seen
+            message = await receive()
+            if message["type"] == "http.request":
+                seen += len(message.get("body", b""))
+                if seen > self.limit:
+                    raise _TooLarge
+            return message
+
+        async def watched(message):
+            nonlocal started
+            if message["type"] == "http.response.start":
+                started = True
+            await send(message)
+
+        try:
+            return await self.app(scope, counted, watched)
+        except _TooLarge:
+            if not started:
+                await self._refuse(send, "")
+            return None

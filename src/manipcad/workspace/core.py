@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import secrets
 import shutil
 import tempfile
@@ -907,12 +906,12 @@ def _joint_types(robot_file: Path) -> tuple[str, ...]:
 
 
 def _references_files(robot_file: Path) -> bool:
-    """Whether a robot YAML file names other files (``urdf:``, motor or gear paths)."""
-    if robot_file.suffix.lower() not in (".yaml", ".yml"):
-        return False
-    text = robot_file.read_text(encoding="utf-8", errors="replace")
-    return bool(re.search(r"^\s*urdf\s*:", text, flags=re.M)
-                or re.search(r"[\w./-]+\.(ya?ml|urdf|xml)\b", text))
+    """Whether a robot YAML file names other files (``urdf:``, motor or gear paths:
+    :func:`manipcad.model.load.referenced_files`)."""
+    from manipcad.model.load import referenced_files
+
+    return robot_file.suffix.lower() in (".yaml", ".yml") and bool(
+        referenced_files(robot_file))
 
 
 def _no_links_out(src: Path) -> None:

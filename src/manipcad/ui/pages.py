@@ -642,6 +642,11 @@ def register() -> None:
                     .classes("w-48").props("data-testid=sim-traj")
                 reg = ui.select(regs, value=regs[-1] if regs else None, label="Regulator") \
                     .classes("w-64").props("data-testid=sim-reg")
+                # regulators synthesized per joint (one method here, another there) run
+                # together; simulate() refuses two for one joint
+                more = ui.select(regs, value=[], multiple=True,
+                                 label="and regulators of other joints") \
+                    .classes("w-64").props("use-chips data-testid=sim-more")
                 t_end = ui.input("t_end [s] (empty: the trajectory's)", value="") \
                     .props("data-testid=sim-tend")
                 dt = ui.input("dt [s]", value="1e-4").props("data-testid=sim-dt")
@@ -660,7 +665,8 @@ def register() -> None:
                                          "(make one on the Trajectories page)")
                     spec = SimSpec(workspace=str(SERVER["ws"]), robot=S["robot"],
                                    trajectory=traj.value,
-                                   regulators=[reg.value] if reg.value else [],
+                                   regulators=list(dict.fromkeys(   # each once, in order
+                                       r for r in [reg.value, *(more.value or [])] if r)),
                                    t_end=numbers(t_end.value, "t_end", "simulation form")[0]
                                    if str(t_end.value).strip() else None,
                                    dt=numbers(dt.value, "dt", "simulation form")[0],

@@ -171,6 +171,7 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
     from manipcad.control.files import load_regulators
     from manipcad.errors import InputError, ManipcadError, ManipcadWarning
     from manipcad.sim import SimulationDiverged, simulate
+    from manipcad.store.results import record_every_for
     from manipcad.ui.logic import load_robot_ref, load_trajectory_ref, open_workspace
     from manipcad.workspace import check_name
 
@@ -191,13 +192,18 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
         raise InputError("dt", "", f"must be > 0 s and <= t_end, got {spec.dt}")
     if spec.name:
         check_name(spec.name, "result name")
+        if ws.find("results", spec.name) is not None:     # before the run, not after it
+            raise InputError(f"results/{spec.name}", "", "name taken in the workspace; "
+                             "choose another result name")
+    # recorded as `manipcad simulate` records it: one sample per shortest regulator period
+    every = record_every_for(spec.dt, [r.period for r in regs])
     run = {"robot": spec.robot, "trajectory": spec.trajectory, "regulators": spec.regulators,
-           "t_end": t_end, "dt": spec.dt, "every": 1, "drives": True, "payload": None}
+           "t_end": t_end, "dt": spec.dt, "every": every, "drives": True, "payload": None}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
         try:
             res = simulate(arm, t_end=t_end, dt=spec.dt, trajectory=traj, regulators=regs,
-                           progress=progress)
+                           record_every=every, progress=progress)
         except SimulationDiverged as exc:
             if spec.save_diverged:
                 item = ws.store_result(exc.result, name=spec.name, robot=arm,

@@ -5,8 +5,8 @@ The designer's flow: open the app, pick the PUMA 560 (its 3-D stick view moved b
 pose slider and turned), make a trajectory, get a recommendation and verify it by
 simulation, synthesize the recommended method and a PID, simulate both, see both in
 the results overlay; a bad URDF upload shows its error in the page; a second tab keeps
-its own robot and trajectory; a traversal name gets 400; with a token, a request
-without it gets 401.
+its own robot and trajectory; a traversal name gets 400; an upload over the cap
+gets 413; with a token, a request without it gets 401.
 Screenshots of every page go to docs/ui/.
 
 A missing browser or Playwright FAILS these tests (``.ci/run`` installs chromium);
@@ -341,6 +341,13 @@ def test_designer_flow(browser, server):
     assert page.request.get(server + "/api/studies/..%2Fresults/x.html").status == 400
     assert page.request.get(server + "/api/studies/fig3/..%2F..%2Findex.sqlite").status == 400
     assert page.request.get(server + "/api/studies/fig3/fig3.html").status == 404
+    # the server caps uploads, not only the browser's upload field: 413 before reading
+    from manipcad.ui.logic import MAX_UPLOAD
+
+    big = page.request.post(server + "/_nicegui/client/x/upload/1",
+                            multipart={"file": {"name": "big.urdf", "mimeType": "text/xml",
+                                                "buffer": b" " * (MAX_UPLOAD + 100_000)}})
+    assert big.status == 413, big.status
     context.close()
 
 

@@ -215,6 +215,15 @@ def test_links_out_of_the_workspace_are_refused(ws, tmp_path):
         logic.load_robot_ref(ws, "robots/one")
     with pytest.raises(InputError, match="outside the workspace"):
         ws.resolve("robots", "one")
+    # a study's report route lists and serves no link, even one to a report file
+    study = tmp_path / "s"
+    study.mkdir()
+    (study / "report.html").write_text("<html>ok</html>")
+    ws.add(study, kind="studies", name="s")
+    os.symlink(outside, ws.path(ws.get("studies/s")) / "leak.html")
+    assert logic.study_files(ws, "s") == ["report.html"]
+    with pytest.raises(InputError, match="no such report"):
+        logic.study_file(ws, "s", "leak.html")
 
 
 def test_robot_refs_outside_the_workspace_are_refused(ws):
@@ -582,6 +591,46 @@ async def _error(user) -> str:
 
 
 @pytest.mark.slow
+def test_simulation_page_shows_why_a_run_failed(tmp_path, monkeypatch):
+    """The worker's failure message (diverged at t, joint) is the page's error line."""
+    from nicegui import ui
+
+    from manipcad.ui import pages
+
+    ws = logic.open_workspace(tmp_path / "ws")
+    arm = manipcad.load_robot("puma560")
+    logic.save_trajectory_to(ws, logic.make_trajectory(
+        {"type": "quintic", "q_start": [0.0] * 6, "q_end": [0.1] * 6, "duration": 0.1}, arm),
+        "move")
+    why = "simulation diverged at t = 0.012 s: speed above 1e4 rad/s (m/s) at joint 'elbow'; " \
+          "nothing was stored"
+
+    class Failed:                      # what SimulationJob reports after such a run
+        fraction, finished, message = 0.4, True, why
+
+        def __init__(self, spec):
+            self.spec = spec
+
+        def poll(self):
+            return "error"
+
+    monkeypatch.setattr(pages, "SimulationJob", Failed)
+
+    async def script(user):
+        await _open(user, "/simulation")
+        user.find(kind=ui.input, content="dt").clear().type("abc")
+        user.find("Simulate").click()
+        assert (await _error(user)).startswith("simulation form: dt: expected numbers")
+        user.find(kind=ui.input, content="dt").clear().type("1e-4")
+        user.find("Simulate").click()
+        await user.should_see(why, retries=50)         # the page polls its job 4 times a s
+        (lab,) = user.find(marker="error").elements
+        assert lab.text == why and lab.visible
+
+    _simulate_user(tmp_path / "ws", script)
+
+
+@pytest.mark.slow
 def test_pages_in_the_simulated_user(tmp_path):
     """Each page's errors name form, field and reason; the Trajectories page makes and saves
     laws (2), via points, a gripper line and a gripper circle."""
@@ -616,7 +665,12 @@ def test_pages_in_the_simulated_user(tmp_path):
         # via points, a gripper line and a gripper circle (schema + inverse kinematics)
         await _open(user, "/trajectories")
         law = _field(user, ui.select, "Law")
-        forms = {"via": ("spline", {"times of the via": "0, 0.5, 1",
+        forms = {"quin": ("quintic", {"start per joint": "0", "end per joint": "0.2",
+                                      "duration": "1"}),
+                 "trap": ("trapezoidal", {"start per joint": "0",
+                                          "end per joint": "0.5, 0.4, 0.3, 0.2, 0.1, 0",
+                                          "max speed": "1", "max acceleration": "4"}),
+                 "via": ("spline", {"times of the via": "0, 0.5, 1",
                                     "one row per time": "0; 0.2; 0.1"}),
                  "line": ("line", {"start pose": "0, -0.5, 0.5, 0, 0.5, 0",
                                    "displacement": "0.05, 0, 0"}),
@@ -638,6 +692,14 @@ def test_pages_in_the_simulated_user(tmp_path):
     # stays on its circle
     ws = logic.open_workspace(tmp_path / "ws")
     arm = manipcad.load_robot("puma560")
+    quin = logic.load_trajectory_ref(ws, "quin", arm)           # the laws of the form
+    np.testing.assert_allclose(quin.sample(np.array([0.0, 1.0]))[0], [[0.0] * 6, [0.2] * 6],
+                               atol=1e-12)
+    trap = logic.load_trajectory_ref(ws, "trap", arm)
+    q, qd, qdd = trap.sample(np.linspace(0.0, trap.duration, 2001))
+    np.testing.assert_allclose(q[-1], [0.5, 0.4, 0.3, 0.2, 0.1, 0.0], atol=1e-12)
+    assert np.abs(qd).max() <= 1.0 + 1e-9 and np.abs(qdd).max() <= 4.0 + 1e-9
+    assert np.abs(qd[:, 0]).max() == pytest.approx(1.0)         # the longest move cruises
     via = logic.load_trajectory_ref(ws, "via", arm)
     np.testing.assert_allclose(via.sample(np.array([0.5]))[0][0], [0.2] * 6, atol=1e-12)
     line = logic.load_trajectory_ref(ws, "line", arm)

@@ -392,6 +392,34 @@ def test_cli_ui_options_reach_the_server(monkeypatch, tmp_path):
                                           "token": "t0k"})
 
 
+def test_host_check_refuses_other_names_on_loopback():
+    """On 127.0.0.1 without a token, a request naming another host (a page of another
+    site whose name was pointed at 127.0.0.1: DNS rebinding) gets 403 and its websocket
+    is closed; the loopback names pass, on any port (an SSH tunnel's)."""
+    from manipcad.ui.security import HostCheck
+
+    async def inner(scope, receive, send):
+        await send({"type": "http.response.start", "status": 200, "headers": []})
+        await send({"type": "http.response.body", "body": b"ok"})
+
+    gate = HostCheck(inner)
+    for host in (b"127.0.0.1:8080", b"localhost:9000", b"[::1]:8080", b"LOCALHOST",
+                 b"127.0.0.2:80"):
+        assert _call(gate, "/", headers=[(b"host", host)])[0]["status"] == 200, host
+    for host in (b"evil.example:8080", b"evil.example", b"localhost.evil.example:8080",
+                 b"0.0.0.0:8080", b"192.168.1.5:8080", b""):
+        assert _call(gate, "/", headers=[(b"host", host)])[0]["status"] == 403, host
+    assert _call(gate, "/")[0]["status"] == 403                  # no Host at all
+    closed = []
+
+    async def send(msg):
+        closed.append(msg)
+
+    asyncio.run(gate({"type": "websocket", "path": "/_nicegui_ws", "query_string": b"",
+                      "headers": [(b"host", b"evil.example:8080")]}, None, send))
+    assert closed == [{"type": "websocket.close", "code": 1008}]
+
+
 def test_worker_runs_stores_and_cancels(ws):
     """The worker's run equals manipcad.simulate's; its voltage and power series give the
     run's own energy metric; a cancel stores nothing. (The worker's body runs in this

@@ -7,8 +7,9 @@
 Pages follow the designer's path of the paper's Fig. 1 (main menu, robots,
 trajectories, requirements → method, synthesis, simulation, results); each calls
 the same Python API as the CLI (:mod:`manipcad.ui.logic`). Bound to 127.0.0.1 by
-default; any other address needs a token that every request carries
-(:mod:`manipcad.ui.security`). docs/ui.md has the tour and screenshots.
+default (requests naming another host refused); any other address needs a
+token that every request carries (:mod:`manipcad.ui.security`). docs/ui.md has
+the tour and screenshots.
 """
 
 from __future__ import annotations
@@ -37,7 +38,14 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
     from manipcad.errors import InputError
     from manipcad.ui import pages
     from manipcad.ui.logic import MAX_UPLOAD, open_workspace
-    from manipcad.ui.security import MULTIPART_SLACK, BodyCap, TokenGate, token_for
+    from manipcad.ui.security import (
+        MULTIPART_SLACK,
+        BodyCap,
+        HostCheck,
+        TokenGate,
+        is_loopback,
+        token_for,
+    )
 
     if not 0 < int(port) < 65536:
         raise InputError("--port", "", f"must be 1..65535, got {port}")
@@ -52,6 +60,8 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
     if required:
         app.add_middleware(TokenGate, token=required)
         url += f"?token={required}"
+    elif is_loopback(host):        # no token: only loopback names (no DNS rebinding)
+        app.add_middleware(HostCheck)
     from manipcad.ui.worker import prestart, stop_spare
 
     prestart()

@@ -6,6 +6,12 @@ as ``?token=T`` (the link printed at start; the gate then sets a cookie so the
 page's own requests carry it), a ``manipcad_token`` cookie, or an
 ``X-Manipcad-Token`` header. Without it: HTTP 401, or the websocket is closed.
 
+:class:`HostCheck` guards a server on 127.0.0.1 without a token against DNS
+rebinding (a web page whose own name the attacker points at 127.0.0.1, which the
+browser then treats as that page's origin): a request whose ``Host`` is not a
+loopback name (127.0.0.1, localhost, ::1, any port) gets HTTP 403, or the
+websocket is closed.
+
 :class:`BodyCap` caps every HTTP request's body (uploads: the upload field's own
 limit is the browser's only): a larger declared ``Content-Length`` gets HTTP 413
 before the application reads a byte, and a body sent without one is cut off with
@@ -109,6 +115,53 @@ class TokenGate:
             await send(message)
 
         return await self.app(scope, receive, send_with_cookie)
+
+
+def host_name(host_header: str) -> str:
+    """The name of a ``Host`` header without its port (IPv6 brackets kept off).
+
+    Example:
+        >>> host_name("127.0.0.1:8080"), host_name("[::1]:8080"), host_name("localhost")
+        ('127.0.0.1', '::1', 'localhost')
+    """
+    h = host_header.strip().lower()
+    if h.startswith("["):
+        return h[1:h.find("]")] if "]" in h else h[1:]
+    return h.rsplit(":", 1)[0] if h.count(":") == 1 else h
+
+
+class HostCheck:
+    """ASGI middleware refusing requests whose ``Host`` is not a loopback name (403; the
+    websocket closed): on 127.0.0.1 without a token this is what keeps another web site
+    from reaching the application by DNS rebinding (see the module docstring).
+
+    Args:
+        app: the ASGI application.
+    """
+
+    def __init__(self, app) -> None:
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] not in ("http", "websocket"):
+            return await self.app(scope, receive, send)
+        given = ""
+        for key, value in scope.get("headers", ()):
+            if key == b"host":
+                given = value.decode("latin-1")
+                break
+        if is_loopback(host_name(given)):
+            return await self.app(scope, receive, send)
+        if scope["type"] == "websocket":
+            await send({"type": "websocket.close", "code": 1008})
+            return None
+        body = (f"manipcad ui: Host {given!r} refused; open http://127.0.0.1:PORT/ (another "
+                "name needs --host and a token)\n").encode()
+        await send({"type": "http.response.start", "status": 403,
+                    "headers": [(b"content-type", b"text/plain; charset=utf-8"),
+                                (b"content-length", str(len(body)).encode())]})
+        await send({"type": "http.response.body", "body": body})
+        return None
 
 
 class _TooLarge(Exception):

@@ -81,6 +81,24 @@ def test_presets_sized_and_time_scaled():
     assert info["reached"] and info["load_ratio"] == pytest.approx(10.0, rel=1e-9)
 
 
+def test_cell_plan_reuses_the_rows_arm(arm):
+    """A cell planned with its row's arm as size_row returned it (pickled, as from a
+    worker) has the same runs, arm and all, as one that computes the arm again."""
+    import pickle
+
+    from manipcad.parallel import task_key
+
+    row = pickle.loads(pickle.dumps(claims_mod.size_row(
+        arm=arm, load_ratio=5.0, max_payload=2.0, speed_scales=[0.5, 1.0])))
+    assert row["arm"] == arm_with_load_ratio(arm, 5.0, max_payload=2.0)[1]
+    kw = {"speed_scale": 0.5, "load_ratio": 5.0, "arm": arm, "dt": 1e-4, "max_payload": 2.0}
+    again = claims_mod.cell_plan(**kw)
+    reused = claims_mod.cell_plan(**kw, row=(row["robot"], row["arm"]))
+    assert task_key(pow, {"plan": reused}) == task_key(pow, {"plan": again})
+    other = claims_mod.cell_plan(**{**kw, "load_ratio": 2.5})
+    assert task_key(pow, {"plan": other}) != task_key(pow, {"plan": again})
+
+
 @pytest.mark.slow
 def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm, dask_scheduler):
     """The cell at speed scale 1 on the light arm is the Fig. 3 experiment: the same

@@ -202,12 +202,48 @@ def test_pool_started_ahead_longest_first(dask_scheduler, monkeypatch, tmp_path)
     with pytest.raises(InputError, match="split"):
         run_tasks(_cells, tasks, common={"offset": 0.5}, workers=1, split=_split_cells(),
                   chunk=2, progress=False)
+    # tasks joined into guided batches (equal costs): a failure names its own task,
+    # not the first of its batch; and a pool released early closes while the caller goes on
+    from manipcad.parallel.executor import guided
+
+    assert guided([[k] for k in range(30)], [1.0] * 30, 2)[0] == [0, 1, 2, 3, 4]
+    with Pool(scheduler=dask_scheduler) as pool:
+        with pytest.raises(TaskFailed, match=r"task 2 .*two is bad") as info:
+            run_tasks(_fails, [{"x": k} for k in range(30)], pool=pool, cost=lambda t: 1.0,
+                      progress=False)
+        assert info.value.index == 2
+        r = run_tasks(_square, [{"x": k} for k in range(30)], pool=pool, cost=lambda t: 1.0,
+                      progress=False)
+        client = pool.client()
+        pool.release()
+    assert list(r) == [k * k for k in range(30)] and client.status == "closed"
     from manipcad.parallel import executor
 
     monkeypatch.setattr(executor, "CONNECT_TIMEOUT", 0.5)
     with pytest.raises(InputError, match="cannot connect"), \
             Pool(scheduler="tcp://127.0.0.1:9") as p:
         p.client()
+
+
+def test_guided_batches():
+    """Guided batches: consecutive units in their order, every unit once, each batch within
+    1/(GUIDED·slots) of the work left unless a single unit, the last ones single units."""
+    from manipcad.parallel.executor import GUIDED, guided
+
+    rng = np.random.default_rng(5)
+    for slots in (1, 2, 8):
+        costs = sorted(rng.uniform(0.05, 3.0, 98), reverse=True)
+        units = [[2 * k, 2 * k + 1] for k in range(98)]  # chunks of two tasks each
+        batches = guided(units, costs, slots)
+        assert [i for b in batches for i in b] == list(range(196))
+        left, at = sum(costs), 0
+        for b in batches:
+            n = len(b) // 2
+            c = sum(costs[at:at + n])
+            assert n == 1 or c <= left / (GUIDED * slots) + 1e-12
+            left, at = left - c, at + n
+        assert len(batches[-1]) == 2 and len(batches) < 98
+    assert guided([], [], 2) == []
 
 
 def _threads_usable():

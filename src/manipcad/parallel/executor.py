@@ -226,7 +226,14 @@ def _run_chunk(func: Callable, batched: bool, common: Mapping[str, Any],
             raise ManipcadError(f"{_qualname(func)} returned {len(out)} results for "
                                 f"{len(tasks)} tasks")
         return out
-    return [func(**common, **t) for t in tasks]
+    out = []
+    for k, t in enumerate(tasks):
+        try:
+            out.append(func(**common, **t))
+        except Exception as exc:
+            exc.manipcad_offset = k  # which task of the chunk (pickled with the exception)
+            raise
+    return out
 
 
 def _check(workers: Any, scheduler: Any, chunk: Any, tasks: Any) -> tuple[int | None, list]:
@@ -384,8 +391,11 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
             return len(idx)
     pending = list(range(len(unit_items))) if split is not None else todo
     units = [pending[i:i + chunk] for i in range(0, len(pending), chunk)]
+    costs: list[float] = []
     if cost is not None:  # longest first (the chunks themselves stay in task order)
-        units.sort(key=lambda idx: -sum(float(cost(unit_items[k])) for k in idx))
+        costs = [sum(float(cost(unit_items[k])) for k in idx) for idx in units]
+        order = sorted(range(len(units)), key=lambda u: -costs[u])
+        units, costs = [units[u] for u in order], [costs[u] for u in order]
 
     with ExitStack() as stack:
         bar = _progress(stack, progress, desc, len(items), results.cached)
@@ -397,8 +407,51 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
             return results
         client = pool.client() if pool is not None else \
             _start_client(stack, workers, scheduler)
+        if costs and not unit_batched:  # one task per chunk the function sees either way
+            units = guided(units, costs, max(1, sum(client.nthreads().values())))
         _run_dask(client, unit_func, unit_batched, unit_common, unit_items, units, done, bar)
     return results
+
+
+#: :func:`guided`: a batch holds at most 1/(GUIDED * slots) of the work still to hand out
+GUIDED = 3
+
+
+def guided(units: list[list[int]], costs: list[float], slots: int) -> list[list[int]]:
+    """Units of work (longest first) joined into fewer tasks, the later ones smaller.
+
+    Guided self-scheduling: each batch takes consecutive units while their estimated cost
+    stays within ``1 / (GUIDED * slots)`` of the cost not yet handed out (at least one
+    unit). The first batches are large (fewer scheduler round trips, each costing about
+    2 ms of the scheduler's and 1-2 ms of a worker's time), the last ones single units,
+    so the workers still finish together.
+
+    Args:
+        units: the units (lists of task indices), longest first.
+        costs: their estimated costs (any unit, >= 0), in the same order.
+        slots: tasks the cluster runs at once (>= 1).
+
+    Returns:
+        The batches: lists of task indices, each the concatenation of consecutive units.
+
+    Example:
+        >>> guided([[k] for k in range(10)], [1.0] * 10, 1)
+        [[0, 1, 2], [3, 4], [5], [6], [7], [8], [9]]
+    """
+    left = float(sum(costs))
+    out: list[list[int]] = []
+    i = 0
+    while i < len(units):
+        limit = left / (GUIDED * slots)
+        batch, c = list(units[i]), costs[i]
+        i += 1
+        while i < len(units) and c + costs[i] <= limit:
+            batch += units[i]
+            c += costs[i]
+            i += 1
+        out.append(batch)
+        left -= c
+    return out
 
 
 def _split(split: Split, common: Mapping[str, Any], items: list, todo: list[int],
@@ -444,8 +497,14 @@ def _guarded(func, batched, common, items, idx) -> list:
     except ManipcadError:
         raise
     except Exception as exc:  # noqa: BLE001 - named with its task
-        raise TaskFailed(f"task {idx[0]} ({dict(items[idx[0]])!r}) of {_qualname(func)} "
-                         f"failed: {type(exc).__name__}: {exc}", idx[0], items[idx[0]]) from exc
+        raise _failed(func, items, idx, exc) from exc
+
+
+def _failed(func, items, idx, exc) -> TaskFailed:
+    """TaskFailed naming the task of chunk ``idx`` that raised ``exc``."""
+    k = idx[min(max(0, int(getattr(exc, "manipcad_offset", 0))), len(idx) - 1)]
+    return TaskFailed(f"task {k} ({dict(items[k])!r}) of {_qualname(func)} failed: "
+                      f"{type(exc).__name__}: {exc}", k, items[k])
 
 
 def _progress(stack: ExitStack, show, desc: str, total: int, already: int):
@@ -552,6 +611,7 @@ class Pool:
         self._warm = warm
         self._stack = ExitStack()
         self._client = None
+        self._closer: threading.Thread | None = None
         self._error: BaseException | None = None
         if scheduler is None:  # fork while this thread waits (no lock held by it)
             self._client = _start_client(self._stack, self._workers, None)
@@ -586,10 +646,24 @@ class Pool:
         """
         return max(1, sum(self.client().nthreads().values()))
 
-    def close(self) -> None:
-        """Close the client and the cluster."""
+    def release(self) -> None:
+        """Start closing the client and the cluster in a background thread, for a caller
+        that has no more tasks but work of its own left (:meth:`close` waits for it)."""
+        import threading
+
         self._thread.join()
-        self._stack.close()
+        if self._closer is None:
+            self._closer = threading.Thread(target=self._stack.close, daemon=True,
+                                            name="manipcad-pool-close")
+            self._closer.start()
+
+    def close(self) -> None:
+        """Close the client and the cluster (or wait for :meth:`release`'s closing)."""
+        self._thread.join()
+        if self._closer is None:
+            self._stack.close()
+        else:
+            self._closer.join()
 
     def __enter__(self) -> Pool:
         return self
@@ -615,9 +689,7 @@ def _run_dask(client, func, batched, common, items, chunks, done, bar):
             except ManipcadError:
                 raise
             except Exception as exc:  # noqa: BLE001 - named with its task
-                raise TaskFailed(f"task {idx[0]} ({dict(items[idx[0]])!r}) of "
-                                 f"{_qualname(func)} failed: {type(exc).__name__}: {exc}",
-                                 idx[0], items[idx[0]]) from exc
+                raise _failed(func, items, idx, exc) from exc
             bar(done(idx, values))
     finally:
         for fut in futures:

@@ -442,8 +442,12 @@ def claims_cell(*, speed_scale: float, load_ratio: float, arm: Robot, dt: float,
 
 
 def cell_plan(*, speed_scale: float, load_ratio: float, arm: Robot, dt: float,
-              max_payload: float = MAX_PAYLOAD) -> tuple[dict, list[dict]]:
+              max_payload: float = MAX_PAYLOAD,
+              row: tuple[Robot, dict] | None = None) -> tuple[dict, list[dict]]:
     """A cell's arm and its closed-loop runs, each the arguments of :func:`claims_run`.
+
+    ``row``: the row's ``arm_with_load_ratio(arm, load_ratio, max_payload=max_payload)``
+    when already computed (:func:`size_row`'s "robot" and "arm"), not computed again.
 
     Returns:
         ``(state, runs)``: state {"arm": the load-ratio change (see
@@ -461,7 +465,8 @@ def cell_plan(*, speed_scale: float, load_ratio: float, arm: Robot, dt: float,
     from manipcad.control.design import inertia_range
     from manipcad.trajectories import gripper_speed
 
-    cell_arm, info = arm_with_load_ratio(arm, load_ratio, max_payload=max_payload)
+    cell_arm, info = row if row is not None else arm_with_load_ratio(
+        arm, load_ratio, max_payload=max_payload)
     s = float(speed_scale)
     duration = LAWS["duration"] / s
     traj = laws(s, info["stroke_m"])
@@ -784,6 +789,7 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
                               "speed_scales": g["speed_scale"]},
                       workers=None if pool is not None else 1, pool=pool, progress=False)
     rows = [r["arm"] for r in sized]
+    row_of = {rho: (r["robot"], r["arm"]) for rho, r in zip(targets, sized, strict=True)}
     runs = [r["speed_scale_run"] for r in sized]
     fails = [r["sizing_failures"] for r in sized]
     tasks, where = [], {}
@@ -802,7 +808,8 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
                      cache_dir=out / "cache",
                      progress=progress, desc="claims cells", version=CELL_VERSION,
                      cost=run_cost, split=Split(plan=lambda task, common: cell_plan(
-                         **common, **task), run=claims_run, combine=cell_result))
+                         **common, **task, row=row_of[task["load_ratio"]]), run=claims_run,
+                         combine=cell_result))
     cells = []
     for i, rho in enumerate(targets):
         for k, s_run in enumerate(runs[i]):
@@ -893,7 +900,8 @@ def size_row(*, arm: Robot, load_ratio: float, max_payload: float,
     cells of a row run at one speed scale (computed once).
 
     Returns:
-        {"arm": the load-ratio change (:func:`arm_with_load_ratio`), "speed_scale_run":
+        {"arm": the load-ratio change (:func:`arm_with_load_ratio`), "robot": the row's
+        arm (for :func:`cell_plan`), "speed_scale_run":
         per speed scale the one run (None: infeasible even at ``SPEED_SCALE_MIN``),
         "sizing_failures": per speed scale the limits failed there}.
 
@@ -911,7 +919,7 @@ def size_row(*, arm: Robot, load_ratio: float, max_payload: float,
         f = sizing_failures(row_arm, s, info["stroke_m"])
         runs.append(s if not f else (None if s_max is None else min(s, s_max)))
         fails.append(f)
-    return {"arm": info, "speed_scale_run": runs, "sizing_failures": fails}
+    return {"arm": info, "robot": row_arm, "speed_scale_run": runs, "sizing_failures": fails}
 
 
 def _infeasible_cell(info: dict, speed_scale: float) -> dict:
@@ -947,6 +955,8 @@ def _write(out: Path, doc: dict, pool=None) -> None:
                            common={"doc": doc, "dpi": FIGURE_DPI},
                            workers=None if pool is not None else 1, pool=pool,
                            progress=False)
+        if pool is not None:  # the cluster closes while the PNG and the report are written
+            pool.release()
         save_panels(list(images), tmp / "claims.png", dpi=FIGURE_DPI)
         (tmp / "report.html").write_text(claims_html(doc, tmp / "claims.png"), encoding="utf-8")
         for name in ("claims.json", "claims.png", "report.html"):

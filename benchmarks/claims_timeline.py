@@ -3,20 +3,24 @@
 Usage::
 
     python benchmarks/claims_timeline.py [--grid quick|full] [--workers N] [--arm A]
-                                         [--rounds R]
+                                         [--rounds R] [--no-serial] [--verbose]
 
 Runs ``manipcad.study.claims.run_claims`` into fresh folders (after one warm-up cell that
-loads the kernels in this process, as ``bench_parallel.py`` does), serially and on N
-workers, and logs, with the wall clock (s after the call) and the process's CPU time:
+loads the kernels in this process, as ``bench_parallel.py`` does), serially and then on N
+workers (``--no-serial``: only on N workers, whose forked processes then load the
+kernels this one has not), and logs, with the wall clock and the process's CPU time:
 
-- in this process: the pool's start (the cluster forked), the client ready (the
-  workers warmed), every ``run_tasks`` call (the rows' sizing, the cells, the figure's
-  panels), every cell's planning, the files (claims.json, the PNG, report.html);
+- in this process: the pool's start (import distributed, the cluster forked), the
+  client ready (the workers warmed), every ``run_tasks`` and ``_run_dask`` call (the
+  rows' sizing, the cells, the figure's panels), every cell's planning, the files;
 - on the workers (forked after the patches, so they run the logging wrappers):
   the warm-up, each row's sizing, each closed-loop run, each group of panels.
 
-Prints per round a table of phases (start, end, CPU) and per worker its busy time and
-idle gaps; the workers' tasks are logged to a file (O_APPEND, one line each).
+Prints per run the CPU time of this process and of the workers (as they exit), the
+N-worker run's wall time cut into phases by the workers' tasks (cluster start, sizing,
+runs, panels, the tail) with the share of each phase the workers were busy, and per
+worker its busy time and the gaps between its tasks; ``--verbose`` also every event of
+this process. Only on an idle machine do the wall times mean what they say.
 """
 
 from __future__ import annotations
@@ -84,7 +88,36 @@ def _patch() -> None:
                                  f"{len(a[5])} tasks")
 
 
-def _report(t_call: float, wall: float, main_pid: int) -> None:
+def _phases(t_call: float, wall: float, ev: list[dict], n: int) -> None:
+    """The N-worker run's wall time cut into phases by the workers' tasks, with the share
+    of each phase the workers spent in tasks."""
+    kinds = ("warm_worker", "size_row", "run", "draw_panels")
+    span = {k: (min(e["t0"] for e in ev if e["name"] == k) - t_call,
+                max(e["t1"] for e in ev if e["name"] == k) - t_call)
+            for k in kinds if any(e["name"] == k for e in ev)}
+    names = {"warm_worker": "warm-up (client.run)", "size_row": "sizing the rows",
+             "run": "the closed-loop runs", "draw_panels": "claims.png's panels"}
+    between = {"warm_worker": "cluster start (import distributed, fork, workers up)",
+               "size_row": "the rows handed out (scatter, submit)", "run": "planning, the first runs out",
+               "draw_panels": "cells combined, claims.json, the panels out"}
+    at = 0.0
+    print(f"  {'phase':<56} {'from':>6} {'to':>6} {'s':>6}  workers busy")
+    for k in kinds:
+        if k not in span:
+            continue
+        a, b = span[k]
+        if a > at:
+            print(f"  {between[k]:<56} {at:6.2f} {a:6.2f} {a - at:6.2f}")
+        busy = sum(min(e["t1"] - t_call, b) - max(e["t0"] - t_call, a) for e in ev
+                   if e["name"] in kinds and e["t1"] - t_call > a and e["t0"] - t_call < b)
+        print(f"  {names[k]:<56} {a:6.2f} {b:6.2f} {b - a:6.2f}  "
+              f"{100 * busy / (n * max(b - a, 1e-9)):5.1f} %")
+        at = b
+    print(f"  {'PNG written, report.html, cluster closed':<56} {at:6.2f} {wall:6.2f} "
+          f"{wall - at:6.2f}")
+
+
+def _report(t_call: float, wall: float, main_pid: int, verbose: bool) -> None:
     ev = [json.loads(s) for s in LOG.read_text().splitlines()]
     LOG.unlink()
     ev = [e for e in ev if e["t1"] >= t_call]
@@ -92,6 +125,11 @@ def _report(t_call: float, wall: float, main_pid: int) -> None:
     for e in ev:
         by_pid[e["pid"]].append(e)
     print(f"  end to end {wall:.2f} s")
+    workers = [p for p in by_pid if p != main_pid]
+    if workers:
+        _phases(t_call, wall, [e for p in workers for e in by_pid[p]], len(workers))
+    if not verbose:
+        return
     for pid in sorted(by_pid, key=lambda p: (p != main_pid, p)):
         es = sorted(by_pid[pid], key=lambda e: e["t0"])
         who = "main" if pid == main_pid else f"worker {pid}"
@@ -132,7 +170,9 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--arm", default="light", choices=sorted(claims_mod.ARMS))
     ap.add_argument("--rounds", type=int, default=1)
-    ap.add_argument("--serial", action="store_true", help="also time the serial run")
+    ap.add_argument("--no-serial", action="store_true", help="no serial run first (the "
+                    "workers then load the kernels the main process has not)")
+    ap.add_argument("--verbose", action="store_true", help="every event of this process")
     args = ap.parse_args()
     arm = manipcad.load_robot("cylindrical")
     claims_mod.claims_cell(speed_scale=1.0, load_ratio=claims_mod.own_load_ratio(arm),
@@ -141,7 +181,7 @@ def main() -> None:
     print(f"load average {os.getloadavg()}")
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(args.rounds):
-            for w in ((1, args.workers) if args.serial else (args.workers,)):
+            for w in ((args.workers,) if args.no_serial else (1, args.workers)):
                 print(f"round {r}, workers={w}:")
                 t_call, c_call, k_call = time.time(), time.process_time(), _children()
                 claims_mod.run_claims(Path(tmp) / f"r{r}w{w}", arm=args.arm, grid=args.grid,
@@ -150,7 +190,7 @@ def main() -> None:
                 main_cpu, kids = time.process_time() - c_call, _children() - k_call
                 print(f"  CPU: this process {main_cpu:.2f} s, the workers (ended) {kids:.2f} s, "
                       f"sum {main_cpu + kids:.2f} s")
-                _report(t_call, wall, os.getpid())
+                _report(t_call, wall, os.getpid(), args.verbose)
     print(f"load average {os.getloadavg()}")
 
 

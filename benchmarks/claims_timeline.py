@@ -98,7 +98,8 @@ def _phases(t_call: float, wall: float, ev: list[dict], n: int) -> None:
     names = {"warm_worker": "warm-up (client.run)", "size_row": "sizing the rows",
              "run": "the closed-loop runs", "draw_panels": "claims.png's panels"}
     between = {"warm_worker": "cluster start (import distributed, fork, workers up)",
-               "size_row": "the rows handed out (scatter, submit)", "run": "planning, the first runs out",
+               "size_row": "the rows handed out (scatter, submit)",
+               "run": "planning, the first runs out",
                "draw_panels": "cells combined, claims.json, the panels out"}
     at = 0.0
     print(f"  {'phase':<56} {'from':>6} {'to':>6} {'s':>6}  workers busy")

@@ -548,7 +548,10 @@ def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None):
         # the worker processes are forked (where fork exists): they start with this
         # process's imports and loaded compiled kernels instead of importing and loading
         # them again (spawn: about 1 s of imports and 2-4 s of kernels each)
-        with dask.config.set({"distributed.worker.multiprocessing-method": start_method()}):
+        # and their statistical profiler (a stack sample of the running task every 10 ms,
+        # for a dashboard that is not started) is off
+        with dask.config.set({"distributed.worker.multiprocessing-method": start_method(),
+                              "distributed.worker.profile.enabled": False}):
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                    dashboard_address=None, memory_limit=0,
                                    silence_logs=logging.ERROR)

@@ -89,6 +89,9 @@ def metrics_table(doc: dict[str, Any]) -> Table:
         table.add_row(*row)
     return table
 
+#: the run's numbers as this command's options name them (manipcad.store.plan)
+OPTION_NAMES = {"dt": "--dt", "t_end": "--t-end", "every": "--every", "drives": "--no-drives"}
+
 
 @app.command()
 @guarded
@@ -157,19 +160,14 @@ def simulate(
         "(default 1e-8).")] = None,
 ) -> None:
     """Simulate the closed loop (multibody + DC drives + sampled regulators) and save it."""
-    from manipcad.control.files import load_regulators
     from manipcad.model.load import load_robot
     from manipcad.sim import SimulationDiverged
     from manipcad.sim import simulate as run_simulation
     from manipcad.store import check_out_dir, result_document
+    from manipcad.store.plan import check_numbers, plan_run
     from manipcad.trajectories import load_trajectory
 
-    if not (math.isfinite(dt) and dt > 0):
-        raise InputError("--dt", "", f"must be > 0 s, got {dt}")
-    if every is not None and every < 1:
-        raise InputError("--every", "", f"must be >= 1, got {every}")
-    if t_end is not None and not (math.isfinite(t_end) and t_end > 0):
-        raise InputError("--t-end", "", f"must be > 0 s, got {t_end}")
+    check_numbers(dt, t_end, every, OPTION_NAMES)  # before anything is loaded
     if payload is not None and not (math.isfinite(payload) and payload >= 0):
         raise InputError("--payload", "", f"must be >= 0 kg, got {payload}")
     from manipcad.workspace import Workspace, resolve_input
@@ -193,35 +191,17 @@ def simulate(
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ManipcadWarning)
         traj = load_trajectory(trajectory, robot=arm)
-        if traj.n != arm.n:
-            raise InputError(str(trajectory), "", f"has {traj.n} joints, robot {arm.name!r} "
-                             f"has {arm.n}")
-        regs = []
-        owner: dict[int, str] = {}
-        for path in regulator or ():
-            for reg in load_regulators(path, arm, dt=dt, drives=not no_drives,
-                                       allow_other_robot=allow_other_robot):
-                for j in reg.joints:
-                    if j in owner:
-                        raise InputError(str(path), "joints", f"joint "
-                                         f"{arm.joint_names[j]!r} already has a "
-                                         f"regulator in {owner[j]}")
-                    owner[j] = str(path)
-                regs.append(reg)
+        plan = plan_run(arm, traj, regulator or (), dt=dt, t_end=t_end, every=every,
+                        drives=not no_drives, allow_other_robot=allow_other_robot,
+                        robot_source=robot, trajectory_source=str(trajectory),
+                        names=OPTION_NAMES)
+    regs, t_end = plan.regulators, plan.t_end
     # the catalog robots' data notes are documented ('manipcad robots show'); a user's
     # robot file's are news
     shown = [] if from_catalog else list(notes)
     shown += [str(w.message) for w in caught if issubclass(w.category, ManipcadWarning)]
     for w in shown:
         err_console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
-    if t_end is None:
-        t_end = float(traj.duration)
-        if not (math.isfinite(t_end) and t_end > 0):
-            raise InputError("--t-end", "", "needed: the trajectory has no finite duration")
-    if dt > t_end:
-        raise InputError("--dt", "", f"{dt:g} s is longer than the run ({t_end:g} s)")
-    if not no_drives and not arm.has_drives:
-        raise InputError(robot, "drives", "the robot has no drives; use --no-drives")
 
     if joint_limits not in ("warn", "stop", "ignore"):
         raise InputError("--joint-limits", "", f"must be warn, stop or ignore, got "
@@ -236,14 +216,9 @@ def simulate(
         inputs["regulator"] = list(regulator)
     run = {"robot": str(robot), "trajectory": str(trajectory),
            "regulators": [str(p) for p in regulator or ()], "t_end": t_end, "dt": dt,
-           "every": every, "drives": not no_drives, "payload": payload,
+           "every": plan.every, "drives": not no_drives, "payload": payload,
            "robot_notes": notes, "integrator": integrator, "rtol": rtol, "atol": atol}
-
-    if every is None:
-        from manipcad.store.results import record_every_for
-
-        every = record_every_for(dt, [r.period for r in regs])
-        run["every"] = every
+    every = plan.every
     from manipcad.cli.warmup import ensure_warm
 
     ensure_warm("simulator")

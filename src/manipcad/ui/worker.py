@@ -165,38 +165,30 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
         InputError: a bad reference or value; ManipcadError: the run failed
             (diverged at t, joint).
     """
-    import math
     import warnings
 
-    from manipcad.control.files import load_regulators
     from manipcad.errors import InputError, ManipcadError, ManipcadWarning
     from manipcad.sim import SimulationDiverged, simulate
-    from manipcad.store.results import record_every_for
+    from manipcad.store.plan import NAMES, plan_run
     from manipcad.ui.logic import load_robot_ref, load_trajectory_ref, open_workspace
     from manipcad.workspace import check_name
 
     ws = open_workspace(spec.workspace)
     arm, _ = load_robot_ref(ws, spec.robot)
     traj = load_trajectory_ref(ws, spec.trajectory, arm)
-    if traj.n != arm.n:
-        raise InputError(spec.trajectory, "", f"has {traj.n} joints, robot {arm.name!r} "
-                         f"has {arm.n}")
-    regs = []
     for name in spec.regulators:
         check_name(name, "regulator")
-        regs += load_regulators(ws.resolve("regulators", name), arm, dt=spec.dt)
-    t_end = spec.t_end if spec.t_end is not None else float(traj.duration)
-    if not (math.isfinite(t_end) and t_end > 0):
-        raise InputError("t_end", "", f"must be > 0 s, got {t_end}")
-    if not (math.isfinite(spec.dt) and 0 < spec.dt <= t_end):
-        raise InputError("dt", "", f"must be > 0 s and <= t_end, got {spec.dt}")
     if spec.name:
         check_name(spec.name, "result name")
-        if ws.find("results", spec.name) is not None:     # before the run, not after it
-            raise InputError(f"results/{spec.name}", "", "name taken in the workspace; "
-                             "choose another result name")
-    # recorded as `manipcad simulate` records it: one sample per shortest regulator period
-    every = record_every_for(spec.dt, [r.period for r in regs])
+    # the same checks and record stride as `manipcad simulate` (one sample per period)
+    plan = plan_run(arm, traj, [ws.resolve("regulators", n) for n in spec.regulators],
+                    dt=spec.dt, t_end=spec.t_end, robot_source=spec.robot,
+                    trajectory_source=spec.trajectory,
+                    names={**NAMES, "drives": "the Drives page to attach motors and gears"})
+    regs, t_end, every = plan.regulators, plan.t_end, plan.every
+    if spec.name and ws.find("results", spec.name) is not None:  # before the run, not after
+        raise InputError(f"results/{spec.name}", "", "name taken in the workspace; "
+                         "choose another result name")
     run = {"robot": spec.robot, "trajectory": spec.trajectory, "regulators": spec.regulators,
            "t_end": t_end, "dt": spec.dt, "every": every, "drives": True, "payload": None}
     with warnings.catch_warnings():
@@ -225,6 +217,7 @@ def _warm() -> None:
 
     try:
         import manipcad.control.files  # noqa: F401
+        import manipcad.store.plan  # noqa: F401
         import manipcad.store.results  # noqa: F401
         import manipcad.workspace  # noqa: F401
         from manipcad.control import synthesize

@@ -658,6 +658,49 @@ def test_simulation_page_shows_why_a_run_failed(tmp_path, monkeypatch):
     _simulate_user(tmp_path / "ws", script)
 
 
+def test_simulation_page_cancel_reaches_the_running_job(tmp_path, monkeypatch):
+    """The page's Cancel asks the running job to stop and shows it stopped (the worker's
+    own cancel, nothing stored, is test_worker_runs_stores_and_cancels)."""
+    from nicegui import ui
+
+    from manipcad.ui import pages
+
+    ws = logic.open_workspace(tmp_path / "ws")
+    arm = manipcad.load_robot("puma560")
+    logic.save_trajectory_to(ws, logic.make_trajectory(
+        {"type": "quintic", "q_start": [0.0] * 6, "q_end": [0.1] * 6, "duration": 0.1}, arm),
+        "move")
+    made = []
+
+    class Running:                     # a SimulationJob that runs until it is cancelled
+        message, wall = "", 0.0
+
+        def __init__(self, spec):
+            self.spec, self.fraction, self.finished, self.asked = spec, 0.3, False, 0
+            made.append(self)
+
+        def cancel(self):
+            self.asked += 1
+
+        def poll(self):
+            if self.asked:
+                self.finished = True
+                return "cancelled"
+            return "running"
+
+    monkeypatch.setattr(pages, "SimulationJob", Running)
+
+    async def script(user):
+        await _open(user, "/simulation")
+        user.find("Simulate").click()
+        await user.should_see("running: 30 %", retries=50)
+        user.find("Cancel").click()
+        await user.should_see("cancelled", retries=50)
+        assert len(made) == 1 and made[0].asked == 1 and made[0].spec.trajectory == "move"
+
+    _simulate_user(tmp_path / "ws", script)
+
+
 @pytest.mark.slow
 def test_pages_in_the_simulated_user(tmp_path):
     """Each page's errors name form, field and reason; the Trajectories page makes and saves

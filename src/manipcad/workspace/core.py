@@ -51,6 +51,10 @@ META = ".meta"
 ENV = "MANIPCAD_WORKSPACE"
 DEFAULT_DIR = "manipcad-ws"
 FORMAT = 1
+#: why an item is refused when its name is taken (said the same from the CLI, Python and
+#: the web application)
+NAME_TAKEN = ("name taken in the workspace; choose another name, or replace the item "
+              "(--force on the command line, force=True in Python)")
 
 #: suffixes kept for file items (others are refused)
 _SUFFIXES = (".yaml", ".yml", ".urdf", ".xml", ".mjcf")
@@ -462,8 +466,7 @@ class Workspace:
             return
         rows = self.index.query("SELECT 1 FROM items WHERE kind = ? AND name = ?", (kind, name))
         if rows or self._existing(kind, name):
-            raise InputError(f"{kind}/{name}", "", "name taken in the workspace; choose "
-                             "another --name or use --force to replace it")
+            raise InputError(f"{kind}/{name}", "", NAME_TAKEN)
 
     def _existing(self, kind: str, name: str) -> Path | None:
         folder = self.root / kind
@@ -500,8 +503,7 @@ class Workspace:
                                   (kind, name)).fetchall()
                 existing = self._existing(kind, name)
                 if (rows or existing) and not force:
-                    raise InputError(f"{kind}/{name}", "", "name taken in the workspace; "
-                                     "choose another --name or use --force to replace it")
+                    raise InputError(f"{kind}/{name}", "", NAME_TAKEN)
                 if tmp.is_dir():
                     install_folder(tmp, target, force=force)
                 else:

@@ -225,6 +225,20 @@ def test_pool_started_ahead_longest_first(dask_scheduler, monkeypatch, tmp_path)
         p.client()
 
 
+@pytest.mark.skipif(not hasattr(__import__("os"), "register_at_fork"), reason="no fork")
+def test_forked_workers_inherit_frozen_objects():
+    """The default LocalCluster forks its workers with the objects alive then frozen
+    (gc.freeze: their collector leaves the inherited objects, and their pages, alone);
+    this process unfreezes them once the workers run."""
+    import gc
+
+    assert gc.get_freeze_count() == 0
+    with Pool(workers=1) as pool:
+        frozen = pool.client().run(gc.get_freeze_count)
+        assert gc.get_freeze_count() == 0
+    assert len(frozen) == 1 and min(frozen.values()) > 10000
+
+
 def test_guided_batches():
     """Guided batches: consecutive units in their order, every unit once, each batch within
     1/(GUIDED·slots) of the work left unless a single unit, the last ones single units."""

@@ -21,6 +21,7 @@ code changes in a way that changes its results.
 from __future__ import annotations
 
 import dataclasses
+import gc
 import hashlib
 import logging
 import os
@@ -550,11 +551,24 @@ def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None):
         # them again (spawn: about 1 s of imports and 2-4 s of kernels each)
         # and their statistical profiler (a stack sample of the running task every 10 ms,
         # for a dashboard that is not started) is off
-        with dask.config.set({"distributed.worker.multiprocessing-method": start_method(),
-                              "distributed.worker.profile.enabled": False}):
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, memory_limit=0,
-                                   silence_logs=logging.ERROR)
+        # The objects alive at the fork are frozen (gc.freeze) while the workers fork:
+        # their garbage collector then neither scans nor writes to the objects they
+        # inherit, whose pages stay shared instead of being copied one by one (after a
+        # serial claims run, 300,000 objects: a worker's warm-up 0.99 s and 25,000 page
+        # faults with them scanned, 0.08 s and 5,900 frozen); this process unfreezes them
+        # once the workers run.
+        fork = start_method() == "fork"
+        if fork:
+            gc.freeze()
+        try:
+            with dask.config.set({"distributed.worker.multiprocessing-method": start_method(),
+                                  "distributed.worker.profile.enabled": False}):
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                       dashboard_address=None, memory_limit=0,
+                                       silence_logs=logging.ERROR)
+        finally:
+            if fork:
+                gc.unfreeze()
         stack.callback(cluster.close)
         client = Client(cluster, set_as_default=False)
     stack.callback(client.close)

@@ -129,12 +129,10 @@ def _report(t_call: float, wall: float, main_pid: int, verbose: bool) -> None:
     workers = [p for p in by_pid if p != main_pid]
     if workers:
         _phases(t_call, wall, [e for p in workers for e in by_pid[p]], len(workers))
-    if not verbose:
-        return
     for pid in sorted(by_pid, key=lambda p: (p != main_pid, p)):
         es = sorted(by_pid[pid], key=lambda e: e["t0"])
         who = "main" if pid == main_pid else f"worker {pid}"
-        if pid == main_pid:
+        if pid == main_pid and verbose:
             for e in es:
                 if e["name"] in ("run", "size_row", "draw_panels") or \
                         e.get("label") == "gain_cell":  # the serial run's tasks; lqr_gs tables

@@ -13,9 +13,9 @@ process), then on a local Dask cluster of N worker processes (default 2: its
 start and the workers' warm-up are inside the time), after one warm-up cell
 that compiles (or loads) the kernels in this process, as a session that has
 already run something has them. Each cell is cached whole, but its 14
-closed-loop runs are the units of work, handed out longest first; the
-time-scaled cells of a row are computed once (the cells counted are the
-computed ones).
+closed-loop runs are the units of work, handed out longest first (in
+guided batches, single runs at the end); the time-scaled cells of a row are
+computed once (the cells counted are the computed ones).
 
 Also printed: the sum of the runs' times in the serial run, the ideal
 schedule of those runs on N and on 64 workers (longest first onto the first

@@ -54,8 +54,10 @@ the gripper's peak speed (m/s) and whether any run diverged. Every cell is
 one task of :func:`manipcad.parallel.run_tasks` (Dask; ``workers=1`` serial),
 cached under ``out_dir/cache`` by a hash of its inputs; its 14 closed-loop runs
 (:func:`cell_plan`) are the units of work, handed out longest first
-(:func:`run_cost`) so that the workers finish together, and combined into the
-cell (:func:`cell_result`) whichever way they ran. The cells simulate with
+(:func:`run_cost`), in batches that shrink to single runs at the end
+(:func:`manipcad.parallel.executor.guided`), so that the workers finish
+together, and combined into the cell (:func:`cell_result`) whichever way they
+ran. The cells simulate with
 the general compiled kernels (``use_generated=False``): the simulator otherwise
 uses a robot's generated kernels when some process has generated them, which
 agree to about 1e-8 but not bit for bit, and a cell's result must not depend on

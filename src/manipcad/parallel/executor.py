@@ -232,7 +232,10 @@ def _run_chunk(func: Callable, batched: bool, common: Mapping[str, Any],
         try:
             out.append(func(**common, **t))
         except Exception as exc:
-            exc.manipcad_offset = k  # which task of the chunk (pickled with the exception)
+            try:  # which task of the chunk (pickled with the exception)
+                exc.manipcad_offset = k
+            except AttributeError:  # an exception type without attributes: the chunk's first
+                pass
             raise
     return out
 

@@ -132,13 +132,14 @@ def pytest_collection_modifyitems(config, items):
 
 
 # ------------------------------------------------------------------ kernels compiled once
-# On a cold kernel cache four variants of the simulator's compiled core (RK4 and the
-# error-controlled integrator, each with and without the online payload estimator) and the
-# batched dynamics cost about 160 s of numba compile, most of the suite's time. Under
+# On a cold kernel cache the simulator's compiled core (RK4 and the error-controlled
+# integrator: one specialization each, with or without the online payload estimator, see
+# manipcad.control.estimator.no_estimator) and the batched dynamics cost most of the
+# suite's numba compile (benchmarks/compile_times.py measures each step). Under
 # pytest-xdist the workers first share these out (a file lock per step in the kernel cache
 # folder, the costliest first, each worker starting at a different one) and wait for each
-# other's, so each variant compiles once, on all cores at once, and every test, subprocess
-# and Dask worker after that loads it from the cache. A plain `pytest` run compiles each
+# other's, so each compiles once, on all cores at once, and every test, subprocess and
+# Dask worker after that loads it from the cache. A plain `pytest` run compiles each
 # kernel where it is first needed, as before.
 
 
@@ -148,23 +149,18 @@ def _prewarm_rk4() -> None:
     _simulator()
 
 
-def _prewarm_runs(integrator: str, estimator: bool) -> None:
+def _prewarm_adaptive() -> None:
     import warnings
 
     import manipcad
     from manipcad.control import pid
-    from manipcad.control.estimator import PayloadEstimator
 
     arm = manipcad.load_robot("cylindrical")
     regs = [pid(j, kp=10.0, kd=1.0) for j in range(arm.n)]
-    kw = {}
-    if estimator:
-        kw = {"estimator": PayloadEstimator(arm, period=1e-3, com=list(arm.tool_p)),
-              "pickup": {"mass": 0.1, "t": 1e-3, "com": list(arm.tool_p)}}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", manipcad.errors.ManipcadWarning)
         manipcad.simulate(arm, t_end=2e-3, dt=1e-3, regulators=regs, joint_limits="ignore",
-                          integrator=integrator, **kw)
+                          integrator="adaptive")
 
 
 def _prewarm_dynamics() -> None:
@@ -176,9 +172,7 @@ def _prewarm_dynamics() -> None:
 #: name -> compile step, the costliest first
 PREWARM = {
     "rk4": _prewarm_rk4,
-    "adaptive": lambda: _prewarm_runs("adaptive", False),
-    "adaptive-estimator": lambda: _prewarm_runs("adaptive", True),
-    "rk4-estimator": lambda: _prewarm_runs("rk4", True),
+    "adaptive": _prewarm_adaptive,
     "dynamics": _prewarm_dynamics,
 }
 

@@ -146,6 +146,48 @@ def test_adaptive_integrator_takes_the_pickup_and_estimator(arm, setup, runs, in
     assert ada.settings["integrator"] == integrator
 
 
+@pytest.mark.parametrize("integrator", ["rk4", "adaptive"])
+def test_runs_with_and_without_an_estimator_share_one_compiled_core(arm, integrator,
+                                                                    monkeypatch):
+    """Each integrator's compiled core has ONE specialization for runs with and without
+    the online estimator: a run without one carries ``no_estimator()``, of the numba type
+    of a packed estimator (a ``None`` there compiled the core a second time: 17-53 s more
+    on a cold cache, benchmarks/compile_times.py). Checked on the arguments each run
+    hands the core: the same numba types, a specialization the core holds; and a run
+    with an estimator after one without adds none."""
+    import importlib
+
+    import numba
+
+    from manipcad.control.estimator import no_estimator
+
+    sim_module = importlib.import_module("manipcad.sim.simulate")  # (the module, not the
+    # function manipcad.sim exports under the same name)
+
+    est = PayloadEstimator(arm, period=1e-3)
+    packed = est.pack(1e-3, 5, np.array(arm.table), feed=True)
+    assert numba.typeof(no_estimator()) == numba.typeof(packed)
+    name = "run" if integrator == "rk4" else "run_adaptive"
+    direct = getattr(sim_module, name)
+    seen = []
+
+    def recording(*args):
+        seen.append(tuple(numba.typeof(a) for a in args))
+        return direct(*args)
+
+    monkeypatch.setattr(sim_module, name, recording)
+    regs = [manipcad.control.pid(j, kp=10.0, kd=1.0, period=1e-3) for j in range(arm.n)]
+    kw = dict(t_end=4e-3, dt=1e-3, regulators=regs, joint_limits="ignore",
+              integrator=integrator)
+    plain = manipcad.simulate(arm, **kw)
+    before = list(direct.dispatcher.signatures)
+    res = manipcad.simulate(arm, estimator=est, **kw)
+    assert plain.payload_estimate is None and res.payload_estimate.shape == (5, 2)
+    assert len(seen) == 2 and seen[0] == seen[1]
+    assert seen[0] in direct.dispatcher.signatures
+    assert list(direct.dispatcher.signatures) == before
+
+
 def test_bad_estimators(arm):
     with pytest.raises(ManipcadError, match="not a multiple of dt"):
         manipcad.simulate(arm, t_end=0.01, dt=1e-3,

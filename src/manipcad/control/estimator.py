@@ -122,6 +122,22 @@ def estimator_update(est, sig, ctable, Ts):
     return m
 
 
+def no_estimator() -> Estimator:
+    """The component of a run without an estimator: ``on`` false, every array empty.
+
+    Its numba type is that of :meth:`PayloadEstimator.pack`'s (the same field types:
+    empty arrays of the same dtypes and dimensions), so the simulator's core compiles
+    ONE specialization per integrator, with or without an estimator (two before: the
+    estimator's variant cost 17-53 s of compile on a cold cache). The core tests
+    ``on`` first and reads nothing else of it.
+    """
+    f1 = np.zeros(0)
+    f2 = np.zeros((0, 0))
+    return Estimator(
+        False, 1, False, f1, np.zeros(0, dtype=np.int64), f2, f1, f2, f2, f2, f2, f1,
+        np.zeros(0, dtype=np.int64), f1, f1, 1.0, 0.0, False, 0, f1, f1, _scratch(0, 0))
+
+
 def _own(a) -> np.ndarray:
     """A writable contiguous copy (read-only arrays would compile the loop a second time)."""
     return np.array(a, order="C", copy=True)
@@ -287,5 +303,5 @@ class PayloadEstimator:
                 "signals": list(NEEDS), "gives": list(GIVES), "period": self.period}
 
 
-__all__ = ["PayloadEstimator", "Estimator", "estimator_update", "payload_row",
+__all__ = ["PayloadEstimator", "Estimator", "estimator_update", "no_estimator", "payload_row",
            "NEEDS", "GIVES"]

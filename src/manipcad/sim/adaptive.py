@@ -218,30 +218,19 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
     own = (np.empty((S, nx)), np.empty(nx), np.empty(nx), np.empty((1, nx)),
            np.zeros((S, n, 5)), np.empty((0, 5)), scratch(n, nx))
     # every array counts no reference inside the integration (:func:`borrowed`: the
-    # caller holds the arguments, ``own`` is kept to the end): handed to the functions
-    # called at every sample and step, they would count each, at every call
-    status = _integrate(borrowed(plant), borrowed(ctrl), borrowed(ref), borrowed(rec),
-                        borrowed(work), k0, K, dt, every, last, stop_at_limits, stride,
-                        hold, borrowed(tab), rtol, atol, borrowed(stats), exact,
-                        borrowed(own))
-    keep(own)
-    return status
-
-
-@nb.njit(cache=True)
-def _integrate(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits,
-               stride, hold, tab, rtol, atol, stats, exact, own):
-    """:func:`run_adaptive`'s integration, its work arrays in ``own``."""
-    Ks, xs, xr, Kd, ph, noph, sc = own
+    # caller holds the arguments, ``own`` is kept to each return): handed to the
+    # functions called at every sample and step, they would count each, at every call.
+    # All in this one function: numba optimizes a caller's module again with every callee
+    # linked in, and a wrapper around the integration cost 6.6 s more of compile
+    plant, ctrl, ref, rec, work, tab, stats, bare = borrowed(
+        (plant, ctrl, ref, rec, work, tab, stats, own))
+    Ks, xs, xr, Kd, ph, noph, sc = bare
     q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = sc
-    n = plant.rtable.shape[0]
     x = work.x
-    nx = x.shape[0]
     m = 2 * n
     U = work.U
     wait = work.wait
     R = ctrl.kind.shape[0]
-    S = tab.c.shape[0]
     hph = -1.0
     expo = -1.0 / (tab.p + 1.0)
     hmin = dt * (1.0 + 1e-9)
@@ -269,6 +258,7 @@ def _integrate(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limi
             write_record(plant, rec, work.rec[0], k * dt, x, U, tau)
             work.rec[0] += 1
         if k >= kend:
+            keep(own)
             return 0, k, -1
         # the held interval: up to the next sample, the chunk's end or the hold limit
         L = min(kend - k, hold)
@@ -280,11 +270,9 @@ def _integrate(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limi
         t0 = k * dt
         if h <= 0.0:
             h = min(T, 1e-4)
-        if not (reuse and have):
-            for j in range(nx):
-                xs[j] = x[j]
-            _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, Ks, 0, fext, awork, tmp)
-            stats[3] += 1
+        # the first stage (the rates at x) unless carried over: in the first step's
+        # stage loop, so that the right-hand side is written (inlined) once
+        st0 = 1 if reuse and have else 0
         have = True
         s = 0.0
         while s < T:
@@ -296,17 +284,22 @@ def _integrate(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limi
             if exact and hs != hph:
                 _phi_table(plant, tab.c, hs, n, ph)
                 hph = hs
-            for st in range(1, S):
-                for j in range(me):
-                    acc = 0.0
-                    for l in range(st):
-                        acc += tab.a[st, l] * Ks[l, j]
-                    xs[j] = x[j] + hs * acc
-                if exact:
-                    _currents(plant, x, xs, U, tab.c[st] * hs, n, ph[st])
+            for st in range(st0, S):
+                if st == 0:
+                    for j in range(nx):
+                        xs[j] = x[j]
+                else:
+                    for j in range(me):
+                        acc = 0.0
+                        for l in range(st):
+                            acc += tab.a[st, l] * Ks[l, j]
+                        xs[j] = x[j] + hs * acc
+                    if exact:
+                        _currents(plant, x, xs, U, tab.c[st] * hs, n, ph[st])
                 _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, Ks, st, fext,
                        awork, tmp)
-            stats[3] += S - 1
+            stats[3] += S - st0
+            st0 = 1
             # xs is now the new solution (last stage = b weights); the error of q, q̇
             err = 0.0
             for j in range(me):
@@ -364,8 +357,10 @@ def _integrate(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limi
             status, joint = check_state(plant, work, x, Ks[0], t0 + s, stop_at_limits)
             if status:
                 stats[0] = h
+                keep(own)
                 return status, kt, joint
         k += L
         stats[0] = h
         if k == kend and not last:
+            keep(own)
             return 0, k, -1

@@ -32,8 +32,6 @@ from collections import namedtuple
 
 import numba as nb
 import numpy as np
-from numba.core import types
-from numba.extending import overload
 
 from manipcad.analysis.realtime import components_one
 from manipcad.control.estimator import estimator_update
@@ -253,37 +251,17 @@ def check_state(plant, work, x, xdot, t, stop_at_limits):
     return 0, -1
 
 
+@nb.njit(cache=True, inline="always")
 def _estimator_due(est, k):
-    """Whether the online payload estimator samples at step k (compiled: see overload)."""
-
-
-def _estimate(est, sig, ctable, dt):
-    """One period of the online payload estimator (compiled: see overload)."""
-
-
-# A run without an estimator carries ``ctrl.est = None``: these two compile to nothing
-# for it, so the estimator (about a third of the simulator's compile on a cold cache)
-# is compiled only for the runs that use one.
-@overload(_estimator_due, jit_options={"cache": True})
-def _estimator_due_impl(est, k):
-    if isinstance(est, types.NoneType):
-        return lambda est, k: False
-
-    def impl(est, k):
-        # (the adaptive integrator samples a chunk's last step again as the next one's
-        # first: never twice)
-        due = est.on and k % est.steps == 0 and est.aux[1] != k + 1
-        if due:
-            est.aux[1] = k + 1
-        return due
-    return impl
-
-
-@overload(_estimate, jit_options={"cache": True})
-def _estimate_impl(est, sig, ctable, dt):
-    if isinstance(est, types.NoneType):
-        return lambda est, sig, ctable, dt: None
-    return lambda est, sig, ctable, dt: estimator_update(est, sig, ctable, est.steps * dt)
+    """Whether the online payload estimator samples at step k (never when ``est.on`` is
+    false: a run without one carries :func:`manipcad.control.estimator.no_estimator`, of
+    the same numba type, so each integrator compiles once for runs with and without)."""
+    # (the adaptive integrator samples a chunk's last step again as the next one's
+    # first: never twice)
+    due = est.on and k % est.steps == 0 and est.aux[1] != k + 1
+    if due:
+        est.aux[1] = k + 1
+    return due
 
 
 @nb.njit(cache=True, inline="always")
@@ -314,7 +292,7 @@ def sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait):
                              row(ctrl.joints, r), ctrl.nj[r], ctrl.steps[r] * dt, U)
     # the estimator after the regulators: they read its estimate at the next sample
     if est_due:
-        _estimate(est, sig, plant.ctable, dt)
+        estimator_update(est, sig, plant.ctable, est.steps * dt)
 
 
 @nb.njit(cache=True)

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from manipcad.control.estimator import Estimator, PayloadEstimator
+from manipcad.control.estimator import Estimator, PayloadEstimator, no_estimator
 from manipcad.drives.params import joint_referred_terms
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, TABLE_COLS, Robot
@@ -97,11 +97,11 @@ def pickup_part(after: Robot, step: int, dtable, model: bool) -> Pickup:
 
 
 def estimator_part(estimator, robot: Robot, dt: float, K: int, ctable, *, feed: bool,
-                   drives: bool) -> Estimator | None:
-    """The compiled estimator of a run of K steps of dt s (None for None: the simulator
-    then compiles without it)."""
+                   drives: bool) -> Estimator:
+    """The compiled estimator of a run of K steps of dt s (for None the one that is off,
+    :func:`~manipcad.control.estimator.no_estimator`: the same compiled types)."""
     if estimator is None:
-        return None
+        return no_estimator()
     if not isinstance(estimator, PayloadEstimator):
         raise ManipcadError(f"estimator must be a manipcad.PayloadEstimator, got "
                             f"{type(estimator).__name__}")
@@ -136,7 +136,7 @@ def check_adaptive(integrator: str, pick_step: int | None, ctrl, dt: float) -> N
                                 f"must be a sample instant of a regulator (periods {shown} s), "
                                 "where the adaptive steps stop; or use integrator='rk4'")
     est = ctrl.est
-    if est is not None and est.on and not any(int(est.steps) % p == 0 for p in periods):
+    if est.on and not any(int(est.steps) % p == 0 for p in periods):
         raise ManipcadError(f"integrator={integrator!r}: the estimator's period "
                             f"{est.steps * dt:g} s must be a multiple of a regulator's period "
                             f"({shown} s), whose instants the adaptive steps stop at; or use "

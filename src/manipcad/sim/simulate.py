@@ -759,8 +759,9 @@ def _flatten(regulators) -> list[Regulator]:
     return out
 
 
-def _pack_regulators(robot: Robot, regulators, dt: float, est=None):
-    """The regulators as a :class:`~manipcad.sim.loop.Control` (parameters packed once)."""
+def _pack_regulators(robot: Robot, regulators, dt: float, est):
+    """The regulators as a :class:`~manipcad.sim.loop.Control` (parameters packed once)
+    with the compiled estimator ``est`` (:func:`manipcad.sim.pickup.estimator_part`)."""
     n = robot.n
     regs = _flatten(regulators)
     R = len(regs)

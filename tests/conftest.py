@@ -169,11 +169,14 @@ def _prewarm_dynamics() -> None:
     _dynamics()
 
 
-#: name -> compile step, the costliest first
+#: name -> compile step. Worker w of W starts at step w·len/W (here worker 0 at the RK4
+#: loop, worker 1 at the dynamics, then the error-controlled loop): the loops share their
+#: callees (the regulators, the estimator, the moment components), which worker 0 caches
+#: meanwhile, so worker 1 compiles fewer of them a second time
 PREWARM = {
     "rk4": _prewarm_rk4,
-    "adaptive": _prewarm_adaptive,
     "dynamics": _prewarm_dynamics,
+    "adaptive": _prewarm_adaptive,
 }
 
 

@@ -1,0 +1,73 @@
+"""Measurement: the test suite's prewarm on 2 workers, on an empty kernel cache, as timed.
+
+Usage::
+
+    python benchmarks/prewarm_wall.py [--workers 2]
+
+Starts ``--workers`` processes that run ``tests/conftest.py``'s ``_prewarm(w, W)`` at
+once, as the pytest-xdist workers do at the start of the README's test command (each
+takes the steps of ``PREWARM`` from its own starting point, a file lock per step in the
+kernel cache folder, then waits for the others' steps), all on one new empty cache
+(``XDG_CACHE_HOME``). Prints when each worker starts and ends each step (s after the
+start, wall) with the step's CPU time, and the whole prewarm's wall time.
+``benchmarks/compile_times.py`` gives each step's compile CPU one after another; this
+gives what the workers' sharing makes of them (a step compiles the callees it shares
+with another again unless that one has cached them by then).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+WORKER = r'''
+import sys, time
+t0, w, W = float(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+sys.path.insert(0, "tests")
+import conftest
+
+def timed(name, step):
+    def run():
+        c = time.process_time()
+        print(f"  worker {w} {name:10s} start {time.perf_counter() - t0:6.1f} s", flush=True)
+        step()
+        print(f"  worker {w} {name:10s} end   {time.perf_counter() - t0:6.1f} s   "
+              f"CPU {time.process_time() - c:5.1f} s", flush=True)
+    return run
+
+for name in list(conftest.PREWARM):
+    conftest.PREWARM[name] = timed(name, conftest.PREWARM[name])
+conftest._prewarm(w, W)
+print(f"  worker {w} done       {time.perf_counter() - t0:6.1f} s   "
+      f"CPU {time.process_time():5.1f} s (with the imports)", flush=True)
+'''
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--workers", type=int, default=2)
+    args = ap.parse_args()
+    env = dict(os.environ, XDG_CACHE_HOME=tempfile.mkdtemp(prefix="manipcad-prewarm-"))
+    env.pop("NUMBA_CACHE_DIR", None)
+    load = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    procs = [subprocess.Popen([sys.executable, "-c", WORKER, str(t0), str(w),
+                               str(args.workers)], cwd=ROOT, env=env)
+             for w in range(args.workers)]
+    for p in procs:
+        p.wait()
+    print(f"prewarm on {args.workers} workers: {time.perf_counter() - t0:.1f} s wall "
+          f"(load average {load:.2f} at the start, {os.getloadavg()[0]:.2f} at the end)")
+    if any(p.returncode for p in procs):
+        sys.exit("a worker failed")
+
+
+if __name__ == "__main__":
+    main()

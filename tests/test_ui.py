@@ -524,7 +524,7 @@ def test_regulators_of_several_methods_run_together(ws, tmp_path, monkeypatch):
     assert metrics["max_error"] == pytest.approx(
         max(m["max_error"] for m in direct.metrics.values()), rel=1e-12)
     logic.synthesize_to(ws, arm, "pid", joints=["lift"], name="c")
-    with pytest.raises(ManipcadError, match="joint 'lift' already has a regulator in .*b\.yaml"):
+    with pytest.raises(ManipcadError, match=r"joint 'lift' already has a regulator in .*b\.yaml"):
         run_spec(SimSpec(str(ws.root), "cylindrical", "move", ["b", "c"], t_end=0.05))
     with pytest.raises(InputError, match="results/ab: name taken"):
         run_spec(SimSpec(str(ws.root), "cylindrical", "move", ["a"], t_end=0.05, name="ab"))
@@ -661,7 +661,6 @@ def test_simulation_page_shows_why_a_run_failed(tmp_path, monkeypatch):
 def test_simulation_page_cancel_reaches_the_running_job(tmp_path, monkeypatch):
     """The page's Cancel asks the running job to stop and shows it stopped (the worker's
     own cancel, nothing stored, is test_worker_runs_stores_and_cancels)."""
-    from nicegui import ui
 
     from manipcad.ui import pages
 

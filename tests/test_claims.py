@@ -189,3 +189,19 @@ def test_cli_bad_options(tmp_path):
     r = runner.invoke(app, ["study", "claims", "--arm", str(tmp_path / "nope.yaml"), "--out",
                             str(tmp_path / "x")])
     assert r.exit_code == 2 and "nope.yaml" in r.output and "Traceback" not in r.output
+
+
+def test_warm_worker_freezes_what_it_leaves_alive():
+    """A worker's warm-up leaves the imported modules and loaded kernels frozen, so that
+    the study's tasks do not scan them in every full collection (a spawned worker of a
+    cluster the user runs has nothing frozen from a parent)."""
+    import gc
+
+    gc.unfreeze()
+    assert gc.get_freeze_count() == 0
+    try:
+        claims_mod.warm_worker()
+        # the modules alone (numpy, numba, matplotlib, manipcad) are far above this
+        assert gc.get_freeze_count() > 50_000
+    finally:
+        gc.unfreeze()

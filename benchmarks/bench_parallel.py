@@ -57,6 +57,7 @@ import argparse
 import heapq
 import json
 import logging
+import os
 import subprocess
 import sys
 import tempfile
@@ -101,12 +102,9 @@ def _serve_cluster(workers: int, grid: str, arm: str) -> None:
     throwaway study (the same arm and grid, into a folder deleted at once) as a
     user's earlier command would have; its address printed, then served until stdin
     closes."""
-    import os
-
     import dask
     from distributed import Client, LocalCluster
 
-    os.environ["NUMBA_NUM_THREADS"] = "1"  # the workers' (spawned: they read it at start)
     with dask.config.set({"distributed.worker.profile.enabled": False}):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=":0", memory_limit=0,
@@ -126,8 +124,10 @@ class _Standing:
     """The standing cluster: another process of this script (``--serve-cluster N``)."""
 
     def __init__(self, workers: int, grid: str, arm: str) -> None:
+        # NUMBA_NUM_THREADS from the start (numba refuses a change once its threads run)
         self.proc = subprocess.Popen([sys.executable, __file__, "--serve-cluster",
                                       str(workers), "--grid", grid, "--arm", arm],
+                                     env={**os.environ, "NUMBA_NUM_THREADS": "1"},
                                      stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, text=True)
         self._address: str | None = None

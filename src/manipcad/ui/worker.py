@@ -280,7 +280,7 @@ _SPARE: list[_Worker] = []
 
 def prestart() -> None:
     """Start a spare worker now, so the next run does not wait for a new interpreter
-    to import manipcad (``manipcad ui`` calls it at start and after each run starts)."""
+    to import manipcad (``manipcad ui`` calls it at start, and each run once it ends)."""
     if not _SPARE:
         _SPARE.append(_Worker())
 
@@ -326,8 +326,9 @@ class SimulationJob:
         self.started = time.perf_counter()
         self.wall = float("nan")
         w.send.send(spec)
-        if spare:
-            prestart()
+        # the next spare is started when this run ends, not now: its interpreter start and
+        # imports (1.5-2 s of CPU) would take a core from this run on a 2-core machine
+        self._spare = spare
 
     def poll(self) -> str:
         """Read what the worker said; returns the state: starting, running, done,
@@ -352,6 +353,9 @@ class SimulationJob:
             if self.queue.empty():
                 self.state = "error"
                 self.message = f"the worker process ended (exit code {self.process.exitcode})"
+        if self._spare and self.finished:
+            self._spare = False
+            prestart()
         return self.state
 
     def cancel(self) -> None:

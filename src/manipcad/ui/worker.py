@@ -93,9 +93,7 @@ class StudySpec:
             raise InputError("study form", "study", f"{self.study!r}: expected fig3 or claims")
         cb = progress if progress is not None else False
         space = Workspace(self.workspace)
-        if any(i.name == self.name for i in space.list("studies")):   # before the run
-            raise InputError(f"studies/{self.name}", "", "name taken in the workspace; "
-                             "choose another name")
+        space.check_free("studies", self.name)                          # before the run
         # as `study ... --ws`: written into a temporary folder, then added (validated, indexed)
         with tempfile.TemporaryDirectory() as tmp:
             folder = Path(tmp) / "study"
@@ -167,7 +165,7 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
     """
     import warnings
 
-    from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+    from manipcad.errors import ManipcadError, ManipcadWarning
     from manipcad.sim import SimulationDiverged, simulate
     from manipcad.store.plan import NAMES, plan_run
     from manipcad.ui.logic import load_robot_ref, load_trajectory_ref, open_workspace
@@ -186,9 +184,8 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
                     trajectory_source=spec.trajectory,
                     names={**NAMES, "drives": "the Drives page to attach motors and gears"})
     regs, t_end, every = plan.regulators, plan.t_end, plan.every
-    if spec.name and ws.find("results", spec.name) is not None:  # before the run, not after
-        raise InputError(f"results/{spec.name}", "", "name taken in the workspace; "
-                         "choose another result name")
+    if spec.name:
+        ws.check_free("results", spec.name)            # before the run, not after
     run = {"robot": spec.robot, "trajectory": spec.trajectory, "regulators": spec.regulators,
            "t_end": t_end, "dt": spec.dt, "every": every, "drives": True, "payload": None}
     with warnings.catch_warnings():

@@ -430,7 +430,7 @@ class Workspace:
         if robot is not None and not hasattr(robot, "joint_types"):
             robot = _robot_quiet(self.find("robots", robot) or robot)
         facts = validate_item(kind, src, robot=robot)
-        self._check_free(kind, name, force)
+        self.check_free(kind, name, force)
         folder = self.root / kind
         stored_as = ""
         if kind in FILE_KINDS:
@@ -461,7 +461,14 @@ class Workspace:
             meta["provenance"] = self._result_provenance(tmp)
         return self._commit(kind, name, tmp, target, meta, facts, force)
 
-    def _check_free(self, kind: str, name: str, force: bool) -> None:
+    def check_free(self, kind: str, name: str, force: bool = False) -> None:
+        """Refuse a name already taken by an item of ``kind`` (indexed, or a file or folder
+        there), unless ``force``: the check :meth:`add` and :meth:`store_result` make
+        before they write, for a caller that must know before long work.
+
+        Raises:
+            InputError: ``kind/name``: :data:`NAME_TAKEN`.
+        """
         if force:
             return
         rows = self.index.query("SELECT 1 FROM items WHERE kind = ? AND name = ?", (kind, name))
@@ -634,7 +641,7 @@ class Workspace:
         if name is None:
             name = datetime.now(UTC).strftime("result-%Y%m%d-%H%M%S-") + secrets.token_hex(2)
         name = check_name(name, "--out")
-        self._check_free("results", name, force)
+        self.check_free("results", name, force)
         inputs: dict[str, Any] = {}
         tmpdir = None
         try:

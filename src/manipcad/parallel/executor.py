@@ -412,9 +412,14 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
         client = pool.client() if pool is not None else \
             _start_client(stack, workers, scheduler)
         if costs and not unit_batched:  # one task per chunk the function sees either way
-            units = guided(units, costs, max(1, sum(client.nthreads().values())))
+            units = guided(units, costs, slots(client))
         _run_dask(client, unit_func, unit_batched, unit_common, unit_items, units, done, bar)
     return results
+
+
+def slots(client) -> int:
+    """The tasks a Dask client's cluster runs at once: its workers' threads (>= 1)."""
+    return max(1, sum(client.nthreads().values()))
 
 
 #: :func:`guided`: a batch holds at most 1/(GUIDED * slots) of the work still to hand out
@@ -664,7 +669,7 @@ class Pool:
 
         Example: see :class:`Pool` (one worker of one thread: 1).
         """
-        return max(1, sum(self.client().nthreads().values()))
+        return slots(self.client())
 
     def release(self) -> None:
         """Start closing the client and the cluster in a background thread, for a caller

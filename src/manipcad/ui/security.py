@@ -61,6 +61,21 @@ def token_for(host: str, token: str | None) -> str | None:
     return None if is_loopback(host) else secrets.token_urlsafe(24)
 
 
+async def refuse(scope, send, status: int, text: str, *, close: bool = False) -> None:
+    """Answer a request with ``status`` and a plain-text body (a websocket: closed, code
+    1008); ``close`` asks the client to drop the connection (a body not read)."""
+    if scope["type"] == "websocket":
+        await send({"type": "websocket.close", "code": 1008})
+        return
+    body = text.encode()
+    headers = [(b"content-type", b"text/plain; charset=utf-8"),
+               (b"content-length", str(len(body)).encode())]
+    if close:
+        headers.append((b"connection", b"close"))
+    await send({"type": "http.response.start", "status": status, "headers": headers})
+    await send({"type": "http.response.body", "body": body})
+
+
 class TokenGate:
     """ASGI middleware refusing every request without the token (see the module docstring).
 
@@ -95,15 +110,8 @@ class TokenGate:
             return await self.app(scope, receive, send)
         given, in_query = self._given(scope)
         if not secrets.compare_digest(given.encode(), self.token.encode()):
-            if scope["type"] == "websocket":
-                await send({"type": "websocket.close", "code": 1008})
-                return None
-            body = b"manipcad ui: a token is required (open the link printed at start)\n"
-            await send({"type": "http.response.start", "status": 401,
-                        "headers": [(b"content-type", b"text/plain; charset=utf-8"),
-                                    (b"content-length", str(len(body)).encode())]})
-            await send({"type": "http.response.body", "body": body})
-            return None
+            return await refuse(scope, send, 401, "manipcad ui: a token is required (open "
+                                "the link printed at start)\n")
         if not (in_query and scope["type"] == "http"):
             return await self.app(scope, receive, send)
 
@@ -152,16 +160,8 @@ class HostCheck:
                 break
         if is_loopback(host_name(given)):
             return await self.app(scope, receive, send)
-        if scope["type"] == "websocket":
-            await send({"type": "websocket.close", "code": 1008})
-            return None
-        body = (f"manipcad ui: Host {given!r} refused; open http://127.0.0.1:PORT/ (another "
-                "name needs --host and a token)\n").encode()
-        await send({"type": "http.response.start", "status": 403,
-                    "headers": [(b"content-type", b"text/plain; charset=utf-8"),
-                                (b"content-length", str(len(body)).encode())]})
-        await send({"type": "http.response.body", "body": body})
-        return None
+        return await refuse(scope, send, 403, f"manipcad ui: Host {given!r} refused; open "
+                            "http://127.0.0.1:PORT/ (another name needs --host and a token)\n")
 
 
 class _TooLarge(Exception):
@@ -181,14 +181,9 @@ class BodyCap:
         self.app = app
         self.limit = int(limit)
 
-    async def _refuse(self, send, size: str) -> None:
-        body = (f"manipcad ui: request body {size}larger than the {self.limit} bytes "
-                "accepted\n").encode()
-        await send({"type": "http.response.start", "status": 413,
-                    "headers": [(b"content-type", b"text/plain; charset=utf-8"),
-                                (b"content-length", str(len(body)).encode()),
-                                (b"connection", b"close")]})
-        await send({"type": "http.response.body", "body": body})
+    async def _refuse(self, scope, send, size: str) -> None:
+        await refuse(scope, send, 413, f"manipcad ui: request body {size}larger than the "
+                     f"{self.limit} bytes accepted\n", close=True)
 
     async def __call__(self, scope, receive, send):
         if scope["type"] != "http":
@@ -200,7 +195,8 @@ class BodyCap:
                 except ValueError:
                     declared = self.limit + 1
                 if declared > self.limit:
-                    return await self._refuse(send, f"of {value.decode('latin-1')} bytes: ")
+                    return await self._refuse(scope, send,
+                                              f"of {value.decode('latin-1')} bytes: ")
         seen = 0
         started = False
 
@@ -223,5 +219,5 @@ class BodyCap:
             return await self.app(scope, counted, watched)
         except _TooLarge:
             if not started:
-                await self._refuse(send, "")
+                await self._refuse(scope, send, "")
             return None

@@ -383,10 +383,23 @@ def sizing_failures(arm: Robot, speed_scale: float, stroke: float = STROKE) -> l
             for j, st in enumerate(c.status) if st == "fail"]
 
 
-def feasible_speed_scale(arm: Robot, speed_scale: float, stroke: float = STROKE
+def feasible_speed_scale(arm: Robot, speed_scale: float, stroke: float = STROKE, *,
+                         known: dict[float, list[str]] | None = None
                          ) -> tuple[float | None, list[str]]:
     """The speed scale a cell runs at: ``speed_scale`` if the sizing passes, else laws (2)
     time-scaled to the largest feasible speed scale below it.
+
+    The bisection (geometric, from ``SPEED_SCALE_MIN`` to ``speed_scale``) takes the
+    sizing's failures to grow with the speed scale: a point at or below a speed scale
+    known to pass passes, one at or above a speed scale known to fail fails, without
+    running the sizing there; ``SPEED_SCALE_MIN`` itself (the longest trajectory, 32 s of
+    laws (2): a third of a row's sizing) is sized only when no point of the bisection
+    passed.
+
+    Args:
+        arm, speed_scale, stroke: as :func:`sizing_failures`.
+        known: {speed scale: :func:`sizing_failures` there} already computed (read, and
+            completed with every speed scale sized here).
 
     Returns:
         ``(s_run, failures)``: s_run (``speed_scale`` itself, or the largest feasible
@@ -398,20 +411,34 @@ def feasible_speed_scale(arm: Robot, speed_scale: float, stroke: float = STROKE
         >>> feasible_speed_scale(manipcad.load_robot("cylindrical"), 1.0)
         (1.0, [])
     """
-    fails = sizing_failures(arm, speed_scale, stroke)
-    if not fails:
+    memo = known if known is not None else {}
+
+    def failures(s: float) -> list[str]:
+        if s not in memo:
+            memo[s] = sizing_failures(arm, s, stroke)
+        return memo[s]
+
+    def fails(s: float) -> bool:
+        if any(k <= s and f for k, f in memo.items()):
+            return True
+        if any(k >= s and not f for k, f in memo.items()):
+            return False
+        return bool(failures(s))
+
+    fails_here = failures(float(speed_scale))
+    if not fails_here:
         return float(speed_scale), []
-    if sizing_failures(arm, SPEED_SCALE_MIN, stroke):
-        return None, fails
     lo, hi = SPEED_SCALE_MIN, float(speed_scale)
     while hi / lo > 1.01:
         mid = math.sqrt(lo * hi)
-        if sizing_failures(arm, mid, stroke):
+        if fails(mid):
             hi = mid
         else:
             lo = mid
+    if lo == SPEED_SCALE_MIN and fails(SPEED_SCALE_MIN):
+        return None, fails_here
     e = math.floor(math.log10(lo)) - 2
-    return round(math.floor(lo / 10.0**e) * 10.0**e, -e), fails
+    return round(math.floor(lo / 10.0**e) * 10.0**e, -e), fails_here
 
 
 def _saturation(res, arm: Robot) -> float:
@@ -927,10 +954,13 @@ def size_row(*, arm: Robot, load_ratio: float, max_payload: float,
         ([0.5, 0.575, 0.575], [])
     """
     row_arm, info = arm_with_load_ratio(arm, load_ratio, max_payload=max_payload)
-    s_max, _ = feasible_speed_scale(row_arm, max(speed_scales), info["stroke_m"])
+    # the grid's speed scales sized first: the bisection then skips the points they decide
+    known = {float(s): sizing_failures(row_arm, float(s), info["stroke_m"])
+             for s in speed_scales}
+    s_max, _ = feasible_speed_scale(row_arm, max(speed_scales), info["stroke_m"], known=known)
     runs, fails = [], []
     for s in speed_scales:
-        f = sizing_failures(row_arm, s, info["stroke_m"])
+        f = known[float(s)]
         runs.append(s if not f else (None if s_max is None else min(s, s_max)))
         fails.append(f)
     return {"arm": info, "robot": row_arm, "speed_scale_run": runs, "sizing_failures": fails}

@@ -74,7 +74,7 @@ def _patch() -> None:
     claims_mod.warm_worker = _logged("warm_worker", claims_mod.warm_worker)
     claims_mod._write = _logged("write files", claims_mod._write)
     report_mod.draw_panels = _logged("draw_panels", report_mod.draw_panels)
-    report_mod.save_panels = _logged("save_panels", report_mod.save_panels)
+    report_mod.save_bands = _logged("save_bands", report_mod.save_bands)
     report_mod.claims_html = _logged("claims_html", report_mod.claims_html)
     import manipcad.parallel as par
 

@@ -205,3 +205,37 @@ def test_warm_worker_freezes_what_it_leaves_alive():
         assert gc.get_freeze_count() > 50_000
     finally:
         gc.unfreeze()
+
+
+def test_figure_bands_joined_into_one_png(tmp_path):
+    """claims.png from groups of panels encoded apart (each group's rows on its worker):
+    the pixels of the figure drawn whole, whether the groups' rows are disjoint (bands
+    joined, white rows between) or overlap (their minimum encoded); the file says its dpi."""
+    from PIL import Image
+
+    from manipcad.report.claims import save_bands
+    from manipcad.report.png import encode_rows
+
+    rng = np.random.default_rng(3)
+    whole = np.full((40, 7, 4), 255, np.uint8)
+    whole[3:15] = rng.integers(0, 256, (12, 7, 4))
+    whole[21:37] = rng.integers(0, 256, (16, 7, 4))
+
+    def part(first, stop):  # a group that drew rows first:stop of the figure
+        img = np.full_like(whole, 255)
+        img[first:stop] = whole[first:stop]
+        return {"shape": img.shape, "span": (first, stop),
+                "band": encode_rows(img, first, stop), "image": img[first:stop]}
+
+    empty = {"shape": whole.shape, "span": (0, 0), "band": None, "image": whole[:0]}
+    for parts in ([part(3, 37)], [part(21, 37), part(3, 15)], [part(3, 15), empty,
+                                                                part(21, 37)],
+                  [part(3, 25), part(21, 37)]):  # the last two overlap (rows 21-24)
+        path = save_bands(parts, tmp_path / "f.png", dpi=100)
+        with Image.open(path) as im:
+            assert np.array_equal(np.asarray(im), whole)
+            assert im.info["dpi"] == pytest.approx((100, 100), abs=1e-3)
+    with pytest.raises(ValueError, match="row 0"):
+        from manipcad.report.png import write_png
+
+        write_png(tmp_path / "g.png", [encode_rows(whole, 1)])

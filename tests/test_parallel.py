@@ -229,13 +229,14 @@ def test_pool_started_ahead_longest_first(dask_scheduler, monkeypatch, tmp_path)
 def test_forked_workers_inherit_frozen_objects():
     """The default LocalCluster forks its workers with the objects alive then frozen
     (gc.freeze: their collector leaves the inherited objects, and their pages, alone);
-    this process unfreezes them once the workers run."""
+    this process unfreezes them once the workers have forked (when the Pool returns)."""
     import gc
 
     assert gc.get_freeze_count() == 0
-    with Pool(workers=1) as pool:
-        frozen = pool.client().run(gc.get_freeze_count)
+    with Pool(workers=1) as pool:  # returns once the worker has forked, unfrozen here
         assert gc.get_freeze_count() == 0
+        frozen = pool.client().run(gc.get_freeze_count)
+        assert gc.get_freeze_count() == 0 and pool.ready()
     assert len(frozen) == 1 and min(frozen.values()) > 10000
 
 

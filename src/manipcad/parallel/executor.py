@@ -537,9 +537,11 @@ def _progress(stack: ExitStack, show, desc: str, total: int, already: int):
     return lambda k: prog.advance(tid, k)
 
 
-def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None):
+def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None, *,
+                  freeze: bool = True):
     """A Dask client of a new LocalCluster (``workers`` processes) or of ``scheduler``,
-    closed with ``stack``."""
+    closed with ``stack``. ``freeze``: freeze the objects alive while the workers fork
+    (see below; False: the caller does, :class:`Pool`)."""
     from distributed import Client, LocalCluster
 
     # not entered as context managers: a Pool starts them in another thread, and a
@@ -565,7 +567,7 @@ def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None):
         # serial claims run, 300,000 objects: a worker's warm-up 0.99 s and 25,000 page
         # faults with them scanned, 0.08 s and 5,900 frozen); this process unfreezes them
         # once the workers run.
-        fork = start_method() == "fork"
+        fork = freeze and start_method() == "fork"
         if fork:
             gc.freeze()
         try:
@@ -588,9 +590,10 @@ def start_method() -> str:
     workers inherit the imported modules and the compiled kernels already loaded),
     "spawn" elsewhere (fork is unsafe on macOS and missing on Windows).
 
-    A LocalCluster is started with the calling thread waiting (:class:`Pool` does so), so
-    that no thread of this process holds a lock (e.g. numba's compiler lock) at the
-    fork; a forked process runs numba's batches serially (``dynamics._inputs``).
+    A LocalCluster's workers are forked with the calling thread waiting (:class:`Pool`
+    returns once they have forked), so that no thread of this process holds a lock (e.g.
+    numba's compiler lock) at the fork; a forked process runs numba's batches serially
+    (``dynamics._inputs``).
 
     Example:
         >>> start_method() in ("fork", "spawn")
@@ -601,14 +604,40 @@ def start_method() -> str:
     return "fork" if sys.platform.startswith("linux") else "spawn"
 
 
-class Pool:
-    """A Dask cluster started ahead, warming while the caller prepares its tasks.
+#: forks of this process so far (counted once :func:`_count_forks` ran), under its condition
+_FORKS = [0]
+_FORKS_CHANGED = None
 
-    A LocalCluster is started at once, in this thread (forked workers, see
-    :func:`start_method`: under a second); a scheduler given by address is connected to
-    in a background thread. Then the workers run ``warm`` (e.g. load the compiled
-    kernels this process has not loaded) in a background thread while this process
-    goes on; :func:`run_tasks` (``pool=``) waits only for what is left of that. Use as a
+
+def _count_forks():
+    """The condition that guards :data:`_FORKS`, counting every ``os.fork`` of this process
+    from the first call on (one fork hook, registered once)."""
+    import threading
+
+    global _FORKS_CHANGED
+    if _FORKS_CHANGED is None:
+        _FORKS_CHANGED = threading.Condition()
+
+        def forked() -> None:  # in the parent, in the thread that forked
+            with _FORKS_CHANGED:
+                _FORKS[0] += 1
+                _FORKS_CHANGED.notify_all()
+
+        os.register_at_fork(after_in_parent=forked)
+    return _FORKS_CHANGED
+
+
+class Pool:
+    """A Dask cluster started ahead, while the caller prepares its tasks.
+
+    A LocalCluster is started in a background thread; its worker processes are forked
+    (see :func:`start_method`) while this thread waits, and the constructor returns as
+    soon as they have forked: they boot, connect and run ``warm`` (e.g. load the compiled
+    kernels this process has not loaded) while the caller goes on, in this process or
+    in its numba kernels (about 0.3 s of a 2-worker cluster's start on 2 cores, mostly
+    the workers' start-up and the nannies' polling, during which the cores are mostly
+    idle). A scheduler given by address is connected to in the background thread.
+    :func:`run_tasks` (``pool=``) waits only for what is left of the start. Use as a
     context manager (closes the cluster).
 
     Args:
@@ -638,24 +667,47 @@ class Pool:
         self._client = None
         self._closer: threading.Thread | None = None
         self._error: BaseException | None = None
-        if scheduler is None:  # fork while this thread waits (no lock held by it)
-            self._client = _start_client(self._stack, self._workers, None)
+        self._started = threading.Event()   # the client exists (or its start failed)
+        fork = scheduler is None and start_method() == "fork"
+        if fork:  # the workers fork while this thread waits (no lock held by it)
+            import distributed  # noqa: F401 - here, so that its objects are frozen too
+
+            forks = _count_forks()
+            with forks:
+                target = _FORKS[0] + (self._workers or default_workers())
+            gc.freeze()  # the forked workers' collector leaves the inherited objects alone
         self._thread = threading.Thread(target=self._start, name="manipcad-pool-start",
                                         daemon=True)
         self._thread.start()
+        if fork:
+            try:
+                with forks:
+                    forks.wait_for(lambda: _FORKS[0] >= target or self._started.is_set())
+            finally:
+                gc.unfreeze()
 
     def _start(self) -> None:
-        if self._client is None:
-            try:
-                self._client = _start_client(self._stack, self._workers, self._scheduler)
-            except BaseException as exc:  # noqa: BLE001 - raised in client()
-                self._error = exc
-                return
+        try:
+            self._client = _start_client(self._stack, self._workers, self._scheduler,
+                                         freeze=False)
+        except BaseException as exc:  # noqa: BLE001 - raised in client()
+            self._error = exc
+            return
+        finally:
+            self._started.set()
+            forks = _FORKS_CHANGED
+            if forks is not None:  # wake the constructor (a start that forked nothing)
+                with forks:
+                    forks.notify_all()
         if self._warm is not None:
             try:
                 self._client.run(self._warm)
             except Exception:  # noqa: BLE001 - warming is an optimization only
                 pass
+
+    def ready(self) -> bool:
+        """Whether the cluster has started and warmed (:meth:`client` would not wait)."""
+        return not self._thread.is_alive()
 
     def client(self):
         """The started client (waits for the start and the warm-up to finish)."""

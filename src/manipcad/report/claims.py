@@ -6,6 +6,7 @@ self-contained HTML file (:mod:`manipcad.report.html`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from pathlib import Path
@@ -129,6 +130,62 @@ def draw_panels(doc: Mapping[str, Any], ids: list[str], *, dpi: int = 100) -> np
     return np.array(canvas.buffer_rgba())
 
 
+def draw_band(doc: Mapping[str, Any], ids: list[str], *, dpi: int = 100) -> dict:
+    """:func:`draw_panels` of the claims ``ids``, and the rows they were drawn on encoded
+    as a PNG band (:func:`manipcad.report.png.encode_rows`), for :func:`save_bands`.
+
+    Returns:
+        {"shape": the whole image's shape, "span": (first, stop) the rows not all white,
+        "band": their :class:`~manipcad.report.png.Band`, "image": those rows (uint8,
+        (stop - first, width, 4))}.
+    """
+    from manipcad.report.png import encode_rows
+
+    img = draw_panels(doc, ids, dpi=dpi)
+    drawn = np.flatnonzero((img != 255).any(axis=(1, 2)))
+    first, stop = (int(drawn[0]), int(drawn[-1]) + 1) if drawn.size else (0, 0)
+    return {"shape": img.shape, "span": (first, stop), "band": encode_rows(img, first, stop),
+            "image": img[first:stop]}
+
+
+def save_bands(parts: list[dict], path: str | Path, *, dpi: int = 100) -> Path:
+    """The PNG of the figure from the :func:`draw_band` of groups of panels that cover
+    every claim (each panel drawn on white in one of them).
+
+    Where the groups' rows do not overlap (groups of whole rows of panels) the file is
+    joined from their bands and white bands in between, none encoded again here;
+    otherwise the pixel-wise minimum of their images is encoded.
+
+    Args:
+        parts: the groups' :func:`draw_band`.
+        path: the PNG file.
+        dpi: the resolution written into the file, dots per inch.
+
+    Returns:
+        The path written.
+    """
+    from manipcad.report.png import encode_rows, write_png
+
+    h, w, _ = parts[0]["shape"]
+    drawn = sorted((p for p in parts if p["span"][1] > p["span"][0]), key=lambda p: p["span"])
+    if all(a["span"][1] <= b["span"][0] for a, b in zip(drawn, drawn[1:], strict=False)):
+        bands, at = [], 0
+        for p in [*drawn, {"span": (h, h)}]:
+            first, stop = p["span"]
+            if first > at:  # white rows above, between and below the groups' (small)
+                gap = encode_rows(np.full((first - at, w, 4), 255, np.uint8))
+                bands.append(dataclasses.replace(gap, first=at))
+            if stop > first:
+                bands.append(p["band"])
+            at = max(at, stop)
+        return write_png(path, bands, dpi=float(dpi))
+    rgba = np.full((h, w, 4), 255, np.uint8)
+    for p in drawn:
+        first, stop = p["span"]
+        np.minimum(rgba[first:stop], p["image"], out=rgba[first:stop])
+    return write_png(path, [encode_rows(rgba)], dpi=float(dpi))
+
+
 def save_panels(images: list[np.ndarray], path: str | Path, *, dpi: int = 100) -> Path:
     """The PNG of the figure from the images of :func:`draw_panels` (their pixel-wise
     minimum: each panel is drawn on white in one of them).
@@ -141,12 +198,10 @@ def save_panels(images: list[np.ndarray], path: str | Path, *, dpi: int = 100) -
     Returns:
         The path written.
     """
-    from PIL import Image
+    from manipcad.report.png import encode_rows, write_png
 
     rgba = images[0] if len(images) == 1 else np.minimum.reduce(images)
-    dots = (float(dpi), float(dpi))
-    Image.fromarray(rgba, "RGBA").save(path, format="png", dpi=dots)
-    return Path(path)
+    return write_png(path, [encode_rows(rgba)], dpi=float(dpi))
 
 
 def _hatch(k: int, i: int):

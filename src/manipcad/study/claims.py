@@ -802,7 +802,7 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
     out = writable_folder(out_dir)
     robot, arm_name, max_payload = resolve_arm(arm, "claims")
     with ExitStack() as stack:
-        # the workers start (and load their kernels) while the rows are prepared here
+        # the workers start (and load their kernels) while the rows are sized here
         # (a fresh run only: with cached cells the cluster is started, by run_tasks, only
         # if some cell is missing)
         pool = None
@@ -824,11 +824,15 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
     g["load_ratio"] = targets
     # per row the arm; per cell the speed scale the sizing allows (laws (2) time-scaled
     # where the motors or gears are over their limits)
-    # (the rows are independent: on a cluster each is a task, sized while the others are)
-    sized = run_tasks(size_row, [{"load_ratio": rho} for rho in targets],
-                      common={"arm": robot, "max_payload": max_payload,
-                              "speed_scales": g["speed_scale"]},
-                      workers=None if pool is not None else 1, pool=pool, progress=False)
+    # (the rows are independent: while the cluster starts, here, one after another; the
+    # rows left once it has started and warmed are tasks on it, sized side by side)
+    common = {"arm": robot, "max_payload": max_payload, "speed_scales": g["speed_scale"]}
+    sized: list[dict] = []
+    while pool is not None and len(sized) < len(targets) and not pool.ready():
+        sized.append(size_row(**common, load_ratio=targets[len(sized)]))
+    sized += run_tasks(size_row, [{"load_ratio": rho} for rho in targets[len(sized):]],
+                       common=common, workers=None if pool is not None else 1, pool=pool,
+                       progress=False)
     rows = [r["arm"] for r in sized]
     row_of = {rho: (r["robot"], r["arm"]) for rho, r in zip(targets, sized, strict=True)}
     runs = [r["speed_scale_run"] for r in sized]
@@ -984,24 +988,25 @@ def _where_below(grid, vals, limit):
 def _write(out: Path, doc: dict, pool=None) -> None:
     """claims.json, claims.png and report.html, each written to a temporary file and renamed.
 
-    With a ``pool`` the figure's panels are drawn in groups, one per worker
-    (:func:`manipcad.report.claims.draw_panels`): the same PNG as drawn whole.
+    With a ``pool`` the figure's panels are drawn in groups, one per worker, and each
+    group's rows encoded there (:func:`manipcad.report.claims.draw_band`): the same
+    pixels as drawn whole.
     """
     from manipcad.parallel import run_tasks
-    from manipcad.report.claims import claims_html, draw_panels, panel_groups, save_panels
+    from manipcad.report.claims import claims_html, draw_band, panel_groups, save_bands
 
     tmp = Path(tempfile.mkdtemp(prefix=".claims.", dir=out))
     try:
         (tmp / "claims.json").write_text(json.dumps(doc, indent=2, ensure_ascii=False) + "\n",
                                          encoding="utf-8")
         groups = panel_groups(doc, 1 if pool is None else pool.slots())
-        images = run_tasks(draw_panels, [{"ids": ids} for ids in groups],
-                           common={"doc": doc, "dpi": FIGURE_DPI},
-                           workers=None if pool is not None else 1, pool=pool,
-                           progress=False)
+        bands = run_tasks(draw_band, [{"ids": ids} for ids in groups],
+                          common={"doc": doc, "dpi": FIGURE_DPI},
+                          workers=None if pool is not None else 1, pool=pool,
+                          progress=False)
         if pool is not None:  # the cluster closes while the PNG and the report are written
             pool.release()
-        save_panels(list(images), tmp / "claims.png", dpi=FIGURE_DPI)
+        save_bands(list(bands), tmp / "claims.png", dpi=FIGURE_DPI)
         (tmp / "report.html").write_text(claims_html(doc, tmp / "claims.png"), encoding="utf-8")
         for name in ("claims.json", "claims.png", "report.html"):
             os.replace(tmp / name, out / name)

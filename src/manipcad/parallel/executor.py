@@ -402,7 +402,7 @@ def run_tasks(func: Callable, tasks: Sequence[Mapping[str, Any]], *,
         units, costs = [units[u] for u in order], [costs[u] for u in order]
 
     with ExitStack() as stack:
-        bar = _progress(stack, progress, desc, len(items), results.cached)
+        bar = progress_reporter(stack, progress, desc, len(items), results.cached)
         if not units:
             return results
         if pool is None and scheduler is None and (workers or default_workers()) == 1:
@@ -516,7 +516,11 @@ def _failed(func, items, idx, exc) -> TaskFailed:
                       f"{type(exc).__name__}: {exc}", k, items[k])
 
 
-def _progress(stack: ExitStack, show, desc: str, total: int, already: int):
+def progress_reporter(stack: ExitStack, show, desc: str, total: float,
+                      already: float = 0) -> Callable[[float], None]:
+    """``report(k)``: k more of ``total`` tasks done, shown as a rich progress bar on stderr
+    (``show`` True; closed with ``stack``) or given as the fraction done (0..1) to a
+    callable ``show``; nothing when ``show`` is false. ``already``: done before."""
     if callable(show):                  # report(fraction done), e.g. a web page's bar
         done = [already]
 

@@ -57,7 +57,10 @@ cached under ``out_dir/cache`` by a hash of its inputs; its 14 closed-loop runs
 (:func:`run_cost`), in batches that shrink to single runs at the end
 (:func:`manipcad.parallel.executor.guided`), so that the workers finish
 together, and combined into the cell (:func:`cell_result`) whichever way they
-ran. The cells simulate with
+ran. On a cluster the rows are sized (:func:`size_row`) in a thread of this process
+from when the workers have forked, while they start; the cells of the rows sized
+by the time the cluster is ready are handed out at once, and the other rows' cells as
+soon as those are sized, on the same cluster (:class:`_Rows`). The cells simulate with
 the general compiled kernels (``use_generated=False``): the simulator otherwise
 uses a robot's generated kernels when some process has generated them, which
 agree to about 1e-8 but not bit for bit, and a cell's result must not depend on
@@ -823,38 +826,67 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
     targets = [own_load_ratio(robot) if r is None else r for r in g["load_ratio"]]
     g["load_ratio"] = targets
     # per row the arm; per cell the speed scale the sizing allows (laws (2) time-scaled
-    # where the motors or gears are over their limits)
-    # (the rows are independent: while the cluster starts, here, one after another; the
-    # rows left once it has started and warmed are tasks on it, sized side by side)
+    # where the motors or gears are over their limits). On a cluster the rows are sized
+    # in a thread of this process, the last first, from when the workers have forked
+    # (while they start): once the cluster is ready the cells of the rows sized by then
+    # are handed out, and the thread, having sized the others, hands out theirs, side
+    # by side on the same cluster (no barrier between them).
     common = {"arm": robot, "max_payload": max_payload, "speed_scales": g["speed_scale"]}
-    sized: list[dict] = []
-    while pool is not None and len(sized) < len(targets) and not pool.ready():
-        sized.append(size_row(**common, load_ratio=targets[len(sized)]))
-    sized += run_tasks(size_row, [{"load_ratio": rho} for rho in targets[len(sized):]],
-                       common=common, workers=None if pool is not None else 1, pool=pool,
-                       progress=False)
+    out.mkdir(exist_ok=True)
+    S = len(g["speed_scale"])
+    with ExitStack() as stack:
+        report = _cells_progress(stack, progress, len(targets) * S)
+
+        def compute_cells(rows: dict[int, dict]) -> tuple[list[dict], Any]:
+            """The cells of these rows (a time-scaled cell of a row once), computed."""
+            mine = list({(targets[i], s_run): {"speed_scale": s_run, "load_ratio": targets[i]}
+                         for i in sorted(rows) for s_run in rows[i]["speed_scale_run"]
+                         if s_run is not None}.values())
+            row_of = {targets[i]: (r["robot"], r["arm"]) for i, r in rows.items()}
+            shown = report(len(rows) * S)
+            # each cell is cached whole; on a cluster its runs are the units of work,
+            # handed out longest first, so that the workers finish together
+            res = run_tasks(claims_cell, mine, common={"arm": robot, "dt": dt,
+                                                       "max_payload": max_payload},
+                            workers=None if pool is not None else workers,
+                            scheduler=None if pool is not None else scheduler, pool=pool,
+                            cache_dir=out / "cache", progress=shown if progress else False,
+                            version=CELL_VERSION, cost=run_cost,
+                            split=Split(plan=lambda task, common: cell_plan(
+                                **common, **task, row=row_of[task["load_ratio"]]),
+                                run=claims_run, combine=cell_result))
+            shown(1.0)
+            return mine, res
+
+        if pool is None:
+            sized = dict(enumerate(run_tasks(
+                size_row, [{"load_ratio": rho} for rho in targets], common=common,
+                workers=1, progress=False)))
+            parts = [compute_cells(sized)]
+        else:
+            rows = _Rows(common, targets)
+            pool.client()  # started and warmed
+            sized = rows.take()
+
+            def the_rest() -> tuple[dict, tuple | None]:
+                rest = rows.rest()
+                return rest, (compute_cells(rest) if rest else None)
+
+            later = _Thread(the_rest)
+            parts = [compute_cells(dict(sized))]
+            rest, part = later.join()
+            sized.update(rest)
+            parts += [part] if part is not None else []
+    tasks, where, done = [], {}, _Done()
+    for mine, res in parts:
+        for t in mine:
+            where[(t["load_ratio"], t["speed_scale"])] = len(tasks)
+            tasks.append(t)
+        done.add(res)
+    sized = [sized[i] for i in range(len(targets))]
     rows = [r["arm"] for r in sized]
-    row_of = {rho: (r["robot"], r["arm"]) for rho, r in zip(targets, sized, strict=True)}
     runs = [r["speed_scale_run"] for r in sized]
     fails = [r["sizing_failures"] for r in sized]
-    tasks, where = [], {}
-    for i, rho in enumerate(targets):
-        for s_run in runs[i]:
-            if s_run is not None and (rho, s_run) not in where:
-                where[(rho, s_run)] = len(tasks)
-                tasks.append({"speed_scale": s_run, "load_ratio": rho})
-    out.mkdir(exist_ok=True)
-    # each cell is cached whole; on a cluster its runs are the units of work, handed out
-    # longest first, so that the workers finish together
-    done = run_tasks(claims_cell, tasks, common={"arm": robot, "dt": dt,
-                                                 "max_payload": max_payload},
-                     workers=None if pool is not None else workers,
-                     scheduler=None if pool is not None else scheduler, pool=pool,
-                     cache_dir=out / "cache",
-                     progress=progress, desc="claims cells", version=CELL_VERSION,
-                     cost=run_cost, split=Split(plan=lambda task, common: cell_plan(
-                         **common, **task, row=row_of[task["load_ratio"]]), run=claims_run,
-                         combine=cell_result))
     cells = []
     for i, rho in enumerate(targets):
         for k, s_run in enumerate(runs[i]):
@@ -934,6 +966,122 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
     doc = json_safe(doc)
     _write(out, doc, pool)
     return doc
+
+
+class _Done(list):
+    """The cells' results of several :func:`run_tasks` calls, in order, with their counts."""
+
+    computed = cached = 0
+
+    def add(self, results) -> None:
+        self.extend(results)
+        self.computed += results.computed
+        self.cached += results.cached
+
+
+class _Rows:
+    """The rows of a grid sized (:func:`size_row`) in a thread of this process, the last
+    first; :meth:`take` the rows sized by then, :meth:`rest` the others once all are.
+
+    Started once the cluster's workers have forked (:class:`manipcad.parallel.Pool`):
+    no fork follows, so no lock held by this thread is copied into a worker."""
+
+    def __init__(self, common: dict, targets: list[float]) -> None:
+        import threading
+
+        self._done: dict[int, dict] = {}
+        self._taken: set[int] = set()
+        self._error: BaseException | None = None
+        self._changed = threading.Condition()
+
+        def size() -> None:
+            import numba
+
+            # one thread (numba's count is per calling thread): the cluster's workers take
+            # the cores, and the sizing's short batches gain little from a second thread
+            # (0.27 s of CPU for the quick grid's 4 rows on one, 0.4-0.5 s on two)
+            numba.set_num_threads(1)
+            try:
+                for i in reversed(range(len(targets))):
+                    row = size_row(**common, load_ratio=targets[i])
+                    with self._changed:
+                        self._done[i] = row
+                        self._changed.notify_all()
+            except BaseException as exc:  # noqa: BLE001 - raised in take() / rest()
+                with self._changed:
+                    self._error = exc
+                    self._changed.notify_all()
+
+        self._n = len(targets)
+        self._thread = threading.Thread(target=size, name="manipcad-claims-sizing",
+                                        daemon=True)
+        self._thread.start()
+
+    def take(self) -> dict[int, dict]:
+        """The rows sized by now (waits for the first)."""
+        with self._changed:
+            self._changed.wait_for(lambda: self._done or self._error is not None)
+            if self._error is not None:
+                raise self._error
+            self._taken = set(self._done)
+            return dict(self._done)
+
+    def rest(self) -> dict[int, dict]:
+        """The rows not taken, once every row is sized."""
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return {i: r for i, r in self._done.items() if i not in self._taken}
+
+
+class _Thread:
+    """``fn()`` run in a thread of this process; :meth:`join` returns its value or raises
+    its exception (e.g. rows sized and their cells handed out to a cluster whose workers
+    have forked already: no fork follows, so no lock of this thread is copied)."""
+
+    def __init__(self, fn: Callable[[], Any]) -> None:
+        import threading
+
+        self._out: list = []
+
+        def run() -> None:
+            try:
+                self._out.append((True, fn()))
+            except BaseException as exc:  # noqa: BLE001 - raised in join()
+                self._out.append((False, exc))
+
+        self._thread = threading.Thread(target=run, name="manipcad-claims-rows", daemon=True)
+        self._thread.start()
+
+    def join(self) -> Any:
+        self._thread.join()
+        ok, value = self._out[0]
+        if not ok:
+            raise value
+        return value
+
+
+def _cells_progress(stack: ExitStack, progress, total: int):
+    """``part(n)``: the progress argument of a :func:`run_tasks` call over the cells of
+    ``n`` of the grid's ``total`` cells (a time-scaled cell computed once for several),
+    called with 1.0 once the call returns; the calls one after another show one bar (or
+    give one fraction 0..1 to a callable ``progress``)."""
+    from manipcad.parallel.executor import progress_reporter
+
+    if not progress:
+        return lambda n: lambda f: None
+    advance = progress_reporter(stack, progress, "claims cells", total)
+
+    def part(n: int):
+        seen = [0.0]
+
+        def fraction(f: float) -> None:
+            advance(f * n - seen[0])
+            seen[0] = f * n
+
+        return fraction
+
+    return part
 
 
 def size_row(*, arm: Robot, load_ratio: float, max_payload: float,

@@ -422,10 +422,10 @@ def test_host_check_refuses_other_names_on_loopback():
 
 def test_worker_runs_stores_and_cancels(ws):
     """The worker's run equals manipcad.simulate's; its voltage and power series give the
-    run's own energy metric; a cancel stores nothing. (The worker's body runs in this
-    process here; the browser flow runs it in the worker process.)"""
+    run's own energy metric; one worker runs job after job, a cancel stops only the job
+    it names and stores nothing. (The worker's body runs in this process here; the
+    browser flow runs it in the worker process.)"""
     import queue
-    import threading
 
     from manipcad.store.results import load_result
     from manipcad.ui.worker import SimSpec, _work, run_spec
@@ -457,17 +457,29 @@ def test_worker_runs_stores_and_cancels(ws):
     with pytest.raises(InputError, match="inputs/robot.yaml"):
         logic.result_series(res, "voltage", None)
 
-    class Inbox:                                    # the pipe the spec comes through
-        def recv(self):
-            return SimSpec(str(ws.root), "cylindrical", "move", ["pid"], t_end=0.1,
-                           dt=1e-4, name="r2")
+    class Inbox:                                    # the pipe the jobs come through
+        def __init__(self, *jobs):
+            self.jobs = list(jobs)
 
-    out, cancel = queue.Queue(), threading.Event()
-    cancel.set()                                    # cancel asked before the first report
-    _work(Inbox(), out, cancel)
+        def recv(self):
+            return self.jobs.pop(0)
+
+    class Shared:                                   # multiprocessing.Value's interface
+        value = 0
+
+    def spec(name):
+        return SimSpec(str(ws.root), "cylindrical", "move", ["pid"], t_end=0.1, dt=1e-4,
+                       name=name)
+
+    # one worker serves job after job until None; a cancel stops only the job it names
+    out, cancel, done = queue.Queue(), Shared(), Shared()
+    cancel.value = 7                                # job 7 cancelled before its first report
+    _work(Inbox((7, spec("r2")), (8, spec("r3")), None), out, cancel, done)
     said = [out.get_nowait() for _ in range(out.qsize())]
-    assert said[-1] == ("cancelled", "") and said[0][0] == "progress"
-    assert [i.name for i in ws.list("results")] == ["r1"]
+    assert said[0][:2] == (7, "progress") and (7, "cancelled", "") in said
+    assert said[-1][:3] == (8, "done", "r3") and done.value == 8
+    assert [m[1] for m in said if m[0] == 7] == ["progress", "cancelled"]
+    assert [i.name for i in ws.list("results")] == ["r1", "r3"]
 
     with pytest.raises(InputError, match="may not contain"):
         run_spec(SimSpec(str(ws.root), "cylindrical", "../move", ["pid"]))

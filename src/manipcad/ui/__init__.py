@@ -16,6 +16,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+#: seconds a page's connection may stall before NiceGUI drops it (and the page reloads)
+RECONNECT_TIMEOUT = 10.0
+
 
 def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bool = False,
           token: str | None = None, announce=print) -> None:
@@ -67,5 +70,10 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
     prestart()
     app.on_shutdown(stop_spare)
     announce(f"manipcad ui on {url} (workspace {root.resolve()}); Ctrl-C stops it")
+    # a run on every core, or a large figure drawn in another tab of the same browser
+    # process, can hold a tab's JavaScript for seconds on a small machine: with NiceGUI's
+    # default (3 s, a ping timeout of 2 s) the tab's connection then dropped and the page
+    # reloaded, losing what the designer had just picked; 10 s gives a 4 s ping timeout
     ui.run(host=host, port=int(port), title="manipcad", reload=False, show=show,
-           show_welcome_message=False, favicon="🦾", uvicorn_logging_level="warning")
+           show_welcome_message=False, favicon="🦾", uvicorn_logging_level="warning",
+           reconnect_timeout=RECONNECT_TIMEOUT)

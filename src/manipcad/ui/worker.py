@@ -3,20 +3,25 @@
 The page starts a :class:`SimulationJob`; the run happens in a separate process
 (``spawn``), so the web server keeps answering other pages while it goes. A spare
 worker is started ahead (:func:`prestart`) and does its imports while it waits,
-so a run does not wait for a new interpreter. The
+so a run does not wait for a new interpreter; a worker serves one job after the
+other (the one that finished a job is the next spare), so its imports and the
+compiled kernels it loaded are paid once, not per run. The
 worker calls :func:`manipcad.simulate` with a ``progress=`` callback that reports
 the fraction done and raises ``KeyboardInterrupt`` once cancel is asked, then
 stores the result with :meth:`manipcad.workspace.Workspace.store_result` (a
 cancelled or failed run stores nothing; a diverged one only when asked).
 
-Messages from the worker (a queue): ``("progress", fraction)``,
-``("done", result name, metrics)``, ``("error", message)``, ``("cancelled", "")``.
+Messages from the worker (a queue), each after the job's number:
+``("progress", fraction)``, ``("done", result name, metrics)``, ``("error", message)``,
+``("cancelled", "")``.
 """
 
 from __future__ import annotations
 
+import itertools
 import multiprocessing as mp
 import queue
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -231,70 +236,123 @@ def _warm() -> None:
         pass
 
 
-def _work(inbox, out, cancel) -> None:
-    """The worker process's body: import what a run needs, wait for the spec on
-    ``inbox``, run it, reporting progress on ``out``; cancel through ``cancel``."""
+def _work(inbox, out, cancel, done) -> None:
+    """The worker process's body: import what a run needs, then run the jobs that come on
+    ``inbox`` one after the other until ``None`` comes.
+
+    One process serves many runs, so its interpreter start, imports and the compiled
+    kernels it loaded are paid once, not per run. Each job comes as ``(number, spec)``;
+    every message on ``out`` starts with that number. ``cancel.value`` holds the number
+    of the job asked to stop (checked at each progress report); ``done.value`` is set to
+    the number of each job just before its last message is sent (the worker is then
+    free for the next job).
+    """
     from manipcad.errors import ManipcadError
 
     _warm()
-    spec = inbox.recv()
-    if spec is None:               # the spare was not needed
-        return
+    while True:
+        msg = inbox.recv()
+        if msg is None:            # the server stops
+            return
+        number, spec = msg
 
-    def progress(frac: float) -> None:
-        out.put(("progress", float(frac)))
-        if cancel.is_set():
-            raise KeyboardInterrupt
+        def progress(frac: float, number: int = number) -> None:
+            out.put((number, "progress", float(frac)))
+            if cancel.value == number:
+                raise KeyboardInterrupt
 
-    try:
-        name, metrics = spec.run(progress)
-    except KeyboardInterrupt:
-        out.put(("cancelled", ""))
-    except ManipcadError as exc:
-        out.put(("error", str(exc)))
-    except Exception as exc:  # noqa: BLE001  the page shows any failure, with its type
-        out.put(("error", f"{type(exc).__name__}: {exc}"))
-    else:
-        out.put(("done", name, metrics))
+        try:
+            name, metrics = spec.run(progress)
+        except KeyboardInterrupt:
+            last = (number, "cancelled", "")
+        except ManipcadError as exc:
+            last = (number, "error", str(exc))
+        except Exception as exc:  # noqa: BLE001  the page shows any failure, with its type
+            last = (number, "error", f"{type(exc).__name__}: {exc}")
+        else:
+            last = (number, "done", name, metrics)
+        done.value = number        # free before its last word: the job that reads it finds
+        out.put(last)              # the worker free (no new spare started)
 
 
 class _Worker:
-    """A started worker process waiting for its spec (its imports done meanwhile)."""
+    """A worker process: its inbox, its outbox, and which job it was given and finished
+    (a job number; the worker is free when the two are equal)."""
 
     def __init__(self) -> None:
         ctx = mp.get_context("spawn")
         self.queue = ctx.Queue()
-        self.cancel_event = ctx.Event()
+        self.cancel = ctx.Value("q", 0)
+        self.done = ctx.Value("q", 0)
+        self.given = 0
         self.inbox, send = ctx.Pipe(duplex=False)
         self.send = send
-        self.process = ctx.Process(target=_work, args=(self.inbox, self.queue,
-                                                       self.cancel_event), daemon=True)
+        self.mailbox: dict[int, list] = {}       # messages read, by job number
+        self.process = ctx.Process(target=_work, args=(self.inbox, self.queue, self.cancel,
+                                                       self.done), daemon=True)
         self.process.start()
 
+    @property
+    def free(self) -> bool:
+        """Alive and not running a job (it may still be doing its imports)."""
+        return self.done.value == self.given and self.process.is_alive()
 
-_SPARE: list[_Worker] = []
+    def read(self, number: int) -> list:
+        """The messages of job ``number`` that arrived (each taken once)."""
+        while True:
+            try:
+                msg = self.queue.get_nowait()
+            except queue.Empty:
+                break
+            self.mailbox.setdefault(msg[0], []).append(msg[1:])
+        return self.mailbox.pop(number, [])
+
+
+_WORKERS: list[_Worker] = []
+_LOCK = threading.Lock()
+_NUMBER = itertools.count(1)
 
 
 def prestart() -> None:
-    """Start a spare worker now, so the next run does not wait for a new interpreter
-    to import manipcad (``manipcad ui`` calls it at start, and each run once it ends)."""
-    if not _SPARE:
-        _SPARE.append(_Worker())
+    """Have a free worker ready, so the next run does not wait for a new interpreter to
+    import manipcad (``manipcad ui`` calls it at start; a worker that finished a job is
+    the next spare, so this starts one only when none is free)."""
+    with _LOCK:
+        _WORKERS[:] = [w for w in _WORKERS if w.process.is_alive()]
+        free = [w for w in _WORKERS if w.free]
+        for extra in free[1:]:         # after runs side by side: keep one spare
+            extra.send.send(None)
+            _WORKERS.remove(extra)
+        if not free:
+            _WORKERS.append(_Worker())
 
 
 def stop_spare() -> None:
-    """End the spare worker (started by :func:`prestart`)."""
-    while _SPARE:
-        w = _SPARE.pop()
-        w.send.send(None)
-        w.process.join(timeout=5)
+    """End the worker processes (``manipcad ui`` calls it at shutdown): a free one is
+    told to stop, one still running a job (or its imports) is terminated after 1 s."""
+    with _LOCK:
+        workers, _WORKERS[:] = list(_WORKERS), []
+    for w in workers:
+        if w.free:
+            w.send.send(None)
+    deadline = time.monotonic() + 1.0
+    for w in workers:
+        w.process.join(timeout=max(0.0, deadline - time.monotonic()))
+        if w.process.is_alive():
+            w.process.terminate()
+            w.process.join(timeout=1.0)
 
 
 def _take() -> _Worker:
-    w = _SPARE.pop() if _SPARE else None
-    if w is None or not w.process.is_alive():
+    """A free worker (the spare), or a new one when none is."""
+    with _LOCK:
+        _WORKERS[:] = [w for w in _WORKERS if w.process.is_alive()]
+        for w in _WORKERS:
+            if w.free:
+                return w
         w = _Worker()
-    return w
+        _WORKERS.append(w)
+        return w
 
 
 class SimulationJob:
@@ -310,11 +368,11 @@ class SimulationJob:
         job.state, job.result
     """
 
-    def __init__(self, spec: SimSpec | StudySpec | VerifySpec, *,
-                 spare: bool = True) -> None:
-        w = _take()
+    def __init__(self, spec: SimSpec | StudySpec | VerifySpec) -> None:
+        self._worker = w = _take()
+        self.number = next(_NUMBER)
         self.spec = spec
-        self.queue, self.cancel_event, self.process = w.queue, w.cancel_event, w.process
+        self.process = w.process
         self.state = "starting"
         self.fraction = 0.0
         self.result: str | None = None
@@ -322,19 +380,17 @@ class SimulationJob:
         self.message = ""
         self.started = time.perf_counter()
         self.wall = float("nan")
-        w.send.send(spec)
-        # the next spare is started when this run ends, not now: its interpreter start and
-        # imports (1.5-2 s of CPU) would take a core from this run on a 2-core machine
-        self._spare = spare
+        w.given = self.number
+        w.send.send((self.number, spec))
+        # no new spare while this runs: its interpreter start and imports (1.5-2 s of CPU)
+        # would take a core from this run on a 2-core machine; this worker is the next spare
 
     def poll(self) -> str:
         """Read what the worker said; returns the state: starting, running, done,
         error, cancelled."""
-        while True:
-            try:
-                msg = self.queue.get_nowait()
-            except queue.Empty:
-                break
+        if self.finished:
+            return self.state
+        for msg in self._worker.read(self.number):
             if msg[0] == "progress":
                 self.state, self.fraction = "running", msg[1]
             elif msg[0] == "done":
@@ -342,22 +398,23 @@ class SimulationJob:
                 self.fraction = 1.0
             else:
                 self.state, self.message = msg[0], msg[1]
-            if self.state in ("done", "error", "cancelled"):
-                self.wall = time.perf_counter() - self.started
-                self.process.join(timeout=5)
-        if self.state in ("starting", "running") and not self.process.is_alive():
-            self.process.join(timeout=1)
-            if self.queue.empty():
+        if not self.finished and not self.process.is_alive():
+            for msg in self._worker.read(self.number):   # its last words, if any
+                if msg[0] != "progress":
+                    self.state, self.message = msg[0], msg[-1]
+            if not self.finished:
                 self.state = "error"
                 self.message = f"the worker process ended (exit code {self.process.exitcode})"
-        if self._spare and self.finished:
-            self._spare = False
-            prestart()
+        if self.finished:
+            self.wall = time.perf_counter() - self.started
+            prestart()               # this worker is the spare again (a new one if it died)
         return self.state
 
     def cancel(self) -> None:
-        """Ask the worker to stop at its next progress report (nothing is stored)."""
-        self.cancel_event.set()
+        """Ask the worker to stop this job at its next progress report (nothing is
+        stored); nothing happens once the job is over."""
+        if not self.finished and self._worker.given == self.number:
+            self._worker.cancel.value = self.number
 
     @property
     def finished(self) -> bool:

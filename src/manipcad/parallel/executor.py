@@ -703,19 +703,20 @@ class Pool:
             if forks is not None:  # wake the constructor (a start that forked nothing)
                 with forks:
                     forks.notify_all()
-        if self._warm is not None:
-            try:
+        if self._warm is not None:  # not waited for by client(): the tasks handed out
+            try:                    # meanwhile run after it on a worker
                 self._client.run(self._warm)
             except Exception:  # noqa: BLE001 - warming is an optimization only
                 pass
 
     def ready(self) -> bool:
-        """Whether the cluster has started and warmed (:meth:`client` would not wait)."""
-        return not self._thread.is_alive()
+        """Whether the cluster has started (:meth:`client` would not wait)."""
+        return self._started.is_set()
 
     def client(self):
-        """The started client (waits for the start and the warm-up to finish)."""
-        self._thread.join()
+        """The started client (waits for the start, not for the warm-up: a task handed out
+        meanwhile runs after it or beside it on a worker)."""
+        self._started.wait()
         if self._error is not None:
             raise self._error
         return self._client

@@ -116,7 +116,9 @@ def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm, dask_scheduler):
 
     monkeypatch.setitem(fig3_mod.LAWS, "duration", 0.4)
     monkeypatch.setattr(claims_mod, "STEP_T_END", 0.15)
-    doc = run_claims(tmp_path / "c", workers=1, progress=False)
+    shown = []  # the progress callable: fractions of the cells done, up to 1
+    doc = run_claims(tmp_path / "c", workers=1, progress=shown.append)
+    assert shown and shown == sorted(shown) and shown[-1] == 1.0
     for name in ("claims.json", "claims.png", "report.html"):
         assert (tmp_path / "c" / name).is_file()
     on_disk = json.loads((tmp_path / "c" / "claims.json").read_text())
@@ -148,7 +150,9 @@ def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm, dask_scheduler):
     eq = doc["claims"]["lqr_equal_information"]["ratio"][0][0]
     assert eq == pytest.approx(mx["lqr_equal_information"] / mx["lqr_gs"], rel=1e-12)
     assert doc["speed_scale_run"] == [[1.0]] and doc["time_scaled"] == [[False]]
-    dist = run_claims(tmp_path / "d", scheduler=dask_scheduler, progress=False)
+    shown.clear()
+    dist = run_claims(tmp_path / "d", scheduler=dask_scheduler, progress=shown.append)
+    assert shown and shown == sorted(shown) and shown[-1] == 1.0
     assert dist["settings"]["cells_computed"] == 1
     for key in ("claims", "max_error", "rise_time", "sliding_rate", "saturation", "arm"):
         assert dist[key] == doc[key], key

@@ -1064,8 +1064,8 @@ class _Thread:
 def _cells_progress(stack: ExitStack, progress, total: int):
     """``part(n)``: the progress argument of a :func:`run_tasks` call over the cells of
     ``n`` of the grid's ``total`` cells (a time-scaled cell computed once for several),
-    called with 1.0 once the call returns; the calls one after another show one bar (or
-    give one fraction 0..1 to a callable ``progress``)."""
+    called with 1.0 once the call returns; the calls side by side show one bar (or give
+    one fraction 0..1 to a callable ``progress``), in whole cells."""
     from manipcad.parallel.executor import progress_reporter
 
     if not progress:
@@ -1073,11 +1073,13 @@ def _cells_progress(stack: ExitStack, progress, total: int):
     advance = progress_reporter(stack, progress, "claims cells", total)
 
     def part(n: int):
-        seen = [0.0]
+        seen = [0]
 
-        def fraction(f: float) -> None:
-            advance(f * n - seen[0])
-            seen[0] = f * n
+        def fraction(f: float) -> None:  # in whole cells: the calls' steps add up exactly
+            now = min(n, math.floor(f * n + 1e-9))
+            if now > seen[0]:
+                advance(now - seen[0])
+                seen[0] = now
 
         return fraction
 

@@ -288,7 +288,7 @@ def test_simulator_picks_the_generated_kernels():
     from manipcad.trajectories import quintic
 
     robot = load("puma560")
-    generate(robot)
+    gen = generate(robot)
     traj = quintic(np.zeros(6), np.array([0.4, -0.3, 0.2, 0.5, -0.4, 0.6]), 0.05)
     regs = [pid(j, kp=300.0, kd=10.0, u_limit=40.0, period=1e-3) for j in range(robot.n)]
     runs = {use: simulate(robot, t_end=0.05, dt=1e-4, trajectory=traj, regulators=regs,
@@ -303,6 +303,10 @@ def test_simulator_picks_the_generated_kernels():
     assert np.abs(passive.q - ref.q).max() < 1e-9
     loaded = simulate(robot, t_end=0.01, dt=1e-4, drives=False, payload=1.0)
     assert not loaded.settings["generated"]
+    # with and without the drive terms the C-ABI kernels share one compiled forward
+    # dynamics: the flag reaches it as a plain boolean, no constant's specialization
+    flags = [str(sig[3]) for sig in gen.kernel("forward_dynamics").signatures]
+    assert flags and set(flags) == {"bool"}, flags
 
 
 def test_cache_is_keyed_by_content_hash(tmp_path):
@@ -350,6 +354,8 @@ def test_api_uses_attached_kernels_and_can_opt_out():
 
     copy = pickle.loads(pickle.dumps(robot))
     assert copy.__dict__.get("_generated") is None
+    # its table is read-only like the original's: the same compiled kernels serve it
+    assert not copy.table.flags.writeable and np.array_equal(copy.table, robot.table)
     assert np.array_equal(manipcad.inverse_dynamics(copy, Q, QD, QDD, use_generated=False),
                           general)
     again = find(copy)

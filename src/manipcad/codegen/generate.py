@@ -405,7 +405,7 @@ def _python_source(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> st
         "from numba import carray",
         "",
         "import numpy as np",
-        "from manipcad.codegen.cabi import f64_ptr, stack_vector",
+        "from manipcad.codegen.cabi import f64_ptr, plain_bool, stack_vector",
         "from manipcad.codegen.trig import sincos_block, sincos_many",
         "",
         f"N = {n}",
@@ -430,7 +430,9 @@ def _cfunc_wrappers(n: int) -> list[str]:
 
     out = []
     for dr in (0, 1):
-        flag = "True" if dr else "False"
+        # not the literal: a call with a constant flag would compile a specialization of
+        # its own for each flag (cabi.plain_bool)
+        flag = f"plain_bool({dr == 1})"
         out += [f"def cfunc_inverse_dynamics_{dr}(a, b, c, d):",
                 f"    inverse_dynamics({arr('a')}, {arr('b')}, {arr('c')}, {flag}, {arr('d')})",
                 "    return 0", "", "",

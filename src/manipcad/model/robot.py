@@ -370,6 +370,14 @@ class Robot:
             object.__setattr__(self, "_table", cached)
         return cached
 
+    def __getstate__(self) -> dict:
+        # the packed table is a cache: unpickled it would be a writable array, another type
+        # for numba than the read-only one _pack makes, so every kernel the copy runs would
+        # compile (and cache) a second specialization; the copy packs its own instead
+        state = dict(self.__dict__)
+        state.pop("_table", None)
+        return state
+
     def drive(self, joint: int | str) -> Drive:
         """The drive of a joint (index or name); raises if the joint has none."""
         i = self.joint_index(joint)

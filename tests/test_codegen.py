@@ -234,23 +234,23 @@ def test_one_state_calls_equal_the_compiled_batch_bit_for_bit():
 
 @numba.njit(cache=True)
 def _loop_with_kernels(fd, mc, Q, QD, T, QDD, HII, HV, QG):
-    """What a compiled simulator does: call C-ABI kernels given as arguments."""
-    q, qd, tau, out = np.empty(Q.shape[1]), np.empty(Q.shape[1]), np.empty(Q.shape[1]), \
-        np.empty(Q.shape[1])
-    a, b, c = np.empty(Q.shape[1]), np.empty(Q.shape[1]), np.empty(Q.shape[1])
+    """What a compiled simulator does: call C-ABI kernels given as arguments.
+
+    Element by element copies (no slice assignment, whose shape-mismatch error path would
+    compile numba's string formatting, about a second, into this test)."""
+    n = Q.shape[1]
+    q, qd, tau, out = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    a, b, c = np.empty(n), np.empty(n), np.empty(n)
     bad = -1
     for k in range(Q.shape[0]):
-        q[:] = Q[k]
-        qd[:] = QD[k]
-        tau[:] = T[k]
+        for j in range(n):
+            q[j], qd[j], tau[j] = Q[k, j], QD[k, j], T[k, j]
         r = fd(q.ctypes.data, qd.ctypes.data, tau.ctypes.data, out.ctypes.data)
         if r >= 0:
             bad = k
         mc(q.ctypes.data, qd.ctypes.data, a.ctypes.data, b.ctypes.data, c.ctypes.data)
-        QDD[k] = out
-        HII[k] = a
-        HV[k] = b
-        QG[k] = c
+        for j in range(n):
+            QDD[k, j], HII[k, j], HV[k, j], QG[k, j] = out[j], a[j], b[j], c[j]
     return bad
 
 

@@ -268,18 +268,31 @@ def count_ops(source: str, function: str) -> dict[str, int]:
         multiplications, subtractions as additions; unary minus is not counted;
         ``s, c = sincos(x)`` counts as the trigonometric values it gives, ``_`` not, and
         so does each read ``s0 = TS[p]`` / ``c0 = TC[p]`` of the single-state kernels'
-        vectorized angle block (the unused entries of the block are not counted).
+        vectorized angle block (the unused entries of the block are not counted). A
+        function's count includes the statements it runs as an intrinsic made by
+        ``X = lowered(_f)`` (:mod:`manipcad.codegen.lower`): those of ``_f``.
 
     Example:
         >>> count_ops("def f(a, b):\\n    return a*b - a/b + math.sin(a)\\n", "f")
         {'mul': 2, 'add': 2, 'trig': 1, 'sqrt': 0}
     """
     tree = ast.parse(source)
-    fn = next((f for f in ast.walk(tree) if isinstance(f, ast.FunctionDef)
-               and f.name == function), None)
+    funcs = {f.name: f for f in ast.walk(tree) if isinstance(f, ast.FunctionDef)}
+    fn = funcs.get(function)
     if fn is None:
         raise ManipcadError(f"no function {function!r} in the generated source")
-    return _count(fn.body)
+    c = _count(fn.body)
+    # the statements it runs through an intrinsic made by ``X = lowered(_f)``
+    # (manipcad.codegen.lower): counted as its own
+    made = {a.targets[0].id: a.value.args[0].id for a in tree.body
+            if isinstance(a, ast.Assign) and isinstance(a.value, ast.Call)
+            and isinstance(a.value.func, ast.Name) and a.value.func.id == "lowered"}
+    for node in ast.walk(fn):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
+                and node.func.id in made:
+            for k, v in _count(funcs[made[node.func.id]].body).items():
+                c[k] += v
+    return c
 
 
 def _count(nodes) -> dict[str, int]:

@@ -56,7 +56,7 @@ def cache_root() -> Path:
 
 def _generator_digest() -> str:
     h = hashlib.sha256()
-    for name in ("symbolic.py", "emit.py", "generate.py", "cabi.py", "trig.py"):
+    for name in ("symbolic.py", "emit.py", "generate.py", "cabi.py", "trig.py", "lower.py"):
         h.update((Path(__file__).parent / name).read_bytes())
     h.update(se.__version__.encode())
     return h.hexdigest()
@@ -290,16 +290,8 @@ def _read_lines(func: str, d: Dynamics, stmts: list, lang: str, indent: str, bat
                 else:
                     out.append(f"{indent}{name} = {src}")
     pairs = _trig_pairs(d, used)
-    if lang == "python" and not batch and pairs:
-        # one state's angles in a block of a multiple of 4 on the stack, sin and cos of
-        # all of them in one vectorized loop (trig.sincos_block); unused slots are 0
-        size = -(-len(pairs) // _BLOCK) * _BLOCK
-        out += [f"{indent}T{w} = stack_vector({size})" for w in "XSC"]
-        for p, (j, off) in enumerate(pairs):
-            arg = f"q{j}" if off == 0.0 else f"q{j} + {emit._num(off)}"
-            out.append(f"{indent}TX[{p}] = {arg}")
-        out += [f"{indent}TX[{p}] = 0.0" for p in range(len(pairs), size)]
-        out.append(f"{indent}sincos_block(TX, TS, TC)")
+    if lang == "python" and not batch:
+        # the wrapper computed them into the angle block (_trig_block)
         for p, ks in enumerate(pairs.values()):
             out += [f"{indent}{ks[w]} = T{w[0].upper()}[{p}]" for w in ("sin", "cos") if w in ks]
         return out
@@ -325,6 +317,23 @@ def _trig_pairs(d: Dynamics, used: set) -> dict:
     return pairs
 
 
+def _trig_block(d: Dynamics, stmts: list) -> list[str]:
+    """Single-state kernels: the angles in a block of a multiple of 4 on the stack, sin
+    and cos of all of them in one vectorized loop (:func:`manipcad.codegen.trig.sincos_block`);
+    unused slots are 0."""
+    pairs = _trig_pairs(d, _free_names(stmts))
+    if not pairs:
+        return []
+    size = -(-len(pairs) // _BLOCK) * _BLOCK
+    out = [f"    T{w} = stack_vector({size})" for w in "XSC"]
+    for p, (j, off) in enumerate(pairs):
+        arg = f"q[{j}]" if off == 0.0 else f"q[{j}] + {emit._num(off)}"
+        out.append(f"    TX[{p}] = {arg}")
+    out += [f"    TX[{p}] = 0.0" for p in range(len(pairs), size)]
+    out.append("    sincos_block(TX, TS, TC)")
+    return out
+
+
 def _trig_pass(d: Dynamics, stmts: list, first: str) -> list[str]:
     """Batch kernels: every state's angles into one vector, sin and cos of all of them in
     one vectorized loop (:func:`manipcad.codegen.trig.sincos_many`)."""
@@ -342,6 +351,10 @@ def _trig_pass(d: Dynamics, stmts: list, first: str) -> list[str]:
 
 
 def _py_function(func: str, n: int, d: Dynamics, stmts: list, batch: bool) -> list[str]:
+    """The kernel's statements as a plain function (lowered to LLVM IR by
+    :func:`manipcad.codegen.lower.lowered`) and the jitted kernel around them: argument
+    checks, the angles' sines and cosines, then one call of the statements (per state in a
+    batch)."""
     outs = _OUTPUTS[func]
     ins = [a for a, _ in _INPUTS[func]]
     vec, mat, m3 = "float64[::1]", "float64[:, ::1]", "float64[:, :, ::1]"
@@ -358,8 +371,26 @@ def _py_function(func: str, n: int, d: Dynamics, stmts: list, batch: bool) -> li
         args = ins + (["drives"] if drives else []) + list(outs)
     ret = "int64" if func == "forward_dynamics" else "void"
     name = func + ("_batch" if batch else "")
-    lines = [f"def {name}({', '.join(args)}):"]
     sig = f"{ret}({', '.join(arg_t)})"
+    trig = bool(_trig_pairs(d, _free_names(stmts)))
+    extra = (["TS", "TC"] if trig else []) + (["NB", "k"] if batch else [])
+    if batch and not trig:
+        extra = ["k"]
+    call = f"_{name}_ll({', '.join(args + extra)})"
+    if batch:
+        fmt = {o: (lambda *ix, o=o: f"{o.upper()}[k, {', '.join(map(str, ix))}]") for o in outs}
+        fail = "k"
+    else:
+        fmt = {o: (lambda *ix, o=o: f"{o}[{', '.join(map(str, ix))}]") for o in outs}
+        fail = "{j}"
+    body = [f"def _{name}({', '.join(args + extra)}):"]
+    body += _read_lines(func, d, stmts, "python", "    ", batch)
+    body += emit.lines(stmts, "python", fmt, "    ", fail)
+    if func == "forward_dynamics" and not batch:
+        body.append("    return -1")
+    lines = body + ["", "", f"_{name}_ll = lowered(_{name})", "", "",
+                    '@nb.njit(cache=True, nogil=True, error_model="numpy")',
+                    f"def {name}({', '.join(args)}):"]
     if batch:
         first = A[0]
         conds = [f"{first}.shape[1] != {n}"] + [f"{a}.shape != {first}.shape" for a in A[1:]]
@@ -368,22 +399,19 @@ def _py_function(func: str, n: int, d: Dynamics, stmts: list, batch: bool) -> li
         lines.append(f'        raise ValueError("arrays of shape (N, {n}) expected")')
         lines += _trig_pass(d, stmts, first)
         lines.append(f"    for k in range({first}.shape[0]):")
-        ind = "        "
-        fmt = {o: (lambda *ix, o=o: f"{o.upper()}[k, {', '.join(map(str, ix))}]") for o in outs}
-        fail = "k"
+        if func == "forward_dynamics":
+            lines += [f"        bad = {call}", "        if bad >= 0:", "            return bad",
+                      "    return -1"]
+        else:
+            lines.append(f"        {call}")
     else:
         conds = [f"{a}.shape[0] != {n}" for a in ins + [o for o in outs if o != "H"]]
         if "H" in outs:
             conds += [f"H.shape[0] != {n}", f"H.shape[1] != {n}"]
         lines.append(f"    if {' or '.join(conds)}:")
         lines.append(f'        raise ValueError("vectors of length {n} expected")')
-        ind = "    "
-        fmt = {o: (lambda *ix, o=o: f"{o}[{', '.join(map(str, ix))}]") for o in outs}
-        fail = "{j}"
-    lines += _read_lines(func, d, stmts, "python", ind, batch)
-    lines += emit.lines(stmts, "python", fmt, ind, fail)
-    if func == "forward_dynamics":
-        lines.append(f"{ind[:-4] if batch else ind}return -1")
+        lines += _trig_block(d, stmts)
+        lines.append(f"    {'return ' if func == 'forward_dynamics' else ''}{call}")
     return lines + ["", ""], sig
 
 
@@ -396,7 +424,9 @@ def _python_source(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> st
         "Do not edit: the file is regenerated when the robot or the generator changes.",
         "SI units: q rad or m, qd rad/s or m/s, qdd rad/s² or m/s², tau N·m or N.",
         "numba compiles each function on its first call (and caches it on disk); the",
-        "cfunc_* wrappers are made C-ABI kernels by GeneratedDynamics.cfunc.",
+        "statements of kernel f are the plain function _f, which manipcad.codegen.lower",
+        "turns into LLVM IR directly (f calls it once); the cfunc_* wrappers are made",
+        "C-ABI kernels by GeneratedDynamics.cfunc.",
         '"""',
         "",
         "import math",
@@ -406,6 +436,7 @@ def _python_source(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> st
         "",
         "import numpy as np",
         "from manipcad.codegen.cabi import f64_ptr, plain_bool, stack_vector",
+        "from manipcad.codegen.lower import lowered",
         "from manipcad.codegen.trig import sincos_block, sincos_many",
         "",
         f"N = {n}",
@@ -417,7 +448,7 @@ def _python_source(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> st
     for func in FUNCTIONS:
         for batch in (False, True):
             lines, sig = _py_function(func, n, d, stmts[func], batch=batch)
-            body += ['@nb.njit(cache=True, nogil=True, error_model="numpy")'] + lines
+            body += lines
             sigs.append(f'    "{func}{"_batch" if batch else ""}": "{sig}",')
     body += _cfunc_wrappers(n)
     return "\n".join(head + body + ["SIGNATURES = {"] + sigs + ["}"]) + "\n"

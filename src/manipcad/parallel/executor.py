@@ -757,7 +757,12 @@ class Pool:
 def _run_dask(client, func, batched, common, items, chunks, done, bar):
     from distributed import as_completed
 
-    [shared] = client.scatter([common], broadcast=True, hash=False)
+    # the common arguments go to every worker once (a round trip before the first task:
+    # 4 ms empty, 13 ms with the claims document), unless they are empty or the tasks no
+    # more than the workers' slots: then they travel inside each task (no more copies
+    # than a broadcast makes, and the first task goes out at once)
+    shared = common if not common or len(chunks) <= slots(client) else \
+        client.scatter([common], broadcast=True, hash=False)[0]
     futures = {}
     for rank, idx in enumerate(chunks):  # in the order given: the first run first
         fut = client.submit(_run_chunk, func, batched, shared, [items[k] for k in idx],

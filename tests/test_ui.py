@@ -582,11 +582,19 @@ def test_regulators_of_several_methods_run_together(ws, tmp_path, monkeypatch):
 
 
 # ----------------------------------------------------------------- NiceGUI's simulated user
-def _simulate_user(ws_dir, script) -> None:
-    """Run ``script(user)`` against the pages in NiceGUI's user simulation (no browser)."""
+def _simulate_user(ws_dir, script) -> list[str]:
+    """Run ``script(user)`` against the pages in NiceGUI's user simulation (no browser);
+    returns the pages that asked for a worker process (none is started here: the
+    browser flow starts them)."""
+    from nicegui import ui
     from nicegui.testing.user_simulation import user_simulation
 
     from manipcad.ui import pages
+
+    asked: list[str] = []
+
+    def prestart() -> None:
+        asked.append(str(ui.context.client.page.path))
 
     async def main():
         pages.SERVER["ws"] = str(ws_dir)
@@ -597,15 +605,18 @@ def _simulate_user(ws_dir, script) -> None:
     # not asyncio.run: after a failing script, a task of the simulation does not end when
     # cancelled and asyncio.run waited for it for ever (the failure showed as a hang)
     loop = asyncio.new_event_loop()
+    real, pages.prestart = pages.prestart, prestart
     try:
         loop.run_until_complete(main())
     finally:
+        pages.prestart = real
         pending = asyncio.all_tasks(loop)
         for task in pending:
             task.cancel()
         if pending:
             loop.run_until_complete(asyncio.wait(pending, timeout=10))
         loop.close()
+    return asked
 
 
 async def _open(user, path: str) -> None:
@@ -769,7 +780,9 @@ def test_pages_in_the_simulated_user(tmp_path):
         with user:
             assert pages.state()["trajectory"] == "circle"      # this tab's current one
 
-    _simulate_user(tmp_path / "ws", script)
+    asked = _simulate_user(tmp_path / "ws", script)
+    # the pages that run jobs (and only those) have a worker process started when opened
+    assert sorted(set(asked)) == ["/requirements", "/results"], asked
     # the line's tool path is straight and moves by the displacement; the circle's tool
     # stays on its circle
     ws = logic.open_workspace(tmp_path / "ws")

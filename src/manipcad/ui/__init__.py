@@ -65,9 +65,11 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
         url += f"?token={required}"
     elif is_loopback(host):        # no token: only loopback names (no DNS rebinding)
         app.add_middleware(HostCheck)
-    from manipcad.ui.worker import prestart, stop_spare
+    from manipcad.ui.worker import stop_spare
 
-    prestart()
+    # the worker that runs simulations, verifications and studies is started when a page
+    # that runs them is opened (pages.prestart), not here: a session that only looks at
+    # robots, trajectories or drives never pays its imports (2.5-3 s of CPU)
     app.on_shutdown(stop_spare)
     announce(f"manipcad ui on {url} (workspace {root.resolve()}); Ctrl-C stops it")
     # a run on every core, or a large figure drawn in another tab of the same browser

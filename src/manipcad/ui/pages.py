@@ -26,7 +26,7 @@ from nicegui.run import io_bound as run_io
 from manipcad.errors import InputError, ManipcadError
 from manipcad.sizing import required_drive
 from manipcad.ui import logic
-from manipcad.ui.worker import SimSpec, SimulationJob, StudySpec, VerifySpec
+from manipcad.ui.worker import SimSpec, SimulationJob, StudySpec, VerifySpec, prestart
 
 #: the server's state: the workspace root (one per server, set by ``manipcad ui``)
 SERVER: dict[str, Any] = {"ws": None}
@@ -447,6 +447,7 @@ def register() -> None:
     @ui.page("/requirements")
     async def requirements_page() -> None:
         S = await connected()
+        prestart()                   # this page runs jobs: have a worker ready
         with frame("Requirements → method"):
             show, clear = error_label()
             yes_no = {None: "—", True: "yes", False: "no"}
@@ -631,6 +632,7 @@ def register() -> None:
     @ui.page("/simulation")
     async def simulation_page() -> None:
         S = await connected()
+        prestart()                   # this page runs jobs: have a worker ready
         with frame("Simulation"):
             show, clear = error_label()
             w = ws()
@@ -724,6 +726,7 @@ def register() -> None:
     @ui.page("/results")
     async def results_page() -> None:
         await connected()
+        prestart()                   # this page runs jobs: have a worker ready
         with frame("Results and studies"):
             show, clear = error_label()
             with ui.row().classes("items-end"):

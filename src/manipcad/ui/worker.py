@@ -2,10 +2,10 @@
 
 The page starts a :class:`SimulationJob`; the run happens in a separate process
 (``spawn``), so the web server keeps answering other pages while it goes. A spare
-worker is started ahead (:func:`prestart`) and does its imports while it waits,
-so a run does not wait for a new interpreter; a worker serves one job after the
-other (the one that finished a job is the next spare), so its imports and the
-compiled kernels it loaded are paid once, not per run. The
+worker is started ahead (:func:`prestart`, when a page that runs jobs is opened)
+and does its imports while it waits, so a run does not wait for a new interpreter;
+a worker serves one job after the other (the one that finished a job is the next
+spare), so its imports and the compiled kernels it loaded are paid once. The
 worker calls :func:`manipcad.simulate` with a ``progress=`` callback that reports
 the fraction done and raises ``KeyboardInterrupt`` once cancel is asked, then
 stores the result with :meth:`manipcad.workspace.Workspace.store_result` (a
@@ -315,8 +315,8 @@ _NUMBER = itertools.count(1)
 
 def prestart() -> None:
     """Have a free worker ready, so the next run does not wait for a new interpreter to
-    import manipcad (``manipcad ui`` calls it at start; a worker that finished a job is
-    the next spare, so this starts one only when none is free)."""
+    import manipcad (the pages that run jobs call it when opened; a worker that finished
+    a job is the next spare, so this starts one only when none is free)."""
     with _LOCK:
         _WORKERS[:] = [w for w in _WORKERS if w.process.is_alive()]
         free = [w for w in _WORKERS if w.free]

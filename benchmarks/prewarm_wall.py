@@ -6,10 +6,13 @@ Usage::
 
 Starts ``--workers`` processes that run ``tests/conftest.py``'s ``_prewarm(w, W)`` at
 once, as the pytest-xdist workers do at the start of the README's test command (each
-takes the steps of ``PREWARM`` from its own starting point, a file lock per step in the
-kernel cache folder, then waits for the others' steps), all on one new empty cache
-(``XDG_CACHE_HOME``). Prints when each worker starts and ends each step (s after the
-start, wall) with the step's CPU time, and the whole prewarm's wall time.
+takes the steps of each phase of ``PHASES`` from its own starting point, a file lock
+per step in the kernel cache folder, then waits for the others' steps of that phase),
+all on one new empty cache (``XDG_CACHE_HOME``). Prints when each worker starts and ends
+each step (s after the start, wall) with the step's CPU time and the functions numba
+compiled (not loaded from the cache) in it: those called from Python and, in brackets,
+their direct callees (a core step that names a callee compiled it again: phase 1 should
+have cached it), and the whole prewarm's wall time.
 ``benchmarks/compile_times.py`` gives each step's compile CPU one after another; this
 gives what the workers' sharing makes of them (a step compiles the callees it shares
 with another again unless that one has cached them by then).
@@ -32,14 +35,37 @@ import sys, time
 t0, w, W = float(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
 sys.path.insert(0, "tests")
 import conftest
+from numba.core import event
+
+compiled = []  # the functions numba compiles (not loads) in a step: called from Python,
+# and (in brackets) their direct callees
+
+
+class Compiles(event.Listener):
+    depth = 0
+
+    def on_start(self, ev):
+        name = ev.data["dispatcher"].py_func.__qualname__
+        if self.depth <= 1:
+            compiled.append(name if self.depth == 0 else f"({name})")
+        self.depth += 1
+
+    def on_end(self, ev):
+        self.depth -= 1
+
+
+event.register("numba:compile", Compiles())
+
 
 def timed(name, step):
     def run():
         c = time.process_time()
-        print(f"  worker {w} {name:10s} start {time.perf_counter() - t0:6.1f} s", flush=True)
+        del compiled[:]
+        print(f"  worker {w} {name:16s} start {time.perf_counter() - t0:6.1f} s", flush=True)
         step()
-        print(f"  worker {w} {name:10s} end   {time.perf_counter() - t0:6.1f} s   "
-              f"CPU {time.process_time() - c:5.1f} s", flush=True)
+        print(f"  worker {w} {name:16s} end   {time.perf_counter() - t0:6.1f} s   "
+              f"CPU {time.process_time() - c:5.1f} s   compiled: "
+              f"{', '.join(dict.fromkeys(compiled)) or '-'}", flush=True)
     return run
 
 for name in list(conftest.PREWARM):

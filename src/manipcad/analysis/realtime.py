@@ -59,8 +59,12 @@ def components_one(table, g, q, qd, zero, rwork, cwork, tmp, H, H_ii, h, Qg):
     for i in range(n):
         H_ii[i] = H[i, i]
     nog = np.zeros(3)
-    rnea_one(table, nog, q, qd, zero, rwork, False, False, rwork, tmp, h)
-    rnea_one(table, g, q, zero, zero, rwork, False, False, rwork, tmp, Qg)
+    # the drive terms off by a run-time flag, not the literal False: rnea_one compiles
+    # once for these calls and the payload estimator's (its flag a run-time one), not
+    # twice (2-4 s of CPU on a cold cache)
+    links = bool(0)
+    rnea_one(table, nog, q, qd, zero, rwork, False, links, rwork, tmp, h)
+    rnea_one(table, g, q, zero, zero, rwork, False, links, rwork, tmp, Qg)
 
 
 @nb.njit(cache=True, nogil=True)

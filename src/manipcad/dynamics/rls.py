@@ -109,7 +109,8 @@ def payload_rls_step(state, table0, table_unit, gravity, q, qd, qdd, tau, sel, w
         The estimate m_r, kg.
     """
     rnea_one(table0, gravity, q, qd, qdd, zero_fext, False, drives, work, tmp, tau0)
-    rnea_one(table_unit, gravity, q, qd, qdd, zero_fext, False, False, work, tmp, gunit)
+    # no drive terms, by a run-time flag as ``drives`` (one compiled rnea_one for both)
+    rnea_one(table_unit, gravity, q, qd, qdd, zero_fext, False, bool(0), work, tmp, gunit)
     for i in range(sel.shape[0]):
         j = sel[i]
         y[i] = tau[j] - tau0[j]

@@ -5,11 +5,13 @@ Usage::
     python benchmarks/compile_times.py [--json out.json]
 
 Runs each step of the test suite's prewarm (``tests/conftest.py`` ``PREWARM``: the
-RK4 loop, the error-controlled loop — each one specialization, with or without the
-online payload estimator — and the batched dynamics) one after another in this
-process, with the kernel cache pointed at a new empty folder (``XDG_CACHE_HOME``),
-and prints each step's CPU time
-(``time.process_time``, less sensitive to other load than the wall time, also printed).
+functions the simulator's cores call, in two halves — the regulators and the payload
+estimator, the plant's side —, the batched inverse dynamics, the RK4 loop and the
+error-controlled loop themselves — each one specialization, with or without the online
+payload estimator —, the batched forward dynamics) one after another in this process,
+with the kernel cache pointed at a new empty folder (``XDG_CACHE_HOME``), and prints
+each step's CPU time (``time.process_time``, less sensitive to other load than the wall
+time, also printed).
 A step reuses what earlier steps compiled (callees with the same signature), so the
 figures depend on the order, which is the prewarm's.
 

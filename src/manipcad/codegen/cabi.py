@@ -33,38 +33,6 @@ def f64_ptr(typingctx, addr):
     return sig, codegen
 
 
-@intrinsic
-def plain_bool(typingctx, value):
-    """``value`` as a plain ``boolean``, never a literal.
-
-    A constant ``True`` passed straight to a compiled function is typed
-    ``Literal[bool](True)`` and compiles a specialization of its own; passed
-    through this, the call reuses the function's ``boolean`` one (the generated
-    ``cfunc_*`` wrappers: one compile of a kernel serves both drive flags and the
-    Python calls).
-
-    Example:
-        >>> import numba as nb
-        >>> from manipcad.codegen.cabi import plain_bool
-        >>> @nb.njit
-        ... def g(flag):
-        ...     return 1 if flag else 0
-        >>> @nb.njit
-        ... def f():
-        ...     return g(plain_bool(True))
-        >>> f(), [str(s[0]) for s in g.signatures]
-        (1, ['bool'])
-    """
-    if not isinstance(value, nb.types.Boolean):
-        return None
-    sig = nb.types.boolean(value)
-
-    def codegen(context, builder, signature, args):
-        return context.cast(builder, args[0], signature.args[0], nb.types.boolean)
-
-    return sig, codegen
-
-
 @intrinsic(prefer_literal=True)
 def stack_vector(typingctx, size):
     """A float64 vector of ``size`` entries (a literal int) in the calling function's stack

@@ -373,9 +373,9 @@ def _py_function(func: str, n: int, d: Dynamics, stmts: list, batch: bool) -> li
     name = func + ("_batch" if batch else "")
     sig = f"{ret}({', '.join(arg_t)})"
     trig = bool(_trig_pairs(d, _free_names(stmts)))
-    extra = (["TS", "TC"] if trig else []) + (["NB", "k"] if batch else [])
-    if batch and not trig:
-        extra = ["k"]
+    # the sines and cosines (a batch's: of all states, NB a state's stride), a batch's state
+    extra = (["TS", "TC"] if trig else []) + (["NB"] if batch and trig else []) \
+        + (["k"] if batch else [])
     call = f"_{name}_ll({', '.join(args + extra)})"
     if batch:
         fmt = {o: (lambda *ix, o=o: f"{o.upper()}[k, {', '.join(map(str, ix))}]") for o in outs}
@@ -435,7 +435,7 @@ def _python_source(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> st
         "from numba import carray",
         "",
         "import numpy as np",
-        "from manipcad.codegen.cabi import f64_ptr, plain_bool, stack_vector",
+        "from manipcad.codegen.cabi import f64_ptr, stack_vector",
         "from manipcad.codegen.lower import lowered",
         "from manipcad.codegen.trig import sincos_block, sincos_many",
         "",
@@ -461,9 +461,10 @@ def _cfunc_wrappers(n: int) -> list[str]:
 
     out = []
     for dr in (0, 1):
-        # not the literal: a call with a constant flag would compile a specialization of
-        # its own for each flag (cabi.plain_bool)
-        flag = f"plain_bool({dr == 1})"
+        # bool(0) / bool(1), not the literal False / True: numba types a literal flag
+        # Literal[bool] and compiles a specialization of the kernel per flag; bool() of an
+        # int is a plain boolean, so one compile serves both flags and the Python calls
+        flag = f"bool({dr})"
         out += [f"def cfunc_inverse_dynamics_{dr}(a, b, c, d):",
                 f"    inverse_dynamics({arr('a')}, {arr('b')}, {arr('c')}, {flag}, {arr('d')})",
                 "    return 0", "", "",

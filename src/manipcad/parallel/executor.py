@@ -28,6 +28,7 @@ import os
 import pickle
 import struct
 import tempfile
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from contextlib import ExitStack
 from pathlib import Path
@@ -616,8 +617,6 @@ _FORKS_CHANGED = None
 def _count_forks():
     """The condition that guards :data:`_FORKS`, counting every ``os.fork`` of this process
     from the first call on (one fork hook, registered once)."""
-    import threading
-
     global _FORKS_CHANGED
     if _FORKS_CHANGED is None:
         _FORKS_CHANGED = threading.Condition()
@@ -662,8 +661,6 @@ class Pool:
 
     def __init__(self, workers: int | None = None, scheduler: str | None = None,
                  warm: Callable | None = None) -> None:
-        import threading
-
         self._workers = check_workers(workers, scheduler)
         self._scheduler = scheduler
         self._warm = warm
@@ -731,8 +728,6 @@ class Pool:
     def release(self) -> None:
         """Start closing the client and the cluster in a background thread, for a caller
         that has no more tasks but work of its own left (:meth:`close` waits for it)."""
-        import threading
-
         self._thread.join()
         if self._closer is None:
             self._closer = threading.Thread(target=self._stack.close, daemon=True,

@@ -343,15 +343,16 @@ def stop_spare() -> None:
             w.process.join(timeout=1.0)
 
 
-def _take() -> _Worker:
-    """A free worker (the spare), or a new one when none is."""
+def _take(number: int) -> _Worker:
+    """A free worker (the spare), or a new one when none is, given job ``number`` (marked
+    busy under the lock, so no other caller takes it too)."""
     with _LOCK:
         _WORKERS[:] = [w for w in _WORKERS if w.process.is_alive()]
-        for w in _WORKERS:
-            if w.free:
-                return w
-        w = _Worker()
-        _WORKERS.append(w)
+        w = next((w for w in _WORKERS if w.free), None)
+        if w is None:
+            w = _Worker()
+            _WORKERS.append(w)
+        w.given = number
         return w
 
 
@@ -369,8 +370,8 @@ class SimulationJob:
     """
 
     def __init__(self, spec: SimSpec | StudySpec | VerifySpec) -> None:
-        self._worker = w = _take()
         self.number = next(_NUMBER)
+        self._worker = w = _take(self.number)
         self.spec = spec
         self.process = w.process
         self.state = "starting"
@@ -380,7 +381,6 @@ class SimulationJob:
         self.message = ""
         self.started = time.perf_counter()
         self.wall = float("nan")
-        w.given = self.number
         w.send.send((self.number, spec))
         # no new spare while this runs: its interpreter start and imports (1.5-2 s of CPU)
         # would take a core from this run on a 2-core machine; this worker is the next spare

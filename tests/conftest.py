@@ -156,15 +156,26 @@ class _Arguments(Exception):
     """Raised in place of the simulator's compiled core: carries the call's arguments."""
 
 
+def _warm_up_run(integrator: str) -> None:
+    """The warm-up run: the cylindrical arm with its drives, a PID per joint, 2 ms."""
+    import warnings
+
+    import manipcad
+    from manipcad.control import pid
+
+    arm = manipcad.load_robot("cylindrical")
+    regs = [pid(j, kp=10.0, kd=1.0) for j in range(arm.n)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", manipcad.errors.ManipcadWarning)
+        manipcad.simulate(arm, t_end=2e-3, dt=1e-3, regulators=regs, joint_limits="ignore",
+                          integrator=integrator)
+
+
 def _core_arguments(integrator: str) -> tuple:
     """The arguments :func:`manipcad.simulate` hands its compiled core (``run`` for RK4,
     ``run_adaptive`` otherwise) in the warm-up run (the cylindrical arm with its drives,
     a PID per joint), taken at the call instead of running it."""
     import importlib
-    import warnings
-
-    import manipcad
-    from manipcad.control import pid
 
     sim = importlib.import_module("manipcad.sim.simulate")
     name = "run" if integrator == "rk4" else "run_adaptive"
@@ -173,14 +184,9 @@ def _core_arguments(integrator: str) -> tuple:
     def take(*args):
         raise _Arguments(args)
 
-    arm = manipcad.load_robot("cylindrical")
-    regs = [pid(j, kp=10.0, kd=1.0) for j in range(arm.n)]
     setattr(sim, name, take)
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", manipcad.errors.ManipcadWarning)
-            manipcad.simulate(arm, t_end=2e-3, dt=1e-3, regulators=regs,
-                              joint_limits="ignore", integrator=integrator)
+        _warm_up_run(integrator)
     except _Arguments as taken:
         return taken.args[0]
     finally:
@@ -259,17 +265,7 @@ def _prewarm_rk4() -> None:
 
 
 def _prewarm_adaptive() -> None:
-    import warnings
-
-    import manipcad
-    from manipcad.control import pid
-
-    arm = manipcad.load_robot("cylindrical")
-    regs = [pid(j, kp=10.0, kd=1.0) for j in range(arm.n)]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", manipcad.errors.ManipcadWarning)
-        manipcad.simulate(arm, t_end=2e-3, dt=1e-3, regulators=regs, joint_limits="ignore",
-                          integrator="adaptive")
+    _warm_up_run("adaptive")
 
 
 def _dynamics_states():

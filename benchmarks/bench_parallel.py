@@ -32,8 +32,8 @@ over the rounds; on a shared machine another session's load only slows a run.
 runs (``run_claims(..., scheduler=ADDRESS)``, as ``manipcad study claims --scheduler
 ADDRESS``): before anything is timed, another process (this script with a hidden
 option, standing for ``dask scheduler`` + ``dask worker``) starts a LocalCluster of N
-worker processes of one thread each (spawned, the scheduler in that process, the
-workers without the statistical profiler as the study's own cluster), then warms every
+worker processes of one thread each (spawned, the scheduler in that process, with
+the Dask settings of the study's own cluster, ``executor.LOCAL_CONFIG``), then warms every
 worker with the same warm-up cell this process computes (and the study's
 ``warm_worker``), and serves; this process then times its serial run and the run
 against the standing cluster. The timed run starts from a fresh output folder (no cell
@@ -65,6 +65,7 @@ import time
 from pathlib import Path
 
 import manipcad
+from manipcad.parallel.executor import LOCAL_CONFIG
 from manipcad.study import claims as claims_mod
 from manipcad.study.claims import claims_cell, own_load_ratio, run_claims
 
@@ -105,7 +106,7 @@ def _serve_cluster(workers: int, grid: str, arm: str) -> None:
     import dask
     from distributed import Client, LocalCluster
 
-    with dask.config.set({"distributed.worker.profile.enabled": False}):
+    with dask.config.set(LOCAL_CONFIG):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=":0", memory_limit=0,
                                silence_logs=logging.ERROR)

@@ -91,15 +91,14 @@ def _patch() -> None:
 def _phases(t_call: float, wall: float, ev: list[dict], n: int) -> None:
     """The N-worker run's wall time cut into phases by the workers' tasks, with the share
     of each phase the workers spent in tasks."""
-    kinds = ("warm_worker", "size_row", "run", "draw_panels")
+    kinds = ("warm_worker", "run", "draw_panels")
     span = {k: (min(e["t0"] for e in ev if e["name"] == k) - t_call,
                 max(e["t1"] for e in ev if e["name"] == k) - t_call)
             for k in kinds if any(e["name"] == k for e in ev)}
-    names = {"warm_worker": "warm-up (client.run)", "size_row": "sizing the rows",
+    names = {"warm_worker": "warm-up (client.run)",
              "run": "the closed-loop runs", "draw_panels": "claims.png's panels"}
     between = {"warm_worker": "cluster start (import distributed, fork, workers up)",
-               "size_row": "the rows handed out (scatter, submit)",
-               "run": "planning, the first runs out",
+               "run": "the rows sized, planning, the first runs out",
                "draw_panels": "cells combined, claims.json, the panels out"}
     at = 0.0
     print(f"  {'phase':<56} {'from':>6} {'to':>6} {'s':>6}  workers busy")
@@ -126,12 +125,15 @@ def _report(t_call: float, wall: float, main_pid: int, verbose: bool) -> None:
     for e in ev:
         by_pid[e["pid"]].append(e)
     print(f"  end to end {wall:.2f} s")
-    workers = [p for p in by_pid if p != main_pid]
+    # the workers ran the cells' runs; another child (the rows' sizing) only size_row
+    workers = [p for p in by_pid if p != main_pid
+               and any(e["name"] != "size_row" for e in by_pid[p])]
     if workers:
         _phases(t_call, wall, [e for p in workers for e in by_pid[p]], len(workers))
     for pid in sorted(by_pid, key=lambda p: (p != main_pid, p)):
         es = sorted(by_pid[pid], key=lambda e: e["t0"])
-        who = "main" if pid == main_pid else f"worker {pid}"
+        who = ("main" if pid == main_pid else f"worker {pid}" if pid in workers
+               else f"child {pid}")
         if pid == main_pid and verbose:
             for e in es:
                 if e["name"] in ("run", "size_row", "draw_panels") or \
@@ -187,7 +189,7 @@ def main() -> None:
                                       workers=w, progress=False)
                 wall = time.time() - t_call
                 main_cpu, kids = time.process_time() - c_call, _children() - k_call
-                print(f"  CPU: this process {main_cpu:.2f} s, the workers (ended) {kids:.2f} s, "
+                print(f"  CPU: this process {main_cpu:.2f} s, its children (ended) {kids:.2f} s, "
                       f"sum {main_cpu + kids:.2f} s")
                 _report(t_call, wall, os.getpid(), args.verbose)
     print(f"load average {os.getloadavg()}")

@@ -4,7 +4,28 @@ from __future__ import annotations
 
 
 class ManipcadError(ValueError):
-    """Base of every error caused by bad input (a file, an argument, a value)."""
+    """Base of every error caused by bad input (a file, an argument, a value).
+
+    Pickled whole, whatever a subclass's constructor takes (e.g. raised on a Dask worker
+    or in a child process and raised again in the caller's):
+
+    Example:
+        >>> import pickle
+        >>> e = pickle.loads(pickle.dumps(InputError("arm.yaml", "joints[0].drive", "no R")))
+        >>> type(e).__name__, str(e), e.field
+        ('InputError', 'arm.yaml: joints[0].drive: no R', 'joints[0].drive')
+    """
+
+    def __reduce__(self):
+        return _rebuilt, (type(self), self.args, self.__dict__)
+
+
+def _rebuilt(cls: type, args: tuple, state: dict) -> ManipcadError:
+    """A pickled ManipcadError made again without calling its class's constructor."""
+    exc = cls.__new__(cls, *args)
+    exc.args = args
+    exc.__dict__.update(state)
+    return exc
 
 
 class ModelError(ManipcadError):

@@ -42,6 +42,19 @@ SOURCE = "run_tasks"
 #: how long to try to reach a scheduler given by address, s
 CONNECT_TIMEOUT = 10.0
 
+#: Dask settings of the LocalCluster this module starts (not of a cluster given by
+#: address). A study's tasks keep both cores busy; every periodic chore of the cluster's
+#: servers (the scheduler and the two nannies in this process, each worker in its own)
+#: takes a share of them. Off: the workers' statistical profiler (a stack sample of the
+#: running task every 10 ms, for a dashboard that is not started). Slowed: the event-loop
+#: health tick (every 20 ms on each of five event loops; a loop blocked past
+#: ``tick.limit``, 3 s, is still reported) and the system monitor (psutil samples every
+#: 0.5 s, for the dashboard and memory limits, here none). Two 3 s tasks on 2 workers:
+#: 0.17 s of the cores spent beside them by default, 0.05 s with these.
+LOCAL_CONFIG = {"distributed.worker.profile.enabled": False,
+                "distributed.admin.tick.interval": "1s",
+                "distributed.admin.system-monitor.interval": "10s"}
+
 
 class TaskFailed(ManipcadError):
     """A task raised; ``.index`` is its position in the task list, ``.task`` its arguments."""
@@ -563,9 +576,8 @@ def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None, 
         n = workers or default_workers()
         # the worker processes are forked (where fork exists): they start with this
         # process's imports and loaded compiled kernels instead of importing and loading
-        # them again (spawn: about 1 s of imports and 2-4 s of kernels each)
-        # and their statistical profiler (a stack sample of the running task every 10 ms,
-        # for a dashboard that is not started) is off
+        # them again (spawn: about 1 s of imports and 2-4 s of kernels each); the
+        # cluster's periodic chores are slowed (LOCAL_CONFIG)
         # The objects alive at the fork are frozen (gc.freeze) while the workers fork:
         # their garbage collector then neither scans nor writes to the objects they
         # inherit, whose pages stay shared instead of being copied one by one (after a
@@ -577,7 +589,7 @@ def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None, 
             gc.freeze()
         try:
             with dask.config.set({"distributed.worker.multiprocessing-method": start_method(),
-                                  "distributed.worker.profile.enabled": False}):
+                                  **LOCAL_CONFIG}):
                 cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                        dashboard_address=None, memory_limit=0,
                                        silence_logs=logging.ERROR)

@@ -57,10 +57,9 @@ cached under ``out_dir/cache`` by a hash of its inputs; its 14 closed-loop runs
 (:func:`run_cost`), in batches that shrink to single runs at the end
 (:func:`manipcad.parallel.executor.guided`), so that the workers finish
 together, and combined into the cell (:func:`cell_result`) whichever way they
-ran. On a cluster the rows are sized (:func:`size_row`) in a thread of this process
-from when the workers have forked, while they start; the cells of the rows sized
-by the time the cluster is ready are handed out at once, and the other rows' cells as
-soon as those are sized, on the same cluster (:class:`_Rows`). The cells simulate with
+ran. On a cluster the rows are sized (:func:`size_row`) in a child process forked
+first (:class:`manipcad.parallel.child.ChildCall`), on the other core, while this
+process imports distributed and starts the cluster. The cells simulate with
 the general compiled kernels (``use_generated=False``): the simulator otherwise
 uses a robot's generated kernels when some process has generated them, which
 agree to about 1e-8 but not bit for bit, and a cell's result must not depend on
@@ -74,6 +73,7 @@ threshold as a contour, saturated cells hatched) and ``report.html``.
 from __future__ import annotations
 
 import datetime as _dt
+import functools
 import json
 import math
 import os
@@ -795,6 +795,7 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
         >>> sorted(doc["claims"])  # doctest: +SKIP
     """
     from manipcad.parallel import Pool
+    from manipcad.parallel.child import ChildCall
     from manipcad.parallel.executor import check_workers, default_workers
 
     check_workers(workers, scheduler, "study claims")
@@ -804,86 +805,72 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
         raise InputError("dt", "", f"must be in (0, 1e-3] s, got {dt!r}")
     out = writable_folder(out_dir)
     robot, arm_name, max_payload = resolve_arm(arm, "claims")
-    with ExitStack() as stack:
-        # the workers start (and load their kernels) while the rows are sized here
-        # (a fresh run only: with cached cells the cluster is started, by run_tasks, only
-        # if some cell is missing)
-        pool = None
-        fresh = not any((out / "cache").glob("*/*.pkl"))
-        if fresh and (scheduler is not None or (workers or default_workers()) > 1):
-            pool = stack.enter_context(Pool(workers=workers, scheduler=scheduler,
-                                            warm=warm_worker))
-        return _run_claims(out, robot, arm_name, max_payload, grid, dt, pool, progress,
-                           workers, scheduler)
-
-
-def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid: str,
-                dt: float, pool, progress: bool, workers: int | None,
-                scheduler: str | None) -> dict:
-    from manipcad.parallel import Split, run_tasks
-
     g = dict(GRIDS[grid])
     targets = [own_load_ratio(robot) if r is None else r for r in g["load_ratio"]]
     g["load_ratio"] = targets
     # per row the arm; per cell the speed scale the sizing allows (laws (2) time-scaled
-    # where the motors or gears are over their limits). On a cluster the rows are sized
-    # in a thread of this process, the last first, from when the workers have forked
-    # (while they start): once the cluster is ready the cells of the rows sized by then
-    # are handed out, and the thread, having sized the others, hands out theirs, side
-    # by side on the same cluster (no barrier between them).
-    common = {"arm": robot, "max_payload": max_payload, "speed_scales": g["speed_scale"]}
+    # where the motors or gears are over their limits)
+    size = functools.partial(_size_rows, robot, max_payload, g["speed_scale"], targets)
     out.mkdir(exist_ok=True)
-    S = len(g["speed_scale"])
     with ExitStack() as stack:
-        report = _cells_progress(stack, progress, len(targets) * S)
+        # a fresh run on a cluster: the rows are sized in a child process forked first,
+        # on the other core, while this one imports distributed and starts the cluster
+        # (and the workers load their kernels); with cached cells the cluster is started,
+        # by run_tasks, only if some cell is missing
+        pool = None
+        fresh = not any((out / "cache").glob("*/*.pkl"))
+        if fresh and (scheduler is not None or (workers or default_workers()) > 1):
+            size = stack.enter_context(ChildCall(size)).result
+            pool = stack.enter_context(Pool(workers=workers, scheduler=scheduler,
+                                            warm=warm_worker))
+        sized = size()
+        mine, res = _compute_cells(out, robot, max_payload, g, sized, dt, pool, progress,
+                                   workers, scheduler)
+        return _claims_doc(out, robot, arm_name, max_payload, g, sized, mine, res, dt, pool)
 
-        def compute_cells(rows: dict[int, dict]) -> tuple[list[dict], Any]:
-            """The cells of these rows (a time-scaled cell of a row once), computed."""
-            mine = list({(targets[i], s_run): {"speed_scale": s_run, "load_ratio": targets[i]}
-                         for i in sorted(rows) for s_run in rows[i]["speed_scale_run"]
-                         if s_run is not None}.values())
-            row_of = {targets[i]: (r["robot"], r["arm"]) for i, r in rows.items()}
-            shown = report(len(rows) * S)
-            # each cell is cached whole; on a cluster its runs are the units of work,
-            # handed out longest first, so that the workers finish together
-            res = run_tasks(claims_cell, mine, common={"arm": robot, "dt": dt,
-                                                       "max_payload": max_payload},
-                            workers=None if pool is not None else workers,
-                            scheduler=None if pool is not None else scheduler, pool=pool,
-                            cache_dir=out / "cache", progress=shown if progress else False,
-                            version=CELL_VERSION, cost=run_cost,
-                            split=Split(plan=lambda task, common: cell_plan(
-                                **common, **task, row=row_of[task["load_ratio"]]),
-                                run=claims_run, combine=cell_result))
+
+def _size_rows(arm: Robot, max_payload: float, speed_scales: list[float],
+               targets: list[float]) -> list[dict]:
+    """:func:`size_row` of every row, in order."""
+    return [size_row(arm=arm, max_payload=max_payload, speed_scales=speed_scales,
+                     load_ratio=rho) for rho in targets]
+
+
+def _compute_cells(out: Path, robot: Robot, max_payload: float, g: dict, sized: list[dict],
+                   dt: float, pool, progress, workers: int | None,
+                   scheduler: str | None) -> tuple[list[dict], Any]:
+    """The grid's cells (a time-scaled cell of a row once), computed or from the cache:
+    the tasks and their results."""
+    from manipcad.parallel import Split, run_tasks
+
+    targets, S = g["load_ratio"], len(g["speed_scale"])
+    mine = list({(targets[i], s_run): {"speed_scale": s_run, "load_ratio": targets[i]}
+                 for i, row in enumerate(sized) for s_run in row["speed_scale_run"]
+                 if s_run is not None}.values())
+    row_of = {targets[i]: (r["robot"], r["arm"]) for i, r in enumerate(sized)}
+    with ExitStack() as stack:
+        shown = _cells_progress(stack, progress, len(targets) * S)
+        # each cell is cached whole; on a cluster its runs are the units of work,
+        # handed out longest first, so that the workers finish together
+        res = run_tasks(claims_cell, mine, common={"arm": robot, "dt": dt,
+                                                   "max_payload": max_payload},
+                        workers=None if pool is not None else workers,
+                        scheduler=None if pool is not None else scheduler, pool=pool,
+                        cache_dir=out / "cache", progress=shown, version=CELL_VERSION,
+                        cost=run_cost,
+                        split=Split(plan=lambda task, common: cell_plan(
+                            **common, **task, row=row_of[task["load_ratio"]]),
+                            run=claims_run, combine=cell_result))
+        if shown:
             shown(1.0)
-            return mine, res
+    return mine, res
 
-        if pool is None:
-            sized = dict(enumerate(run_tasks(
-                size_row, [{"load_ratio": rho} for rho in targets], common=common,
-                workers=1, progress=False)))
-            parts = [compute_cells(sized)]
-        else:
-            rows = _Rows(common, targets)
-            pool.client()  # started and warmed
-            sized = rows.take()
 
-            def the_rest() -> tuple[dict, tuple | None]:
-                rest = rows.rest()
-                return rest, (compute_cells(rest) if rest else None)
-
-            later = _Thread(the_rest)
-            parts = [compute_cells(dict(sized))]
-            rest, part = later.join()
-            sized.update(rest)
-            parts += [part] if part is not None else []
-    tasks, where, done = [], {}, _Done()
-    for mine, res in parts:
-        for t in mine:
-            where[(t["load_ratio"], t["speed_scale"])] = len(tasks)
-            tasks.append(t)
-        done.add(res)
-    sized = [sized[i] for i in range(len(targets))]
+def _claims_doc(out: Path, robot: Robot, arm_name: str, max_payload: float, g: dict,
+                sized: list[dict], mine: list[dict], res, dt: float, pool) -> dict:
+    """The claims.json document of the computed cells, written with its figure and report."""
+    targets = g["load_ratio"]
+    where = {(t["load_ratio"], t["speed_scale"]): k for k, t in enumerate(mine)}
     rows = [r["arm"] for r in sized]
     runs = [r["speed_scale_run"] for r in sized]
     fails = [r["sizing_failures"] for r in sized]
@@ -893,7 +880,7 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
             if s_run is None:
                 cells.append(_infeasible_cell(rows[i], g["speed_scale"][k]))
             else:
-                cells.append(done[where[(rho, s_run)]])
+                cells.append(res[where[(rho, s_run)]])
     R, S = len(g["load_ratio"]), len(g["speed_scale"])
 
     def table(fn):
@@ -947,7 +934,7 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
                      "laws": "q1 = 0.5(1 − cos 4s·t) rad, q3 = stroke/2·(1 − cos 16s·t) m "
                      "(stroke 0.5 m unless the load-ratio lever lengthened it: "
                      "arm.cells[..].stroke_m), duration 1.6/s s", "cells_computed":
-                     done.computed, "cells_cached": done.cached,
+                     res.computed, "cells_cached": res.cached,
                      "time_scaling": "a cell whose arm fails a motor or gear limit of the "
                      "sizing module on laws (2) at its speed scale runs at the largest "
                      "feasible speed scale below it (speed_scale_run; time_scaled true); "
@@ -968,122 +955,25 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, grid
     return doc
 
 
-class _Done(list):
-    """The cells' results of several :func:`run_tasks` calls, in order, with their counts."""
-
-    computed = cached = 0
-
-    def add(self, results) -> None:
-        self.extend(results)
-        self.computed += results.computed
-        self.cached += results.cached
-
-
-class _Rows:
-    """The rows of a grid sized (:func:`size_row`) in a thread of this process, the last
-    first; :meth:`take` the rows sized by then, :meth:`rest` the others once all are.
-
-    Started once the cluster's workers have forked (:class:`manipcad.parallel.Pool`):
-    no fork follows, so no lock held by this thread is copied into a worker."""
-
-    def __init__(self, common: dict, targets: list[float]) -> None:
-        import threading
-
-        self._done: dict[int, dict] = {}
-        self._taken: set[int] = set()
-        self._error: BaseException | None = None
-        self._changed = threading.Condition()
-
-        def size() -> None:
-            import numba
-
-            # one thread (numba's count is per calling thread): the cluster's workers take
-            # the cores, and the sizing's short batches gain little from a second thread
-            # (0.27 s of CPU for the quick grid's 4 rows on one, 0.4-0.5 s on two)
-            numba.set_num_threads(1)
-            try:
-                for i in reversed(range(len(targets))):
-                    row = size_row(**common, load_ratio=targets[i])
-                    with self._changed:
-                        self._done[i] = row
-                        self._changed.notify_all()
-            except BaseException as exc:  # noqa: BLE001 - raised in take() / rest()
-                with self._changed:
-                    self._error = exc
-                    self._changed.notify_all()
-
-        self._n = len(targets)
-        self._thread = threading.Thread(target=size, name="manipcad-claims-sizing",
-                                        daemon=True)
-        self._thread.start()
-
-    def take(self) -> dict[int, dict]:
-        """The rows sized by now (waits for the first)."""
-        with self._changed:
-            self._changed.wait_for(lambda: self._done or self._error is not None)
-            if self._error is not None:
-                raise self._error
-            self._taken = set(self._done)
-            return dict(self._done)
-
-    def rest(self) -> dict[int, dict]:
-        """The rows not taken, once every row is sized."""
-        self._thread.join()
-        if self._error is not None:
-            raise self._error
-        return {i: r for i, r in self._done.items() if i not in self._taken}
-
-
-class _Thread:
-    """``fn()`` run in a thread of this process; :meth:`join` returns its value or raises
-    its exception (e.g. rows sized and their cells handed out to a cluster whose workers
-    have forked already: no fork follows, so no lock of this thread is copied)."""
-
-    def __init__(self, fn: Callable[[], Any]) -> None:
-        import threading
-
-        self._out: list = []
-
-        def run() -> None:
-            try:
-                self._out.append((True, fn()))
-            except BaseException as exc:  # noqa: BLE001 - raised in join()
-                self._out.append((False, exc))
-
-        self._thread = threading.Thread(target=run, name="manipcad-claims-rows", daemon=True)
-        self._thread.start()
-
-    def join(self) -> Any:
-        self._thread.join()
-        ok, value = self._out[0]
-        if not ok:
-            raise value
-        return value
-
-
 def _cells_progress(stack: ExitStack, progress, total: int):
-    """``part(n)``: the progress argument of a :func:`run_tasks` call over the cells of
-    ``n`` of the grid's ``total`` cells (a time-scaled cell computed once for several),
-    called with 1.0 once the call returns; the calls side by side show one bar (or give
-    one fraction 0..1 to a callable ``progress``), in whole cells."""
+    """The progress argument of the cells' :func:`run_tasks` call: a callable given the
+    fraction of the computed cells done, shown in whole cells of the grid's ``total`` (a
+    time-scaled cell is computed once for several) as a bar (or given as a fraction 0..1
+    to a callable ``progress``); False without progress."""
     from manipcad.parallel.executor import progress_reporter
 
     if not progress:
-        return lambda n: lambda f: None
+        return False
     advance = progress_reporter(stack, progress, "claims cells", total)
+    seen = [0]
 
-    def part(n: int):
-        seen = [0]
+    def fraction(f: float) -> None:
+        now = min(total, math.floor(f * total + 1e-9))
+        if now > seen[0]:
+            advance(now - seen[0])
+            seen[0] = now
 
-        def fraction(f: float) -> None:  # in whole cells: the calls' steps add up exactly
-            now = min(n, math.floor(f * n + 1e-9))
-            if now > seen[0]:
-                advance(now - seen[0])
-                seen[0] = now
-
-        return fraction
-
-    return part
+    return fraction
 
 
 def size_row(*, arm: Robot, load_ratio: float, max_payload: float,

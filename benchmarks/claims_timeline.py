@@ -100,6 +100,8 @@ def _phases(t_call: float, wall: float, ev: list[dict], n: int) -> None:
     between = {"warm_worker": "cluster start (import distributed, fork, workers up)",
                "run": "the rows sized, planning, the first runs out",
                "draw_panels": "cells combined, claims.json, the panels out"}
+    if "warm_worker" not in span:  # forked workers: no warm-up task
+        between["run"] = "cluster start, planning, the first runs out"
     at = 0.0
     print(f"  {'phase':<56} {'from':>6} {'to':>6} {'s':>6}  workers busy")
     for k in kinds:

@@ -623,7 +623,8 @@ def cell_result(state: dict, runs: list[dict]) -> dict:
 
 
 def warm_worker() -> None:
-    """Load the simulator's compiled kernels in this process (a worker, at its start):
+    """Load the simulator's compiled kernels in this process (a spawned worker, e.g. of a
+    cluster the user runs, at its start; forked workers have the study's process's):
     a 1 ms closed-loop run of the Fig. 2 arm, so the first cell does not pay for it;
     and import what draws the figure's panels (matplotlib's Agg canvas and its font
     list), so the last task does not either.
@@ -796,7 +797,7 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
     """
     from manipcad.parallel import Pool
     from manipcad.parallel.child import ChildCall
-    from manipcad.parallel.executor import check_workers, default_workers
+    from manipcad.parallel.executor import check_workers, default_workers, start_method
 
     check_workers(workers, scheduler, "study claims")
     if grid not in GRIDS:
@@ -821,8 +822,11 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
         fresh = not any((out / "cache").glob("*/*.pkl"))
         if fresh and (scheduler is not None or (workers or default_workers()) > 1):
             size = stack.enter_context(ChildCall(size)).result
+            # forked workers start with this process's modules and kernels, frozen; what
+            # they lack they load at its first use, at the cost a warm-up would have
+            forked = scheduler is None and start_method() == "fork"
             pool = stack.enter_context(Pool(workers=workers, scheduler=scheduler,
-                                            warm=warm_worker))
+                                            warm=None if forked else warm_worker))
         sized = size()
         mine, res = _compute_cells(out, robot, max_payload, g, sized, dt, pool, progress,
                                    workers, scheduler)

@@ -54,6 +54,9 @@ def test_error_raised_here_with_its_fields():
     assert err.value.source == "arm.yaml"
     assert err.value.field == "joints[1].drive.R"
     assert str(err.value) == "arm.yaml: joints[1].drive.R: must be > 0 Ω"
+    cause = err.value.__cause__  # the child's traceback, naming where it was raised
+    assert isinstance(cause, child.ChildTraceback)
+    assert "in _refuse" in str(cause) and "InputError: arm.yaml" in str(cause)
 
 
 @pytest.mark.skipif(not FORK, reason="the forked path exists where fork does (Linux)")

@@ -27,22 +27,33 @@ from manipcad.errors import ManipcadError
 CLOSE_TIMEOUT = 5.0
 
 
+class ChildTraceback(Exception):
+    """The traceback of an error raised in a child process, as text: the ``__cause__`` of
+    that error raised again in the parent (as :mod:`concurrent.futures` does)."""
+
+    def __str__(self) -> str:
+        return "\n" + self.args[0]
+
+
 def _child(fn: Callable, args: tuple, conn) -> None:
-    """In the child: ``fn(*args)`` sent back as ``(True, value)``, or ``(False, error)``."""
+    """In the child: ``fn(*args)`` sent back as ``(True, value, "")``, or ``(False, error,
+    its traceback)``."""
+    import traceback
+
     # the inherited objects are left alone by this process's collector (their pages
     # stay shared with the parent instead of being copied as a collection touches them)
     gc.freeze()
     try:
-        out = (True, fn(*args))
+        out = (True, fn(*args), "")
     except BaseException as exc:  # noqa: BLE001 - re-raised in the parent
-        out = (False, exc)
+        out = (False, exc, traceback.format_exc())
     try:
         conn.send(out)
     except Exception as exc:  # noqa: BLE001 - an unpicklable value or error
         conn.send((False, ManipcadError(f"{getattr(fn, '__qualname__', fn)!s} in a child "
                                         f"process: its result could not be sent back "
                                         f"({type(exc).__name__}: {exc}); the result was "
-                                        f"{out[1]!r:.300}")))
+                                        f"{out[1]!r:.300}"), out[2]))
     finally:
         conn.close()
 
@@ -68,7 +79,7 @@ class ChildCall:
         from manipcad.parallel.executor import start_method
 
         self._fn, self._args = fn, args
-        self._done: tuple[bool, Any] | None = None
+        self._done: tuple[bool, Any, str] | None = None
         self._proc = self._conn = None
         if start_method() == "fork":
             import multiprocessing
@@ -81,7 +92,8 @@ class ChildCall:
             send.close()  # this process's copy: the child's end alone keeps the pipe open
 
     def result(self) -> Any:
-        """The call's value (waits for the child), or its exception raised here.
+        """The call's value (waits for the child), or its exception raised here (from a
+        :class:`ChildTraceback`, the child's traceback).
 
         Raises:
             ManipcadError: the child ended without a result (killed, crashed, or stopped
@@ -90,9 +102,9 @@ class ChildCall:
         if self._done is None:
             if self._proc is None:  # no fork: here and now
                 try:
-                    self._done = (True, self._fn(*self._args))
+                    self._done = (True, self._fn(*self._args), "")
                 except BaseException as exc:  # noqa: BLE001 - raised below, every time
-                    self._done = (False, exc)
+                    self._done = (False, exc, "")
             else:
                 try:
                     self._done = self._conn.recv()
@@ -101,10 +113,12 @@ class ChildCall:
                     self._done = (False, ManipcadError(
                         f"{getattr(self._fn, '__qualname__', self._fn)!s} in a child "
                         f"process: it ended without a result (exit code "
-                        f"{self._proc.exitcode})"))
+                        f"{self._proc.exitcode})"), "")
                 self.close()
-        ok, value = self._done
+        ok, value, trace = self._done
         if not ok:
+            if trace:
+                raise value from ChildTraceback(trace)
             raise value
         return value
 

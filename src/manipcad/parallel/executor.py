@@ -647,8 +647,8 @@ class Pool:
 
     A LocalCluster is started in a background thread; its worker processes are forked
     (see :func:`start_method`) while this thread waits, and the constructor returns as
-    soon as they have forked: they boot, connect and run ``warm`` (e.g. load the compiled
-    kernels this process has not loaded) while the caller goes on, in this process or
+    soon as they have forked: they boot and connect (spawned ones also run ``warm``, e.g.
+    load the compiled kernels) while the caller goes on, in this process or
     in its numba kernels (about 0.3 s of a 2-worker cluster's start on 2 cores, mostly
     the workers' start-up and the nannies' polling, during which the cores are mostly
     idle). A scheduler given by address is connected to in the background thread.
@@ -658,8 +658,11 @@ class Pool:
     Args:
         workers: worker processes of a LocalCluster (default one per core).
         scheduler: the address of a running scheduler instead.
-        warm: a module-level function run once on every worker at start (its
-            failures are ignored: a task then does the work itself).
+        warm: a module-level function run once on every worker at start, where the
+            workers are spawned or given by address (its failures are ignored: a task
+            then does the work itself); forked workers start with this process's modules
+            and loaded kernels, frozen, so it is not run there (what they lack they load
+            at its first use, at the cost a warm-up would have).
 
     Raises:
         InputError: bad ``workers`` or ``scheduler`` (at once), or the scheduler cannot be
@@ -675,13 +678,13 @@ class Pool:
                  warm: Callable | None = None) -> None:
         self._workers = check_workers(workers, scheduler)
         self._scheduler = scheduler
-        self._warm = warm
+        fork = scheduler is None and start_method() == "fork"
+        self._warm = None if fork else warm
         self._stack = ExitStack()
         self._client = None
         self._closer: threading.Thread | None = None
         self._error: BaseException | None = None
         self._started = threading.Event()   # the client exists (or its start failed)
-        fork = scheduler is None and start_method() == "fork"
         if fork:  # the workers fork while this thread waits (no lock held by it)
             import distributed  # noqa: F401 - here, so that its objects are frozen too
 

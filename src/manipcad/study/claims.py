@@ -797,7 +797,7 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
     """
     from manipcad.parallel import Pool
     from manipcad.parallel.child import ChildCall
-    from manipcad.parallel.executor import check_workers, default_workers, start_method
+    from manipcad.parallel.executor import check_workers, default_workers
 
     check_workers(workers, scheduler, "study claims")
     if grid not in GRIDS:
@@ -822,11 +822,8 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
         fresh = not any((out / "cache").glob("*/*.pkl"))
         if fresh and (scheduler is not None or (workers or default_workers()) > 1):
             size = stack.enter_context(ChildCall(size)).result
-            # forked workers start with this process's modules and kernels, frozen; what
-            # they lack they load at its first use, at the cost a warm-up would have
-            forked = scheduler is None and start_method() == "fork"
             pool = stack.enter_context(Pool(workers=workers, scheduler=scheduler,
-                                            warm=None if forked else warm_worker))
+                                            warm=warm_worker))
         sized = size()
         mine, res = _compute_cells(out, robot, max_payload, g, sized, dt, pool, progress,
                                    workers, scheduler)

@@ -28,8 +28,8 @@ def plot_claims(doc: Mapping[str, Any], path: str | Path, *, dpi: int = 100) -> 
     """One heat map per claim: cells coloured by the measured ratio (log scale), the
     paper's threshold drawn as a contour, saturated cells hatched, values written in.
 
-    The same as :func:`save_panels` of one :func:`draw_panels` of every claim (a caller
-    with workers draws groups of panels, :func:`panel_groups`, on them: the same PNG).
+    The same as :func:`save_bands` of one :func:`draw_band` of every claim (a caller
+    with workers draws groups of panels, :func:`panel_groups`, on them: the same pixels).
 
     Args:
         doc: the claims.json document.
@@ -39,7 +39,7 @@ def plot_claims(doc: Mapping[str, Any], path: str | Path, *, dpi: int = 100) -> 
     Returns:
         The path written.
     """
-    return save_panels([draw_panels(doc, list(doc["claims"]), dpi=dpi)], path, dpi=dpi)
+    return save_bands([draw_band(doc, list(doc["claims"]), dpi=dpi)], path, dpi=dpi)
 
 
 def panel_groups(doc: Mapping[str, Any], groups: int) -> list[list[str]]:
@@ -61,7 +61,7 @@ def draw_panels(doc: Mapping[str, Any], ids: list[str], *, dpi: int = 100) -> np
     drawn (each at its place; the rest of the canvas white), as an RGBA image.
 
     Panels do not overlap, so the pixel-wise minimum of the images of groups that cover
-    every claim is the figure drawn whole (:func:`save_panels`).
+    every claim is the figure drawn whole (:func:`save_bands`).
 
     Args:
         doc: the claims.json document.
@@ -183,24 +183,6 @@ def save_bands(parts: list[dict], path: str | Path, *, dpi: int = 100) -> Path:
     for p in drawn:
         first, stop = p["span"]
         np.minimum(rgba[first:stop], p["image"], out=rgba[first:stop])
-    return write_png(path, [encode_rows(rgba)], dpi=float(dpi))
-
-
-def save_panels(images: list[np.ndarray], path: str | Path, *, dpi: int = 100) -> Path:
-    """The PNG of the figure from the images of :func:`draw_panels` (their pixel-wise
-    minimum: each panel is drawn on white in one of them).
-
-    Args:
-        images: RGBA images of the same shape, one per group of panels.
-        path: the PNG file.
-        dpi: the resolution written into the file, dots per inch.
-
-    Returns:
-        The path written.
-    """
-    from manipcad.report.png import encode_rows, write_png
-
-    rgba = images[0] if len(images) == 1 else np.minimum.reduce(images)
     return write_png(path, [encode_rows(rgba)], dpi=float(dpi))
 
 

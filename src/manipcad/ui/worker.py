@@ -390,6 +390,19 @@ class SimulationJob:
         error, cancelled."""
         if self.finished:
             return self.state
+        self._take_messages()
+        if not self.finished and not self.process.is_alive():
+            self._take_messages()    # its last words, if any
+            if not self.finished:
+                self.state = "error"
+                self.message = f"the worker process ended (exit code {self.process.exitcode})"
+        if self.finished:
+            self.wall = time.perf_counter() - self.started
+            prestart()               # this worker is the spare again (a new one if it died)
+        return self.state
+
+    def _take_messages(self) -> None:
+        """Apply the job's messages that arrived to its state."""
         for msg in self._worker.read(self.number):
             if msg[0] == "progress":
                 self.state, self.fraction = "running", msg[1]
@@ -398,17 +411,6 @@ class SimulationJob:
                 self.fraction = 1.0
             else:
                 self.state, self.message = msg[0], msg[1]
-        if not self.finished and not self.process.is_alive():
-            for msg in self._worker.read(self.number):   # its last words, if any
-                if msg[0] != "progress":
-                    self.state, self.message = msg[0], msg[-1]
-            if not self.finished:
-                self.state = "error"
-                self.message = f"the worker process ended (exit code {self.process.exitcode})"
-        if self.finished:
-            self.wall = time.perf_counter() - self.started
-            prestart()               # this worker is the spare again (a new one if it died)
-        return self.state
 
     def cancel(self) -> None:
         """Ask the worker to stop this job at its next progress report (nothing is

@@ -60,9 +60,12 @@ BOMBS = {
 def test_yaml_bombs_refused(tmp_path, kind, loader):
     p = write(tmp_path, BOMBS[kind])
     load = {"robot": load_robot, "trajectory": load_trajectory, "yaml": read_yaml}[loader]
-    with pytest.raises(InputError, match=r"refused .*(values|deeper|recursive)") as err:
+    # the behaviour, not a library's wording: one InputError naming the file, saying the
+    # text was refused (the YAML scanner or this reader's prescan may be first to see it)
+    with pytest.raises(InputError, match=r"refused") as err:
         load(str(p))
     assert err.value.source == str(p)
+    assert any(w in str(err.value) for w in ("values", "deeper", "recursive", "nest"))
 
 
 @pytest.mark.slow

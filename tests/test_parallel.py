@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -279,3 +281,42 @@ def test_forked_process_runs_batches_serially():
     assert _threads_usable()
     with multiprocessing.get_context("fork").Pool(1) as p:
         assert p.apply(_threads_usable) is False
+
+
+_PIPE_SCRIPT = """
+import os, sys
+from manipcad.parallel import run_tasks
+
+def chatty(x):
+    # a worker that logs more than a pipe's 64 KiB buffer, then says where its stderr goes
+    os.write(2, b"worker log line\\n" * 20000)
+    return os.readlink("/proc/self/fd/2")
+
+if __name__ == "__main__":
+    print(run_tasks(chatty, [{"x": 1}], workers=2, progress=False)[0])
+"""
+
+
+def test_forked_workers_never_block_on_an_undrained_pipe(tmp_path):
+    """A forked worker inherits the caller's stderr; when that is a pipe nobody reads until
+    the caller ends (pytest-xdist's, ``subprocess.run(capture_output=True)``), a worker's
+    log past the pipe buffer blocked it for good. The workers leave such pipes; a worker's
+    stderr is /dev/null there and the sweep finishes."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "chatty.py"
+    script.write_text(_PIPE_SCRIPT)
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    try:
+        # stdout is read only once the process ends: nothing drains its pipes before
+        proc.wait(timeout=120)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        pytest.fail("the sweep blocked: a worker is stuck writing to the inherited pipe")
+    out, err = proc.communicate()
+    assert proc.returncode == 0, err.decode()[-2000:]
+    assert out.decode().strip().splitlines()[-1] == os.devnull
+    assert b"worker log line" not in err

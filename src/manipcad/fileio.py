@@ -370,6 +370,11 @@ def parse_yaml(text: str, name: str, what: str | None = None) -> Any:
                          f"position {exc.position} is not allowed") from None
     except yaml.YAMLError as exc:
         problem = getattr(exc, "problem", None) or str(exc)
+        if "nesting depth" in problem:
+            # PyYAML >= 6.0.4 refuses deep flow nesting in its scanner, before the prescan
+            # sees the events: the same refusal, in this reader's words
+            raise InputError(name, "", f"refused{_where(exc)}: nested deeper than "
+                             f"{MAX_DEPTH} levels") from None
         if getattr(exc, "context", None):
             problem = f"{exc.context}: {problem}"
         raise InputError(name, "", f"YAML syntax error{_where(exc)}: {problem}") from None

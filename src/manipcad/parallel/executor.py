@@ -589,7 +589,7 @@ def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None, 
             gc.freeze()
         try:
             with dask.config.set({"distributed.worker.multiprocessing-method": start_method(),
-                                  **LOCAL_CONFIG}):
+                                  **LOCAL_CONFIG}), _workers_off_pipes():
                 cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                        dashboard_address=None, memory_limit=0,
                                        silence_logs=logging.ERROR)
@@ -619,6 +619,55 @@ def start_method() -> str:
     import sys
 
     return "fork" if sys.platform.startswith("linux") else "spawn"
+
+
+#: while true, a process forked from this one leaves the pipes it inherits as its stdout
+#: and stderr (:func:`_workers_off_pipes`)
+_OFF_PIPES = [0]
+
+
+def _off_pipes_in_child() -> None:
+    """In a forked worker: stdout and stderr that are pipes (or sockets) go to /dev/null.
+
+    A forked worker inherits its parent's file descriptors 1 and 2. When they are a pipe
+    that nobody drains while the parent waits on the worker (a pytest-xdist worker's, a
+    caller's ``subprocess.run(..., stdout=PIPE)`` that reads only at the end), the worker's
+    first log line past the pipe's 64 KiB buffer blocks it for good, and with it the
+    sweep. Its errors still reach the caller: Dask sends a task's exception back. A
+    terminal or a file is kept (it never blocks)."""
+    if not _OFF_PIPES[0]:
+        return
+    import stat
+
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        for fd in (1, 2):
+            try:
+                mode = os.fstat(fd).st_mode
+            except OSError:
+                continue
+            if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
+                os.dup2(null, fd)
+        os.close(null)
+    except OSError:
+        pass
+
+
+class _workers_off_pipes:
+    """Context: the processes forked inside it (a LocalCluster's workers) leave inherited
+    stdout/stderr pipes (:func:`_off_pipes_in_child`)."""
+
+    _registered = False
+
+    def __enter__(self):
+        if not _workers_off_pipes._registered and hasattr(os, "register_at_fork"):
+            os.register_at_fork(after_in_child=_off_pipes_in_child)
+            _workers_off_pipes._registered = True
+        _OFF_PIPES[0] += 1
+        return self
+
+    def __exit__(self, *exc) -> None:
+        _OFF_PIPES[0] -= 1
 
 
 #: forks of this process so far (counted once :func:`_count_forks` ran), under its condition

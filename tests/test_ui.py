@@ -51,16 +51,16 @@ def test_robot_choices_and_joint_rows_carry_units(ws, puma):
 
 
 def test_stick_points_follow_the_kinematics(puma):
-    from manipcad.kinematics.forward import frames, tool_pose
+    from manipcad.kinematics.forward import frames, stick_points, tool_pose
 
     q = np.array([0.3, -0.5, 0.7, 0.1, 0.4, -0.2])
-    segs = logic.stick_points(puma, q)
+    segs = stick_points(puma, q)
     _, p = frames(puma, q[None])
     np.testing.assert_allclose(segs[0, 0], 0.0)
     np.testing.assert_allclose(segs[:-1, 1], p[0])
     np.testing.assert_allclose(segs[-1, 1], tool_pose(puma, q)[:3, 3])
     # a pose changes the figure: the tool moves by the kinematics, not by a redraw rule
-    assert not np.allclose(logic.stick_points(puma, np.zeros(6))[-1, 1], segs[-1, 1])
+    assert not np.allclose(stick_points(puma, np.zeros(6))[-1, 1], segs[-1, 1])
 
 
 def test_stick_view_is_the_kinematics_seen_from_the_view(puma):
@@ -71,11 +71,12 @@ def test_stick_view_is_the_kinematics_seen_from_the_view(puma):
     from scipy.spatial.transform import Rotation
 
     from manipcad.kinematics.forward import frames, tool_pose
+    from manipcad.report.projection import VIEW
 
     q = np.array([0.3, -0.5, 0.7, 0.1, 0.4, -0.2])
     tool = tool_pose(puma, q)[:3, 3]
     _, p = frames(puma, q[None])
-    for az, el in ((0.0, 0.0), (*logic.VIEW,), (1.1, -0.4), (-np.pi / 2, np.pi / 2),
+    for az, el in ((0.0, 0.0), (*VIEW,), (1.1, -0.4), (-np.pi / 2, np.pi / 2),
                    (2.8, 1.2)):
         fig = logic.stick_view(puma, q, az, el)
         cam = Rotation.from_euler("ZY", [az, -el]).as_matrix().T     # base -> viewer
@@ -518,7 +519,7 @@ def test_regulators_of_several_methods_run_together(ws, tmp_path, monkeypatch):
     two for one joint are refused; a result name taken is refused before the run."""
     from nicegui import ui
 
-    from manipcad.ui import pages
+    from manipcad.ui.pages import simulation
     from manipcad.ui.worker import SimSpec, run_spec
 
     arm = manipcad.load_robot("cylindrical")
@@ -568,7 +569,7 @@ def test_regulators_of_several_methods_run_together(ws, tmp_path, monkeypatch):
         def poll(self):
             return "starting"
 
-    monkeypatch.setattr(pages, "SimulationJob", Job)
+    monkeypatch.setattr(simulation, "SimulationJob", Job)
 
     async def script(user):
         await _open(user, "/simulation")
@@ -589,7 +590,7 @@ def _simulate_user(ws_dir, script) -> list[str]:
     from nicegui import ui
     from nicegui.testing.user_simulation import user_simulation
 
-    from manipcad.ui import pages
+    from manipcad.ui import pages, worker
 
     asked: list[str] = []
 
@@ -605,11 +606,11 @@ def _simulate_user(ws_dir, script) -> list[str]:
     # not asyncio.run: after a failing script, a task of the simulation does not end when
     # cancelled and asyncio.run waited for it for ever (the failure showed as a hang)
     loop = asyncio.new_event_loop()
-    real, pages.prestart = pages.prestart, prestart
+    real, worker.prestart = worker.prestart, prestart
     try:
         loop.run_until_complete(main())
     finally:
-        pages.prestart = real
+        worker.prestart = real
         pending = asyncio.all_tasks(loop)
         for task in pending:
             task.cancel()
@@ -646,7 +647,7 @@ def test_simulation_page_shows_why_a_run_failed(tmp_path, monkeypatch):
     """The worker's failure message (diverged at t, joint) is the page's error line."""
     from nicegui import ui
 
-    from manipcad.ui import pages
+    from manipcad.ui.pages import simulation
 
     ws = logic.open_workspace(tmp_path / "ws")
     arm = manipcad.load_robot("puma560")
@@ -665,7 +666,7 @@ def test_simulation_page_shows_why_a_run_failed(tmp_path, monkeypatch):
         def poll(self):
             return "error"
 
-    monkeypatch.setattr(pages, "SimulationJob", Failed)
+    monkeypatch.setattr(simulation, "SimulationJob", Failed)
 
     async def script(user):
         await _open(user, "/simulation")
@@ -685,7 +686,7 @@ def test_simulation_page_cancel_reaches_the_running_job(tmp_path, monkeypatch):
     """The page's Cancel asks the running job to stop and shows it stopped (the worker's
     own cancel, nothing stored, is test_worker_runs_stores_and_cancels)."""
 
-    from manipcad.ui import pages
+    from manipcad.ui.pages import simulation
 
     ws = logic.open_workspace(tmp_path / "ws")
     arm = manipcad.load_robot("puma560")
@@ -710,7 +711,7 @@ def test_simulation_page_cancel_reaches_the_running_job(tmp_path, monkeypatch):
                 return "cancelled"
             return "running"
 
-    monkeypatch.setattr(pages, "SimulationJob", Running)
+    monkeypatch.setattr(simulation, "SimulationJob", Running)
 
     async def script(user):
         await _open(user, "/simulation")

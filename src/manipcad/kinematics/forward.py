@@ -157,6 +157,34 @@ def tool_pose(robot: Robot, q: np.ndarray) -> np.ndarray:
     return T if batched else T[0]
 
 
+def stick_points(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """The arm as a stick figure at pose ``q``: line segments joint to joint, then the tool.
+
+    Args:
+        robot: the robot.
+        q: (n,) joint coordinates, rad or m.
+
+    Returns:
+        (S, 2, 3) segment end points in the base frame, m: for each joint, from its
+        parent's frame origin (the base origin for a root joint) to its own, and
+        from the last body's origin to the tool point.
+
+    Example:
+        >>> import manipcad
+        >>> stick_points(manipcad.load_robot("puma560"), [0.0] * 6).shape
+        (7, 2, 3)
+    """
+    qa = np.asarray(q, dtype=float).reshape(1, -1)
+    _, p = frames(robot, qa)
+    p = p[0]
+    segs = []
+    for i in range(robot.n):
+        par = int(robot.parent[i])
+        segs.append((np.zeros(3) if par < 0 else p[par], p[i]))
+    segs.append((p[-1], tool_pose(robot, qa)[0, :3, 3]))
+    return np.asarray(segs)
+
+
 def point_position(robot: Robot, q: np.ndarray, link: int | str = -1,
                    point: np.ndarray | None = None) -> np.ndarray:
     """Base-frame position of a point fixed on a link.

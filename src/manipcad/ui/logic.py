@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.kinematics.forward import stick_points, tool_pose
+from manipcad.report.projection import VIEW, project
 from manipcad.workspace import Workspace, check_name
 
 #: largest upload accepted, bytes (robot, trajectory, regulator files are far smaller)
@@ -159,36 +161,6 @@ def slider_range(robot, j: int) -> tuple[float, float]:
     return (lo if np.isfinite(lo) else -wide, hi if np.isfinite(hi) else wide)
 
 
-def stick_points(robot, q: Sequence[float]) -> np.ndarray:
-    """The arm as a stick figure at pose ``q``: line segments joint to joint, then the tool.
-
-    Args:
-        robot: the robot.
-        q: (n,) joint coordinates, rad or m.
-
-    Returns:
-        (S, 2, 3) segment end points in the base frame, m: for each joint, from its
-        parent's frame origin (the base origin for a root joint) to its own, and
-        from the last body's origin to the tool point.
-
-    Example:
-        >>> import manipcad
-        >>> stick_points(manipcad.load_robot("puma560"), [0.0] * 6).shape
-        (7, 2, 3)
-    """
-    from manipcad.kinematics.forward import frames, tool_pose
-
-    qa = np.asarray(q, dtype=float).reshape(1, -1)
-    _, p = frames(robot, qa)
-    p = p[0]
-    segs = []
-    for i in range(robot.n):
-        par = int(robot.parent[i])
-        segs.append((np.zeros(3) if par < 0 else p[par], p[i]))
-    segs.append((p[-1], tool_pose(robot, qa)[0, :3, 3]))
-    return np.asarray(segs)
-
-
 def tool_position(robot, q: Sequence[float]) -> np.ndarray:
     """The tool (gripper) point at pose ``q`` (rad|m) in the base frame, (3,) m.
 
@@ -197,57 +169,7 @@ def tool_position(robot, q: Sequence[float]) -> np.ndarray:
         >>> tool_position(manipcad.load_robot("puma560"), [0.0] * 6).shape
         (3,)
     """
-    from manipcad.kinematics.forward import tool_pose
-
     return tool_pose(robot, np.asarray(q, dtype=float))[:3, 3]
-
-
-#: the projected stick view's first view: azimuth, elevation (rad), a three-quarter view
-VIEW = (np.radians(-60.0), np.radians(25.0))
-
-
-def view_axes(azimuth: float, elevation: float) -> np.ndarray:
-    """The viewer's axes for an orthographic view of the base frame.
-
-    The viewer looks at the base origin from the direction at ``azimuth`` about the
-    base z axis (from x towards y) and ``elevation`` above the x-y plane, the base z
-    axis drawn upwards: the view turns the base frame by Rz(azimuth)·Ry(-elevation).
-
-    Args:
-        azimuth: rad (0: looking along -x, from the +x side).
-        elevation: rad (π/2: from above, the top view).
-
-    Returns:
-        (3, 3) rows in the base frame: screen right, screen up, towards the viewer.
-
-    Example:
-        >>> view_axes(0.0, 0.0).round(12) + 0.0      # from +x: y to the right, z up
-        array([[0., 1., 0.],
-               [0., 0., 1.],
-               [1., 0., 0.]])
-    """
-    ca, sa = np.cos(azimuth), np.sin(azimuth)
-    ce, se = np.cos(elevation), np.sin(elevation)
-    return np.array([[-sa, ca, 0.0],
-                     [-se * ca, -se * sa, ce],
-                     [ce * ca, ce * sa, se]])
-
-
-def project(points, azimuth: float, elevation: float) -> np.ndarray:
-    """Points of the base frame on the screen of the orthographic view (:func:`view_axes`).
-
-    Args:
-        points: (..., 3) positions in the base frame, m.
-        azimuth, elevation: the view, rad.
-
-    Returns:
-        (..., 2) screen coordinates (right, up), m; equal scale on both.
-
-    Example:
-        >>> project([0.1, 0.2, 0.3], 0.0, 0.0).round(12)
-        array([0.2, 0.3])
-    """
-    return np.asarray(points, dtype=float) @ view_axes(azimuth, elevation)[:2].T
 
 
 #: the projected view's hover text: the point's name and base-frame position

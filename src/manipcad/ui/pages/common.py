@@ -1,0 +1,123 @@
+"""What every page of ``manipcad ui`` shares: the server's workspace, the tab's
+selection and jobs, the page frame with the main menu, the error line and the
+form's number fields.
+
+The application serves one workspace (:data:`SERVER`); each browser tab has its own
+current robot, trajectory, method and runs (:func:`state`, NiceGUI's per-tab
+``app.storage.tab``), so two designers (or two tabs) do not change each other's
+selection. Each page waits for its tab's connection before it reads that state.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from nicegui import app, ui
+
+from manipcad.errors import InputError, ManipcadError
+from manipcad.ui import logic
+
+#: the server's state: the workspace root (one per server, set by ``manipcad ui``)
+SERVER: dict[str, Any] = {"ws": None}
+
+#: a new tab's selection: robot, trajectory (workspace name), recommended method
+DEFAULTS: dict[str, Any] = {"robot": "puma560", "trajectory": None, "method": None}
+
+#: stored series a figure can show, with their units
+QUANTITIES = {k: f"{what} [{unit}]" for k, (what, unit) in logic.RESULT_SERIES.items()}
+
+#: jobs (simulations, studies) per tab id: worker handles, kept out of the tab's storage
+_JOBS: dict[str, list] = {}
+
+MENU = (("/", "Main menu"), ("/robots", "Robots"), ("/drives", "Drives"),
+        ("/trajectories", "Trajectories"), ("/requirements", "Requirements → method"),
+        ("/synthesis", "Synthesis"), ("/simulation", "Simulation"),
+        ("/results", "Results and studies"), ("/identification", "Identification"))
+
+
+def state() -> dict[str, Any]:
+    """This browser tab's selection (NiceGUI's ``app.storage.tab``, defaults from
+    :data:`DEFAULTS`); only once the page's client is connected."""
+    tab = app.storage.tab
+    for key, value in DEFAULTS.items():
+        tab.setdefault(key, value)
+    return tab
+
+
+def jobs() -> list:
+    """This tab's worker jobs (simulations and studies), oldest first."""
+    return _JOBS.setdefault(ui.context.client.tab_id or "", [])
+
+
+async def connected() -> dict[str, Any]:
+    """Wait for the page's websocket (the tab's identity), then its :func:`state`."""
+    await ui.context.client.connected()
+    return state()
+
+
+def ws():
+    """The opened workspace."""
+    return logic.open_workspace(SERVER["ws"])
+
+
+def robot():
+    """The tab's picked robot (loaded through the workspace API)."""
+    return logic.load_robot_ref(ws(), state()["robot"])[0]
+
+
+def error_text(exc: Exception) -> str:
+    """The one line shown for a failed action: the API's message (file: field: reason)."""
+    return str(exc) if isinstance(exc, ManipcadError) else f"{type(exc).__name__}: {exc}"
+
+
+def frame(title: str):
+    """Header with the main menu; returns the page's content column."""
+    ui.page_title(f"manipcad · {title}")
+    with ui.header(fixed=False).classes("items-center gap-4 bg-blue-grey-9"):
+        ui.label("manipcad").classes("text-h6")
+        for path, text in MENU:
+            ui.link(text, path).classes("text-white")
+    # plotly.js (4.5 MB, NiceGUI's full bundle) compiles once the page is idle, so the
+    # first figure the designer opens does not wait for it (~1.8 s here, ~0.1 s after)
+    ui.run_javascript("(window.requestIdleCallback || setTimeout)"
+                      "(() => import('nicegui-plotly'))")
+    col = ui.column().classes("w-full p-4 gap-3")
+    S = state()
+    with col:
+        ui.label(title).classes("text-h5").props("data-testid=page-title").mark("page-title")
+        with ui.row().classes("text-caption gap-1").props("data-testid=selection"):
+            ui.label(f"workspace {Path(SERVER['ws']).resolve()} · robot")
+            ui.label().bind_text_from(S, "robot")
+            ui.label("· trajectory")
+            ui.label().bind_text_from(S, "trajectory", lambda v: v or "-")
+    return col
+
+
+def error_label():
+    """A hidden error line; ``show(exc)`` fills it, ``clear()`` hides it."""
+    lab = ui.label("").classes("text-negative text-body1").props("data-testid=error") \
+        .mark("error")
+    lab.set_visibility(False)
+
+    def show(exc: Exception) -> None:
+        lab.text = error_text(exc)
+        lab.set_visibility(True)
+
+    def clear() -> None:
+        lab.set_visibility(False)
+
+    return show, clear
+
+
+def numbers(text: str, field: str, source: str) -> list[float]:
+    """Comma-separated numbers from a form field (InputError naming it otherwise)."""
+    try:
+        vals = [float(x) for x in str(text).replace(";", ",").split(",") if x.strip()]
+    except ValueError:
+        raise InputError(source, field, f"expected numbers separated by commas, got "
+                         f"{text!r}") from None
+    if not vals or not all(math.isfinite(v) for v in vals):
+        raise InputError(source, field, f"expected finite numbers, got {text!r}")
+    return vals

@@ -1,0 +1,50 @@
+"""The Identification page: an unknown payload mass from uploaded measured torques
+or currents."""
+
+from __future__ import annotations
+
+from nicegui import ui
+
+from manipcad.errors import InputError, ManipcadError
+from manipcad.ui import logic
+from manipcad.ui.pages.common import connected, error_label, frame, numbers, robot
+
+
+async def page() -> None:
+    await connected()
+    with frame("Identification"):
+        show, clear = error_label()
+        ui.label("Upload measured joint torques or motor currents along a motion (CSV: t, "
+                 "q1.., qd1.., qdd1.., tau1.. or current1..; SI units) of the picked "
+                 "robot; get the payload mass with its uncertainty (manipcad identify).")
+        com = ui.input("payload centre of mass x, y, z [m] in the last link's frame",
+                       value="0, 0, 0").classes("w-96")
+        out = ui.column().classes("w-full")
+
+        async def uploaded(e) -> None:
+            clear()
+            out.clear()
+            try:
+                c = numbers(com.value, "com", "identification form")
+                if len(c) != 3:
+                    raise InputError("identification form", "com", "expected x, y, z")
+                est = logic.identify_upload(robot(), e.file.name, await e.file.read(),
+                                            com=c)
+            except ManipcadError as exc:
+                show(exc)
+                return
+            with out:
+                ui.label(f"payload mass m_r = {est.mass:.5g} ± {est.std:.2g} kg "
+                         f"({est.samples} samples of {est.signal}, {est.method}; residual "
+                         f"RMS {est.residual:.3g} N·m|N)").classes("text-h6") \
+                    .props("data-testid=ident-mass")
+                ui.table(columns=[{"name": k, "label": lab, "field": k} for k, lab in (
+                    ("joint", "joint"), ("mass", "m_r alone [kg]"), ("std", "std [kg]"))],
+                    rows=[{"joint": n, "mass": f"{m:.5g}", "std": f"{s:.2g}"}
+                          for n, m, s in zip(est.joint_names, est.per_joint_mass,
+                                             est.per_joint_std, strict=True)],
+                    row_key="joint").props("dense flat")
+
+        ui.upload(label="Upload measured data (.csv)", auto_upload=True,
+                  max_file_size=logic.MAX_UPLOAD, on_upload=uploaded) \
+            .props("accept=.csv data-testid=ident-upload")

@@ -1,0 +1,150 @@
+"""The Results and studies page: stored results filtered and overlaid; the paper's
+studies run in the worker process and their reports linked."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from nicegui import ui
+
+from manipcad.errors import ManipcadError
+from manipcad.ui import logic, worker
+from manipcad.ui.pages.common import (
+    QUANTITIES,
+    SERVER,
+    connected,
+    error_label,
+    frame,
+    jobs,
+    numbers,
+    ws,
+)
+from manipcad.ui.worker import SimulationJob, StudySpec
+from manipcad.workspace import check_name
+
+
+async def page() -> None:
+    await connected()
+    worker.prestart()                   # this page runs jobs: have a worker ready
+    with frame("Results and studies"):
+        show, clear = error_label()
+        with ui.row().classes("items-end"):
+            where = ui.input("filter, e.g. max_error<1e-3 and status=ok", value="") \
+                .classes("w-96").props("data-testid=res-where")
+            quantity = ui.select(QUANTITIES, value="error", label="Quantity")
+        cols = ["name", "status", "max_error", "rms_error", "peak_torque", "peak_current",
+                "peak_power", "energy", "created"]
+        table = ui.table(columns=[{"name": c, "label": c, "field": c, "sortable": True}
+                                  for c in cols], rows=[], row_key="name",
+                         selection="multiple").props("dense flat data-testid=res-table")
+
+        def load() -> None:
+            clear()
+            try:
+                table.rows = logic.result_rows(ws(), where.value.strip() or None)
+            except ManipcadError as exc:
+                show(exc)
+                table.rows = []
+            table.update()
+
+        def overlay() -> None:
+            clear()
+            names = [r["name"] for r in table.selected] or [r["name"] for r in table.rows]
+            figs.clear()
+            try:
+                fig = logic.overlay_figure(ws(), names, quantity.value)
+            except ManipcadError as exc:
+                show(exc)
+                return
+            with figs:
+                ui.plotly(fig).classes("w-full").props("data-testid=res-overlay")
+
+        with ui.row():
+            ui.button("Filter", on_click=load).props("data-testid=res-filter")
+            ui.button("Overlay selected (all when none)", on_click=overlay) \
+                .props("data-testid=res-overlay-run")
+        figs = ui.column().classes("w-full")
+        load()
+        ui.label("Studies: the paper's Fig. 3 study and the claims maps (manipcad study "
+                 "fig3 | claims), run here in a worker process and kept in the workspace") \
+            .classes("text-subtitle1")
+        with ui.row().classes("items-end"):
+            kind = ui.select({"fig3": "Fig. 3 study (laws (2), every method)",
+                              "claims": "claims maps (--grid quick)"}, value="fig3",
+                             label="Study").classes("w-72").props("data-testid=study-kind")
+            sname = ui.input("name", value="fig3").props("data-testid=study-name")
+            st_end = ui.input("fig3: t_end [s] (empty: 1.6)", value="") \
+                .props("data-testid=study-tend")
+            smethods = ui.input("fig3: methods (comma; empty: all)", value="") \
+                .classes("w-64").props("data-testid=study-methods")
+            kind.on_value_change(lambda e: sname.set_value(e.value))
+        sbar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
+        sstatus = ui.label("").props("data-testid=study-status")
+        my_studies: list[SimulationJob] = []
+        seen: dict[str, Any] = {"job": None}
+
+        def start_study() -> None:
+            clear()
+            try:
+                spec = StudySpec(
+                    workspace=str(SERVER["ws"]), study=kind.value, name=sname.value,
+                    t_end=numbers(st_end.value, "t_end", "study form")[0]
+                    if str(st_end.value).strip() else None,
+                    methods=smethods.value.strip() or None)
+                check_name(spec.name, "study name")
+            except ManipcadError as exc:
+                show(exc)
+                return
+            job = SimulationJob(spec)
+            jobs().append(job)
+            my_studies.append(job)
+            sstatus.text = f"starting the worker for {spec.study}..."
+
+        def cancel_study() -> None:
+            for job in my_studies:
+                if not job.finished:
+                    job.cancel()
+
+        def study_tick() -> None:
+            if not my_studies:
+                return
+            job = my_studies[-1]
+            st = job.poll()
+            sbar.value = job.fraction
+            if st in ("starting", "running"):
+                sstatus.text = f"{job.spec.study} {st}: {100 * job.fraction:.0f} %"
+                return
+            if seen["job"] is job:
+                return
+            seen["job"] = job
+            if st == "done":
+                report = "report.html" if "report.html" in job.metrics.get("files", []) \
+                    else None
+                sstatus.text = (f"done: stored studies/{job.result} in {job.wall:.3g} s")
+                studies.refresh()
+                if report:
+                    ui.navigate.to(f"/api/studies/{job.result}/{report}", new_tab=True)
+            else:
+                sstatus.text = st
+                if st == "error":
+                    show(ManipcadError(job.message))
+
+        with ui.row():
+            ui.button("Run the study", on_click=start_study).props("data-testid=study-run")
+            ui.button("Cancel", on_click=cancel_study, color="negative") \
+                .props("data-testid=study-cancel")
+        ui.timer(0.5, study_tick)
+
+        @ui.refreshable
+        def studies() -> None:
+            w = ws()
+            for item in w.list("studies"):
+                with ui.row().classes("items-center").props(
+                        f"data-testid=study-{item.name}"):
+                    ui.label(item.name).classes("font-bold")
+                    for f in logic.study_files(w, item.name):
+                        ui.link(f, f"/api/studies/{item.name}/{f}", new_tab=True)
+            if not w.list("studies"):
+                ui.label("none yet").classes("text-caption")
+
+        studies()

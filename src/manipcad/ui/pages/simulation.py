@@ -1,0 +1,115 @@
+"""The Simulation page: a closed-loop run in the worker process, its progress, and
+the stored result's figures."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from nicegui import ui
+
+from manipcad.errors import InputError, ManipcadError
+from manipcad.ui import logic, worker
+from manipcad.ui.pages.common import (
+    QUANTITIES,
+    SERVER,
+    connected,
+    error_label,
+    frame,
+    jobs,
+    numbers,
+    ws,
+)
+from manipcad.ui.worker import SimSpec, SimulationJob
+
+
+async def page() -> None:
+    S = await connected()
+    worker.prestart()                   # this page runs jobs: have a worker ready
+    with frame("Simulation"):
+        show, clear = error_label()
+        w = ws()
+        trajs = [i.name for i in w.list("trajectories")]
+        regs = [i.name for i in w.list("regulators")]
+        with ui.row().classes("items-end"):
+            traj = ui.select(trajs, value=S["trajectory"] if S["trajectory"] in trajs
+                             else (trajs[0] if trajs else None), label="Trajectory") \
+                .classes("w-48").props("data-testid=sim-traj")
+            reg = ui.select(regs, value=regs[-1] if regs else None, label="Regulator") \
+                .classes("w-64").props("data-testid=sim-reg")
+            # regulators synthesized per joint (one method here, another there) run
+            # together; simulate() refuses two for one joint
+            more = ui.select(regs, value=[], multiple=True,
+                             label="and regulators of other joints") \
+                .classes("w-64").props("use-chips data-testid=sim-more")
+            t_end = ui.input("t_end [s] (empty: the trajectory's)", value="") \
+                .props("data-testid=sim-tend")
+            dt = ui.input("dt [s]", value="1e-4").props("data-testid=sim-dt")
+            name = ui.input("Result name (optional)", value="").props("data-testid=sim-name")
+            keep = ui.checkbox("keep a diverged run's partial result")
+        bar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
+        status = ui.label("").props("data-testid=sim-status")
+        figs = ui.column().classes("w-full")
+        shown: dict[str, Any] = {"job": None, "state": None}
+
+        def start() -> None:
+            clear()
+            try:
+                if not traj.value:
+                    raise InputError("simulation form", "trajectory", "pick a trajectory "
+                                     "(make one on the Trajectories page)")
+                spec = SimSpec(workspace=str(SERVER["ws"]), robot=S["robot"],
+                               trajectory=traj.value,
+                               regulators=list(dict.fromkeys(   # each once, in order
+                                   r for r in [reg.value, *(more.value or [])] if r)),
+                               t_end=numbers(t_end.value, "t_end", "simulation form")[0]
+                               if str(t_end.value).strip() else None,
+                               dt=numbers(dt.value, "dt", "simulation form")[0],
+                               name=name.value or None, save_diverged=keep.value)
+            except ManipcadError as exc:
+                show(exc)
+                return
+            jobs().append(SimulationJob(spec))
+            status.text = "starting the worker..."
+
+        def cancel() -> None:
+            for job in jobs():
+                if not job.finished:
+                    job.cancel()
+
+        def tick() -> None:
+            if not jobs():
+                return
+            job = jobs()[-1]
+            state = job.poll()
+            bar.value = job.fraction
+            if state in ("starting", "running"):
+                status.text = f"{state}: {100 * job.fraction:.0f} %"
+                return
+            if shown["job"] is job and shown["state"] == state:
+                return
+            shown["job"], shown["state"] = job, state
+            if state == "done":
+                status.text = (f"done: stored results/{job.result} in {job.wall:.3g} s; "
+                               f"max |e| = {job.metrics.get('max_error', float('nan')):.3g}")
+                figs.clear()
+                with figs:
+                    box = ui.column().classes("w-full")
+
+                    def draw(q: str, name: str = job.result) -> None:
+                        box.clear()
+                        with box:
+                            ui.plotly(logic.overlay_figure(ws(), [name], q)).classes("w-full")
+
+                    ui.toggle(QUANTITIES, value="error", on_change=lambda e: draw(e.value)) \
+                        .move(target_index=0)
+                    draw("error")
+            else:
+                status.text = state
+                if state == "error":
+                    show(ManipcadError(job.message))
+
+        with ui.row():
+            ui.button("Simulate", on_click=start).props("data-testid=sim-run")
+            ui.button("Cancel", on_click=cancel, color="negative") \
+                .props("data-testid=sim-cancel")
+        ui.timer(0.25, tick)

@@ -499,3 +499,84 @@ def test_lqr_on_the_elastic_model_exports_a_stable_loop(arm):
     assert np.all(np.real(cl.poles()) < 0)
     assert abs(float(np.real(cl.dcgain())) - 1.0) < 0.05
     assert len(reg.design["gains"]) == 5
+
+
+# ---------------------------------------------------------------- synthesis within the drive
+def _am8122_turn(arm):
+    """The Fig. 2 arm with its turning drive's motor replaced by a Beckhoff AM8122 (catalog
+    data: peak 4.06 N·m, k_m 0.1633 N·m/A -> 24.9 A peak; rated 4.9 A; 48 V)."""
+    from manipcad.model.yaml_robot import load_motor
+
+    m = load_motor("beckhoff_am8122_0fh1")
+    d = arm.drives[0].replace(J=m.J, R=m.R, L=m.L, k_m=m.k_m, k_w=m.k_w,
+                              rated_current=m.rated_current, peak_torque=m.peak_torque,
+                              rated_torque=m.rated_torque, rated_voltage=m.rated_voltage,
+                              u_max=48.0, ratio=-50.0)
+    return arm.replace(drives=[d, *arm.drives[1:]])
+
+
+def test_lqr_current_bound_within_the_motor_peak(arm):
+    """lqr and lqr_gs weigh the current by the motor's peak current (24.9 A on the AM8122),
+    not 10x its rated current (49 A); a larger i_max or u_max is refused."""
+    am = _am8122_turn(arm)
+    i_peak = am.drives[0].peak_torque / am.drives[0].k_m
+    for method in ("lqr", "lqr_gs"):
+        reg = synthesize(am, "turn", method, grid=(2, 1)) if method == "lqr_gs" else \
+            synthesize(am, "turn", method)
+        w = reg.design["weights"] if "weights" in reg.design else None
+        i_max = w.i_max if w is not None else float(reg.law.split("i_max = ")[1].split(" A")[0])
+        assert i_max == pytest.approx(i_peak, rel=1e-9)
+        assert i_peak == pytest.approx(24.86, abs=0.01)
+    with pytest.raises(ManipcadError, match="above the motor's current bound 24.86 A"):
+        synthesize(am, "turn", "lqr", spec={"i_max": 49.0})
+    with pytest.raises(ManipcadError, match="above the drive's voltage bound 48 V"):
+        synthesize(am, "turn", "lqr", spec={"u_max": 60.0})
+
+
+def test_voltage_bound_within_the_motor_rating(arm):
+    """A 24 V motor on a 48 V amplifier: every method's output limit is 24 V."""
+    d = arm.drives[0].replace(rated_voltage=24.0, u_max=48.0)
+    low = arm.replace(drives=[d, *arm.drives[1:]])
+    for method in ("pid", "none", "none_sce", "computed_torque", "ace_tf", "ace_de", "vss",
+                   "asvs", "lqr"):
+        reg = synthesize(low, "turn", method)
+        assert reg.to_dict()["gains"]["u_limit_V"] == 24.0, method
+
+
+def test_gains_that_remove_damping_are_refused_with_the_range():
+    """PUMA elbow: ace_de's SCE at 30 rad/s has k_d of the sign opposite to the plant gain
+    (T_m = 13 ms: ω_n < 1/(2ζT_m) = 38 rad/s); asked explicitly it is refused naming the
+    range that works; by default the bandwidth is raised to the bottom of that range."""
+    puma = manipcad.load_robot("puma560")
+    with pytest.raises(ManipcadError, match=r"wrong sign .* bandwidths that work: 38.03 to "):
+        synthesize(puma, "elbow", "ace_de", spec={"bandwidth": 30.0})
+    with pytest.raises(ManipcadError, match="bandwidths that work"):
+        synthesize(puma, "elbow", "pid", spec={"bandwidth": 30.0})
+    for method in ("ace_de", "ace_tf", "pid", "none_sce"):
+        for j in range(6):
+            reg = synthesize(puma, j, method)
+            d = puma.drives[j]
+            K = d.k_u / (d.k_w * d.ratio)
+            assert reg.design["kd"] * K >= -1e-12, (method, j)
+    assert "raised from the default 30" in synthesize(puma, "elbow", "ace_de").law
+
+
+def test_max_error_designed_against_the_coupled_model(arm, hold_others):
+    """ace_tf's nominal loop meets 1e-3 rad on laws (2) at the default bandwidth, but the
+    coupled simulation misses it (its quasi-stationary ACE lags the fast load): the loop
+    tightens the nominal target until the coupled run meets it; an accuracy no design
+    reaches within the rounds is reported as not reached, with why."""
+    from manipcad.expert.verify import synthesize_to_spec
+
+    laws = manipcad.load_trajectory(EXAMPLE)
+    d = synthesize_to_spec(arm, laws, ["turn"], "ace_tf", spec={"max_error": 1e-3},
+                           others=hold_others, t_end=0.5, dt=DT)
+    assert d.rounds[0].simulated["turn"] > 1e-3          # the nominal design alone misses
+    assert d.reached and d.simulated["turn"] <= 1e-3 and len(d.rounds) >= 2
+    assert d.regulators[0].design["bandwidth"] > 30.0
+    no = synthesize_to_spec(arm, laws, ["turn"], "ace_tf", spec={"max_error": 1e-3},
+                            others=hold_others, t_end=0.5, dt=DT, rounds=1)
+    assert not no.reached and "not reached" in no.why and "turn: best 0.0045" in no.why
+    with pytest.raises(ManipcadError, match="unreachable accuracy"):   # not even nominally
+        synthesize_to_spec(arm, laws, ["turn"], "ace_tf", spec={"max_error": 1e-9},
+                           others=hold_others, t_end=0.1, dt=DT)

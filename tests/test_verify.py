@@ -47,7 +47,10 @@ def test_law3_leaves_no_creep_after_the_motion_stops():
     """Law (3)'s dry-friction term M_f·sgn(ω_m), sampled while the stopped joint's speed
     chatters about zero, pushed it around: Panda joint 5 crept to 1.6e-4 rad two seconds
     after a 1 rad move (measured, friction_zone=0). With the linear zone below the speed
-    one period of friction makes (the default) the error decays instead (1.1e-5)."""
+    one period of friction makes (the default) the error decays instead (1.1e-5). That
+    creep needed the SCE's derivative gain of the wrong sign the default 30 rad/s gave this
+    joint; the bandwidth raised to keep the drive's damping (33.5 rad/s, k_d = 0) leaves
+    8.7e-6 rad with the zone and 2.2e-6 with the pure sign: neither creeps."""
     import numpy as np
 
     from manipcad.trajectories import quintic
@@ -66,4 +69,4 @@ def test_law3_leaves_no_creep_after_the_motion_stops():
                                 regulators=[reg, *others], joint_limits="ignore",
                                 record_every=10)
         late[zone] = abs(res.error[-1, j])
-    assert late[None] < 3e-5 and late[None] < 0.25 * late[0.0], late
+    assert late[None] < 3e-5 and late[0.0] < 3e-5, late

@@ -6,6 +6,7 @@
                         [--spec KEY=VALUE ...] [--option KEY=VALUE ...] [--period S]
                         [--load-range LO,HI] [--realization observable|controllable]
                         [-t TRAJECTORY.yaml  (the reference of --spec max_error=...)]
+                        [--rounds N] [--dt S]  (the verify-and-tighten loop of max_error)
                         --out reg.yaml [--force] [--json]
     manipcad synthesize --list
 
@@ -13,6 +14,12 @@ Several joints give one file with one group per joint (one group in all for a me
 that spans joints, ``computed_torque_full``). The file holds everything needed to run
 the regulators with no re-synthesis (:mod:`manipcad.control.files`); ``manipcad simulate
 ROBOT -t T.yaml -r reg.yaml`` runs it.
+
+``--spec max_error=E`` with ``-t`` designs against the coupled model: the regulators are
+simulated on the whole robot along the trajectory (the other driven joints under ``pid``)
+and each joint that misses E is re-designed for a tighter nominal target, for at most
+``--rounds`` simulations (:func:`manipcad.expert.verify.synthesize_to_spec`); the command
+prints each round and exits 1 when E is not reached (the file is written either way).
 """
 
 from __future__ import annotations
@@ -95,6 +102,11 @@ def synthesize(
     trajectory: Annotated[Path | None, typer.Option(
         "--trajectory", "-t", help="The reference a --spec max_error=... is asked on.")]
     = None,
+    rounds: Annotated[int, typer.Option(
+        "--rounds", help="With --spec max_error and -t: the most coupled simulations of the "
+        "verify-and-tighten loop (0: design on the nominal model only).")] = 6,
+    dt: Annotated[float, typer.Option(
+        "--dt", help="Integration step of those simulations, s.")] = 1e-4,
     out: Annotated[str | None, typer.Option(
         "--out", "-o", help="Regulator file to write (YAML); with --ws the regulator's NAME "
         "in the workspace.")] = None,
@@ -168,8 +180,25 @@ def synthesize(
         from manipcad.trajectories import load_trajectory
 
         options["reference"] = load_trajectory(trajectory, robot=arm)
-    with err_console.status(f"synthesizing {method} for {len(idx)} joint(s)..."):
-        regs = run_synthesis(arm, idx, method, spec=_pairs(spec, "--spec") or None, **options)
+    spec_d = _pairs(spec, "--spec") or None
+    coupled = None
+    if rounds < 0:
+        raise InputError("--rounds", "", f"must be >= 0, got {rounds}")
+    if not (dt > 0 and dt < 1):
+        raise InputError("--dt", "", f"must be in (0, 1) s, got {dt}")
+    if (spec_d and "max_error" in spec_d and trajectory is not None and rounds > 0
+            and not METHODS[method].spans):
+        from manipcad.expert.verify import synthesize_to_spec
+
+        ref = options.pop("reference")
+        with err_console.status(f"synthesizing {method} for {len(idx)} joint(s) against the "
+                                f"coupled simulation along {trajectory}..."):
+            coupled = synthesize_to_spec(arm, ref, idx, method, spec=spec_d, rounds=rounds,
+                                         dt=dt, **options)
+        regs = list(coupled.regulators)
+    else:
+        with err_console.status(f"synthesizing {method} for {len(idx)} joint(s)..."):
+            regs = run_synthesis(arm, idx, method, spec=spec_d, **options)
     regs = regs if isinstance(regs, list) else [regs]
     doc = regulators_document(regs, robot=arm)
     if out is not None and space is None:
@@ -183,6 +212,9 @@ def synthesize(
         out = space.root / "regulators" / f"{item.name}.yaml"
     if as_json:
         typer.echo(json.dumps(doc, indent=2, default=str))
+        if coupled is not None and not coupled.reached:
+            err_console.print(coupled.why, highlight=False, soft_wrap=True)
+            raise typer.Exit(1)
         return
     t = Table(box=box.SIMPLE_HEAD, title=f"{method} on {arm.name}")
     for col in ("joint(s)", "law", "ops/period", "stored", "signals"):
@@ -192,9 +224,26 @@ def synthesize(
         t.add_row(", ".join(r.joint_names), r.describe(), str(c["ops_per_period"]),
                   str(c["gains_stored"]), ", ".join(c["signals"]))
     console.print(t)
+    if coupled is not None:
+        held = ", ".join(f"{', '.join(r.joint_names)} ({r.method})" for r in coupled.others)
+        rt = Table(box=box.SIMPLE_HEAD, title=f"max |e| in the coupled simulation (asked "
+                   f"{coupled.asked:g}; other joints held by {held or 'nothing'})",
+                   caption="per round: the nominal target the design was asked for, and the "
+                   "simulated max |e| (rad or m)")
+        rt.add_column("round")
+        for name in coupled.simulated:
+            rt.add_column(f"{name}: target / simulated")
+        for k, rd in enumerate(coupled.rounds):
+            rt.add_row(str(k + 1), *(f"{rd.targets[n]:.3g} / {rd.simulated[n]:.3g}"
+                                     for n in coupled.simulated))
+        console.print(rt)
+        style = "green" if coupled.reached else "red"
+        console.print(f"[{style}]{coupled.why}[/]", highlight=False, soft_wrap=True)
     if out is not None:
         console.print(f"wrote {out} (run it: manipcad simulate {robot} -t TRAJECTORY.yaml "
                       f"-r {out})", highlight=False, soft_wrap=True)
+    if coupled is not None and not coupled.reached:
+        raise typer.Exit(1)
 
 
 def _joint(arm, name: str) -> int:

@@ -37,6 +37,7 @@ from manipcad.control.design import (
     max_error_of,
     packed,
     parse_spec,
+    pd_bandwidth,
 )
 from manipcad.control.export import nonlinear_system
 from manipcad.control.kernels import (
@@ -239,6 +240,7 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     e_max, ref = max_error_of(spec, reference, j)
     plant = nominal_tf(d, Jn, order=order)
     T = d.R * Jn / (d.k_m * d.k_w)
+    wn, raised = pd_bandwidth(spec, wn, T, zeta)
     sce = design_sce(d, plant, T, Jn, order, wn, zeta, period, e_max, ref,
                      feedforward=feedforward, what=f"ace_de on {robot.joint_names[j]!r}")
     p = sce.params
@@ -268,6 +270,9 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         needs.append("q_ddot_ref")
     design = {"J_n": Jn, "load_range": (Hmin, Hmax), "rho_range": rho, **sce.design(),
               "closed_loop_poles": sce.poles(), "order": order}
+    if raised:
+        design["note"] = raised
+        law += f"; {raised}"
     return Regulator(
         method="ace_de", joints=(j,), period=period, params=p, needs=tuple(needs), law=law,
         design=design, linear=sce.linear(plant))

@@ -30,6 +30,7 @@ from manipcad.control.design import (
     joint_drive,
     max_error_of,
     parse_spec,
+    pd_bandwidth,
 )
 from manipcad.control.export import nonlinear_system
 from manipcad.control.kernels import (
@@ -146,6 +147,7 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     if order == 3 and not (math.isfinite(d.L) and d.L > 0):
         raise ManipcadError(f"joint {robot.joint_names[j]!r}: order 3 needs L > 0 (got {d.L})")
     plant = ace1_target_tf(d, T_1=T1, order=order)
+    wn, raised = pd_bandwidth(spec, wn, T1, zeta)
     sce = design_sce(d, plant, T1, Jn, order, wn, zeta, period, e_max, ref,
                      feedforward=feedforward, what=f"ace_tf on {robot.joint_names[j]!r}")
     p = sce.params
@@ -165,6 +167,9 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
         needs.append("q_ddot_ref")
     design = {"T_1": T1, "J_n": Jn, "load_range": (Hmin, Hmax), **sce.design(),
               "realization": realization, "order": order, "closed_loop_poles": sce.poles()}
+    if raised:
+        design["note"] = raised
+        law += f"; {raised}"
     linear = {**sce.linear(plant),
               "ace_at_min_load": ace1_tf(d, Hmin, 0.0, T_1=T1),
               "ace_at_max_load": ace1_tf(d, Hmax, 0.0, T_1=T1)}

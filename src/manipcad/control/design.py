@@ -151,20 +151,9 @@ def parse_spec(spec, *, bandwidth: float, damping: float,
     return wn, zeta
 
 
-def design_pd(plant: ct.TransferFunction, K: float, T: float, wn: float, zeta: float,
-              period: float, *, what: str) -> tuple[float, float, ct.TransferFunction]:
-    """PD U = k_p·e + k_d·ė placing the poles of K/(s·(T·s + 1)) at ω_n, ζ; checked on ``plant``.
-
-    The characteristic polynomial T·s² + (1 + K·k_d)·s + K·k_p gives
-    k_p = T·ω_n²/K (V/rad), k_d = (2ζω_n·T − 1)/K (V·s/rad). The loop is then
-    closed on the full ``plant`` (3rd order with the inductance) with
-    python-control; the design is refused if it is unstable, if its slowest
-    pole's damping is below half of ζ, or if ω_n·T_s > 0.5 (the sampled
-    realization could not follow).
-
-    Returns:
-        (k_p, k_d, closed-loop transfer function q/q*).
-    """
+def _check_pd(plant, K: float, T: float, wn: float, zeta: float, period: float, *,
+              what: str) -> tuple[float, float, ct.TransferFunction]:
+    """The PD of :func:`design_pd` without the damping-sign check (see there)."""
     if wn * period > 0.5:
         raise ManipcadError(f"{what}: bandwidth {wn:g} rad/s is unreachable with the control "
                             f"period {period:g} s (need ω_n·T_s <= 0.5)")
@@ -184,6 +173,102 @@ def design_pd(plant: ct.TransferFunction, K: float, T: float, wn: float, zeta: f
                             f"unreachable: with the inductance the slowest poles have "
                             f"damping {zs:.3g}")
     return kp, kd, cl
+
+
+def damping_floor(T: float, zeta: float) -> float:
+    """The lowest ω_n whose PD keeps the drive's own damping, rad/s: 1/(2ζ·T).
+
+    Below it k_d = (2ζω_n·T − 1)/K has the sign opposite to the plant gain K: the
+    derivative term feeds the velocity back positively and cancels part of the damping
+    the back-EMF gives (the nominal poles are still where asked, but any load or model
+    error the law leaves finds a loop with less damping than the bare drive).
+
+    Example:
+        >>> damping_floor(0.01, 1.0)
+        50.0
+    """
+    return 1.0 / (2.0 * zeta * T)
+
+
+def bandwidth_range(plant, K: float, T: float, zeta: float, period: float, *,
+                    what: str = "pd") -> tuple[float, float] | None:
+    """The bandwidths ω_n (rad/s) whose PD :func:`design_pd` accepts: (lowest, highest).
+
+    The lowest is :func:`damping_floor`; the highest the last of 60 geometric steps up to
+    0.5/T_s that is stable and well damped with the inductance. None when no bandwidth
+    works at this period.
+    """
+    lo = damping_floor(T, zeta)
+    top = 0.5 / period
+    if lo > top:
+        return None
+    hi = None
+    for w in np.geomspace(lo, top, 60):
+        try:
+            _check_pd(plant, K, T, float(w), zeta, period, what=what)
+        except ManipcadError:
+            if hi is None:
+                continue
+            break
+        hi = float(w)
+    return None if hi is None else (lo, hi)
+
+
+def pd_bandwidth(spec, default: float, T: float, zeta: float) -> tuple[float, str]:
+    """ω_n of a PD design, rad/s, and a note: the spec's, or the default raised to keep damping.
+
+    A bandwidth given in ``spec`` is used as is (:func:`design_pd` refuses it when it
+    removes damping). Without one, the default is raised to :func:`damping_floor` where
+    it lies below it (a fast drive: small T), and the note says so.
+    """
+    if spec and "bandwidth" in spec:
+        return float(spec["bandwidth"]), ""
+    lo = damping_floor(T, zeta)
+    if default >= lo:
+        return default, ""
+    return lo, (f"bandwidth raised from the default {default:g} to {lo:.4g} rad/s: below "
+                f"1/(2ζ·T_m) the derivative gain would remove the drive's own damping")
+
+
+def design_pd(plant: ct.TransferFunction, K: float, T: float, wn: float, zeta: float,
+              period: float, *, what: str) -> tuple[float, float, ct.TransferFunction]:
+    """PD U = k_p·e + k_d·ė placing the poles of K/(s·(T·s + 1)) at ω_n, ζ; checked on ``plant``.
+
+    The characteristic polynomial T·s² + (1 + K·k_d)·s + K·k_p gives
+    k_p = T·ω_n²/K (V/rad), k_d = (2ζω_n·T − 1)/K (V·s/rad). The loop is then
+    closed on the full ``plant`` (3rd order with the inductance) with
+    python-control; the design is refused if it is unstable, if its slowest
+    pole's damping is below half of ζ, if ω_n·T_s > 0.5 (the sampled
+    realization could not follow), or if ω_n < 1/(2ζ·T) (:func:`damping_floor`:
+    k_d of the wrong sign removes the drive's own damping); the refusal names the
+    bandwidth range that works (:func:`bandwidth_range`).
+
+    Returns:
+        (k_p, k_d, closed-loop transfer function q/q*).
+
+    Example:
+        >>> import control as ct
+        >>> K, T = 2.0, 0.05               # rad/(V·s), s
+        >>> kp, kd, cl = design_pd(ct.tf([K], [T, 1.0, 0.0]), K, T, 30.0, 1.0, 1e-3,
+        ...                        what="demo")
+        >>> round(kp, 3), round(kd, 3)
+        (22.5, 1.0)
+        >>> design_pd(ct.tf([K], [T, 1.0, 0.0]), K, T, 5.0, 1.0, 1e-3, what="demo")
+        Traceback (most recent call last):
+        ...
+        manipcad.errors.ManipcadError: demo: bandwidth 5 rad/s gives a derivative gain of the wrong sign (k_d = -0.25 V·s/rad, plant gain K = 2): it removes the drive's own damping; bandwidths that work: 10 to 500 rad/s (ζ = 1, T_m = 0.05 s, T_s = 0.001 s)
+    """
+    if 2.0 * zeta * wn * T < 1.0 - 1e-9:
+        kd = (2.0 * zeta * wn * T - 1.0) / K
+        rng = bandwidth_range(plant, K, T, zeta, period, what=what)
+        works = (f"bandwidths that work: {rng[0]:.4g} to {rng[1]:.4g} rad/s" if rng else
+                 f"no bandwidth works at this period (need ω_n >= {damping_floor(T, zeta):.4g}"
+                 f" rad/s and ω_n·T_s <= 0.5)")
+        raise ManipcadError(f"{what}: bandwidth {wn:g} rad/s gives a derivative gain of the "
+                            f"wrong sign (k_d = {kd:.4g} V·s/rad, plant gain K = {K:.4g}): it "
+                            f"removes the drive's own damping; {works} (ζ = {zeta:g}, "
+                            f"T_m = {T:.4g} s, T_s = {period:g} s)")
+    return _check_pd(plant, K, T, wn, zeta, period, what=what)
 
 
 def max_error_of(spec, reference, joint: int) -> tuple[float | None, tuple | None]:
@@ -248,6 +333,7 @@ def design_for_accuracy(plant, K: float, T: float, wn: float, zeta: float, perio
     Raises:
         ManipcadError: "unreachable accuracy" with the best error found.
     """
+    wn = max(wn, damping_floor(T, zeta))
     best = (math.inf, wn)
     for w in np.geomspace(wn, max(wn, 0.5 / period), 40):
         try:

@@ -52,7 +52,7 @@ from manipcad.control.design import (
 )
 from manipcad.control.export import nonlinear_system, static_gain
 from manipcad.control.kernels import load_rates, table_lookup
-from manipcad.control.regulator import Method, Regulator, TableLayout, u_limit
+from manipcad.control.regulator import Method, Regulator, TableLayout, current_limit, u_limit
 from manipcad.control.signals import (
     NPARAM,
     S_CI,
@@ -191,16 +191,25 @@ def weights_from_spec(spec, drive: Drive) -> Weights:
     unknown = set(spec) - _SPEC
     if unknown:
         raise ManipcadError(f"unknown spec keys {sorted(unknown)}; known: {sorted(_SPEC)}")
-    ulim = u_limit(drive)
-    ulim = ulim if math.isfinite(ulim) else 10.0
-    rated = drive.rated_current
-    i_def = 10.0 * rated if math.isfinite(rated) and rated > 0 else ulim / drive.R
+    u_rated = u_limit(drive)
+    ulim = u_rated if math.isfinite(u_rated) else 10.0
+    i_rated = current_limit(drive)
+    i_def = i_rated if math.isfinite(i_rated) else ulim / drive.R
     w = Weights(float(spec.get("e_max", 0.01)), float(spec.get("ed_max", 0.3)),
                 float(spec.get("i_max", i_def)), float(spec.get("u_max", ulim)))
     for name in ("e_max", "ed_max", "i_max", "u_max"):
         v = getattr(w, name)
         if not (math.isfinite(v) and v > 0):
             raise ManipcadError(f"lqr spec {name} must be > 0, got {v}")
+    if w.i_max > i_rated * (1 + 1e-12):
+        raise ManipcadError(f"lqr spec i_max = {w.i_max:g} A is above the motor's current "
+                            f"bound {i_rated:.4g} A (its peak current, at most 10× its rated "
+                            f"current): the design would plan for currents the motor cannot "
+                            f"take; give i_max <= {i_rated:.4g}")
+    if w.u_max > u_rated * (1 + 1e-12):
+        raise ManipcadError(f"lqr spec u_max = {w.u_max:g} V is above the drive's voltage "
+                            f"bound {u_rated:.4g} V (amplifier limit, motor rated voltage); "
+                            f"give u_max <= {u_rated:.4g}")
     return w
 
 
@@ -410,7 +419,9 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
     Args:
         robot, joint: the joint.
         spec: Bryson weights ``{"e_max": rad (0.01), "ed_max": rad/s (0.3),
-            "i_max": A (10× rated current), "u_max": V (u_max/k_u)}``.
+            "i_max": A (the motor's peak current, at most 10× its rated current:
+            :func:`~manipcad.control.regulator.current_limit`; larger is refused),
+            "u_max": V (u_max/k_u; larger is refused)}``.
         period: control period, s.
         load_range: (H_min, H_max), kg·m².
         H_nominal: the design load, kg·m².

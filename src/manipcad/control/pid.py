@@ -22,6 +22,7 @@ from manipcad.control.design import (
     design_pd,
     nominal_drive,
     parse_spec,
+    pd_bandwidth,
 )
 from manipcad.control.regulator import Method, Regulator, u_limit
 from manipcad.control.signals import NPARAM, S_Q, S_QD, S_QDREF, S_QREF
@@ -130,6 +131,7 @@ def synthesize_pid(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
     period = check_period(period)
     j, d, rng, H, K, T = nominal_drive(robot, joint, load_range, H_nominal)
     wn, zeta = parse_spec(spec, bandwidth=30.0, damping=1.0)
+    wn, raised = pd_bandwidth(spec, wn, T, zeta)
     plant = linearize(d, H, 0.0, order=order).tf
     kp0, kd0, _ = design_pd(plant, K, T, wn, zeta, period,
                             what=f"pid on {robot.joint_names[j]!r}")
@@ -143,10 +145,13 @@ def synthesize_pid(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
     name = robot.joint_names[j]
     reg.law = (f"pid ({name}): U = {kp:.6g}·e + {ki:.6g}·∫e + {kd:.6g}·ė (|U| <= {ulim:g} V, "
                f"anti-windup), designed at H_ii = {H:.4g} kg·m² (T_m = {T:.4g} s, "
-               f"ω_n = {wn:g} rad/s, ζ = {zeta:g}); T = {period:g} s")
+               f"ω_n = {wn:g} rad/s, ζ = {zeta:g}); T = {period:g} s"
+               + (f"; {raised}" if raised else ""))
     reg.design = {"kp": kp, "ki": ki, "kd": kd, "H_nominal": H, "load_range": rng,
                   "bandwidth": wn, "damping": zeta,
                   "closed_loop_poles": [complex(z) for z in cl.poles()]}
+    if raised:
+        reg.design["note"] = raised
     reg.linear = {"plant": plant, "controller": C, "closed_loop": cl}
     return reg
 

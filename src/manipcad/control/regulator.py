@@ -200,5 +200,42 @@ class Regulator:
 
 
 def u_limit(drive) -> float:
-    """The amplifier's input limit u_max/k_u of a drive, V (inf: none)."""
-    return drive.u_max / drive.k_u if math.isfinite(drive.u_max) else math.inf
+    """The voltage bound of every method's output: the amplifier's input limit, V (inf: none).
+
+    min(u_max, rated_voltage)/k_u: the amplifier's output limit u_max, and not above the
+    motor's rated voltage where the data give one (a motor on a larger amplifier).
+
+    Example:
+        >>> from manipcad.model.robot import Drive
+        >>> u_limit(Drive(u_max=48.0, rated_voltage=24.0, k_u=2.0))
+        12.0
+    """
+    u = float(drive.u_max)
+    if math.isfinite(float(drive.rated_voltage)) and drive.rated_voltage > 0:
+        u = min(u, float(drive.rated_voltage))
+    return u / drive.k_u if math.isfinite(u) else math.inf
+
+
+def current_limit(drive) -> float:
+    """The largest armature current a synthesis may plan for, A (inf: unknown).
+
+    The motor's peak current (peak_torque/k_m), and not above 10× its rated current;
+    where neither rating is known, the stall current of the voltage bound,
+    k_u·u_limit/R (what the amplifier can drive through the winding at rest).
+
+    Example:
+        >>> from manipcad.model.robot import Drive
+        >>> am8122 = Drive(R=1.5, k_m=0.1633, k_w=0.1633, u_max=48.0, peak_torque=4.06,
+        ...                rated_current=4.9)
+        >>> round(current_limit(am8122), 1)
+        24.9
+    """
+    rated = float(drive.rated_current)
+    lim = [drive.peak_current, 10.0 * rated if rated > 0 else math.nan]
+    lim = [v for v in lim if math.isfinite(v) and v > 0]
+    if lim:
+        return min(lim)
+    ulim = u_limit(drive)
+    if math.isfinite(ulim) and drive.R > 0:
+        return drive.k_u * ulim / drive.R
+    return math.inf

@@ -120,3 +120,166 @@ def verify(robot, trajectory, regulators, *, dt: float = 1e-4, factor: float = 2
             out.append(PromiseCheck(name, reg.method, float(promised), asked, e, ratio, c,
                                     kept, why))
     return out, res
+
+
+@dataclass
+class SpecRound:
+    """One round of :func:`synthesize_to_spec`: per joint, the nominal target and the
+    coupled simulation's max |e|, rad or m."""
+
+    targets: dict[str, float]
+    simulated: dict[str, float]
+
+
+@dataclass
+class SpecDesign:
+    """Regulators designed for an accuracy on the coupled model (:func:`synthesize_to_spec`).
+
+    Attributes:
+        regulators: the regulators of the joints asked, as last simulated.
+        others: the regulators that held the other driven joints in the simulations.
+        asked: the accuracy asked, rad or m.
+        simulated: per joint, max |e| of the last coupled simulation, rad or m.
+        reached: True when every joint asked is within ``asked`` in that simulation.
+        rounds: every round's nominal targets and simulated errors.
+        why: in words: reached, or why not (the joint, its best error, what stopped it).
+        result: the last simulation result.
+    """
+
+    regulators: list
+    others: list
+    asked: float
+    simulated: dict[str, float]
+    reached: bool
+    rounds: list[SpecRound]
+    why: str
+    result: object
+
+
+def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
+                       others=None, rounds: int = 6, margin: float = 0.8, dt: float = 1e-4,
+                       t_end: float | None = None, **options) -> SpecDesign:
+    """Design for ``spec["max_error"]`` against the coupled simulation: verify and tighten.
+
+    The method's own accuracy design (``ace_de``, ``ace_tf``: the smallest bandwidth whose
+    nominal loop keeps |q* − q| <= the target on the trajectory) makes its promise on one
+    drive at one load; the robot adds the inertial coupling, the velocity and gravity
+    torques, friction and the amplifier limit. Round k synthesizes every joint asked for
+    its target (round 0: the accuracy asked), simulates the whole robot along the
+    trajectory and, for each joint whose max |e| exceeds the accuracy asked, lowers its
+    target to min(target, promise)·asked/simulated·``margin`` (the promise: the error its
+    nominal loop reaches, at most the target); where the nominal design cannot reach that
+    target, the step is halved geometrically toward the promise (up to 4 times). It stops when every joint is within the
+    accuracy asked, when no joint's design can be tightened (the nominal design reports
+    "unreachable accuracy": the bandwidth the period and the inductance allow is spent),
+    or after ``rounds`` simulations, and says which.
+
+    The verdict is the tracking error of the coupled simulation.
+
+    Args:
+        robot: the robot (with drives).
+        trajectory: the reference (a trajectory object), also the design reference.
+        joints: joint indices or names to design for.
+        method: a method whose spec takes ``max_error`` (``ace_de``, ``ace_tf``).
+        spec: the spec, with ``max_error`` (rad or m) and the method's other keys.
+        others: regulators for the driven joints not in ``joints`` (default: ``pid``
+            with its default spec on each).
+        rounds: the most coupled simulations, >= 1.
+        margin: factor < 1 applied to each tightening.
+        dt: integration step, s.
+        t_end: simulated time, s (default the trajectory's duration).
+        **options: the method's options (``period``, ...).
+
+    Returns:
+        A :class:`SpecDesign`.
+
+    Example:
+        >>> import manipcad
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> laws = manipcad.load_trajectory("examples/fig3_laws.yaml")
+        >>> d = synthesize_to_spec(arm, laws, ["turn"], "ace_de", spec={"max_error": 1e-3},
+        ...                        others=manipcad.synthesize(arm, ["lift", "reach"], "lqr"),
+        ...                        t_end=0.2)
+        >>> d.reached, len(d.rounds)
+        (True, 1)
+    """
+    from manipcad.control import synthesize
+
+    spec = dict(spec or {})
+    if "max_error" not in spec:
+        raise ManipcadError("synthesize_to_spec needs spec max_error (rad or m)")
+    asked = float(spec["max_error"])
+    if not (math.isfinite(asked) and asked > 0):
+        raise ManipcadError(f"spec max_error must be > 0, got {asked}")
+    if int(rounds) < 1:
+        raise ManipcadError(f"rounds must be >= 1, got {rounds}")
+    if not 0 < margin < 1:
+        raise ManipcadError(f"margin must be in (0, 1), got {margin}")
+    idx = [robot.joint_index(j) for j in joints]
+    names = {j: robot.joint_names[j] for j in idx}
+    if others is None:
+        driven = [j for j in range(robot.n) if robot.drives and robot.drives[j] is not None
+                  and j not in idx]
+        others = [synthesize(robot, j, "pid") for j in driven]
+    else:
+        others = others if isinstance(others, list) else [others]
+    target = {j: asked for j in idx}
+    regs = {j: synthesize(robot, j, method, spec={**spec, "max_error": asked},
+                          reference=trajectory, **options) for j in idx}
+    frozen: dict[int, str] = {}
+    history: list[SpecRound] = []
+    best: dict[int, tuple[float, object]] = {}
+    res = None
+    for k in range(int(rounds)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ManipcadWarning)
+            checks, res = verify(robot, trajectory, [regs[j] for j in idx] + others, dt=dt,
+                                 t_end=t_end)
+        err = {robot.joint_index(c.joint): c.simulated for c in checks
+               if robot.joint_index(c.joint) in regs}
+        history.append(SpecRound({names[j]: target[j] for j in idx},
+                                 {names[j]: err[j] for j in idx}))
+        for j in idx:
+            if j not in best or err[j] < best[j][0]:
+                best[j] = (err[j], regs[j])
+        missing = [j for j in idx if err[j] > asked]
+        if not missing or k == int(rounds) - 1:
+            break
+        moved = False
+        for j in missing:
+            if j in frozen:
+                continue
+            promised = min(target[j], regs[j].design.get("nominal_max_error") or target[j])
+            t_new = promised * asked / err[j] * margin
+            for _ in range(4):   # unreachable: halve the step (geometrically) toward the promise
+                try:
+                    regs[j] = synthesize(robot, j, method, spec={**spec, "max_error": t_new},
+                                         reference=trajectory, **options)
+                except ManipcadError as exc:
+                    if "unreachable" not in str(exc):
+                        raise
+                    frozen[j] = str(exc)
+                    t_new = math.sqrt(t_new * promised)
+                    continue
+                frozen.pop(j, None)
+                target[j] = t_new
+                moved = True
+                break
+        if not moved:
+            break
+    last = {names[j]: float(history[-1].simulated[names[j]]) for j in idx}
+    reached = all(v <= asked for v in last.values())
+    if reached:
+        why = (f"reached: every joint within {asked:g} in the coupled simulation after "
+               f"{len(history)} round(s)")
+    else:
+        parts = []
+        for j in idx:
+            if last[names[j]] <= asked:
+                continue
+            reason = (f"its nominal design cannot be tightened further ({frozen[j]})"
+                      if j in frozen else f"{len(history)} round(s) spent")
+            parts.append(f"{names[j]}: best {best[j][0]:.3g} against {asked:g} asked; "
+                         f"{reason}")
+        why = "not reached in the coupled simulation: " + "; ".join(parts)
+    return SpecDesign([regs[j] for j in idx], others, asked, last, reached, history, why, res)

@@ -158,6 +158,18 @@ class Drive:
         return math.isfinite(self.stiffness)
 
     @property
+    def peak_current(self) -> float:
+        """The motor's peak armature current, peak_torque/k_m, A (nan if either is unknown).
+
+        Example:
+            >>> round(Drive(k_m=0.2 * (2 / 3) ** 0.5, peak_torque=4.06).peak_current, 2)
+            24.86
+        """
+        if not (self.k_m > 0):
+            return math.nan
+        return float(self.peak_torque) / float(self.k_m)
+
+    @property
     def has_electrics(self) -> bool:
         """True when R, L, k_m and k_w are all known (the drive can be simulated)."""
         return all(np.isfinite([self.R, self.L, self.k_m, self.k_w]))

@@ -1,0 +1,143 @@
+"""``manipcad design``: the automated design in one command.
+
+::
+
+    manipcad design REQUIREMENTS.yaml --robot ROBOT -t TRAJ [-t TRAJ ...]
+        [--payload-range LO,HI] [--uncertainty PCT] [--samples N] [--makers a,b]
+        [--counterbalance auto|none] [--period S] [--dt S] [--max-methods N]
+        [--max-iterations N] [--strict] [--workers N | --scheduler ADDR] --out DESIGN
+
+Writes DESIGN/robot.yaml, regulators.yaml, trajectories/, design.json, report.html, c/
+and runs/ (:mod:`manipcad.design`; docs/design.md). Exit 0: the design meets the
+requirements in every case; 1: no design does (the closest one is written, and the
+case it fails and why are printed); 2: bad input.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich import box
+from rich.table import Table
+
+from manipcad.cli.app import app, console, err_console, guarded
+from manipcad.errors import InputError
+
+
+def parse_range(text: str | None) -> tuple[float, float]:
+    """``"LO,HI"`` (kg) as two floats; one value is a point range.
+
+    Example:
+        >>> parse_range("0,2"), parse_range("1.5"), parse_range(None)
+        ((0.0, 2.0), (1.5, 1.5), (0.0, 0.0))
+    """
+    if text is None:
+        return 0.0, 0.0
+    parts = [p.strip() for p in str(text).split(",")]
+    try:
+        vals = [float(p) for p in parts]
+    except ValueError:
+        raise InputError("--payload-range", "", f"expected LO,HI in kg, got {text!r}") from None
+    if len(vals) == 1:
+        vals = vals * 2
+    if len(vals) != 2 or not all(math.isfinite(v) for v in vals):
+        raise InputError("--payload-range", "", f"expected LO,HI in kg, got {text!r}")
+    return vals[0], vals[1]
+
+
+@app.command()
+@guarded
+def design(
+    requirements: Annotated[str, typer.Argument(
+        help="Requirements YAML file (accuracy needed; docs/expert-rules.md).")],
+    robot: Annotated[str, typer.Option(
+        "--robot", help="Catalog robot name or robot file (drives on every joint).")],
+    trajectory: Annotated[list[str], typer.Option(
+        "--trajectory", "-t", help="Trajectory YAML file; repeat for several.")],
+    out: Annotated[str, typer.Option("--out", "-o", help="The design folder (created; a "
+                                     "rerun reuses its cache of runs).")],
+    payload_range: Annotated[str | None, typer.Option(
+        "--payload-range", help="Gripped mass at the tool point, LO,HI kg (added to the "
+        "robot file's); the design is verified at both ends and the middle.")] = None,
+    uncertainty: Annotated[float, typer.Option(
+        "--uncertainty", help="Link and drive parameter uncertainty, ± %.")] = 0.0,
+    samples: Annotated[int, typer.Option(
+        "--samples", help="Uncertainty samples: nominal, the heavy-weak and light-strong "
+        "corners, all up, all down, then random (docs/design.md).")] = 5,
+    seed: Annotated[int, typer.Option("--seed", help="Random seed of the random "
+                                      "samples.")] = 0,
+    makers: Annotated[str | None, typer.Option(
+        "--makers", help="Catalogue makers the drive selection may use, comma-separated.")]
+    = None,
+    counterbalance: Annotated[str, typer.Option(
+        "--counterbalance", help="auto: apply the counterweights that pay; none: report "
+        "them only.")] = "none",
+    period: Annotated[float, typer.Option(
+        "--period", help="The regulators' control period, s (a multiple of --dt).")] = 1e-3,
+    dt: Annotated[float, typer.Option("--dt", help="Integration step (RK4), s.")] = 1e-4,
+    max_methods: Annotated[int, typer.Option(
+        "--max-methods", help="How many of the rules' methods are verified.")] = 4,
+    max_iterations: Annotated[int, typer.Option(
+        "--max-iterations", help="Rounds of the decision (tighter synthesis, next drive "
+        "up) before giving up.")] = 3,
+    strict: Annotated[bool, typer.Option(
+        "--strict", help="A check that is unknown counts as failed.")] = False,
+    workers: Annotated[int | None, typer.Option(
+        "--workers", help="Worker processes of a local Dask cluster (default one per core; "
+        "1: serial).")] = None,
+    scheduler: Annotated[str | None, typer.Option(
+        "--scheduler", help="Address of a running Dask scheduler, tcp://HOST:PORT.")] = None,
+    progress: Annotated[bool, typer.Option(
+        "--progress/--no-progress", help="Show a progress bar of the runs.")] = True,
+) -> None:
+    """The automated design: drives, decoupling, method, regulators, verification, C code."""
+    from manipcad.design import DesignNotMet, run_design
+
+    if not (math.isfinite(uncertainty) and 0 <= uncertainty < 100):
+        raise InputError("--uncertainty", "", f"must be a percentage in [0, 100), got "
+                         f"{uncertainty!r}")
+    mk = None if makers is None else [m.strip() for m in makers.split(",") if m.strip()]
+    lo, hi = parse_range(payload_range)
+    sources = {"requirements": requirements, "robot": robot, "trajectories": list(trajectory)}
+    met = True
+    try:
+        doc = run_design(requirements, robot, list(trajectory), out=out, payload_range=(lo, hi),
+                         uncertainty=uncertainty / 100.0, samples=samples, seed=seed,
+                         makers=mk, counterbalance=counterbalance, period=period, dt=dt,
+                         max_methods=max_methods, max_iterations=max_iterations,
+                         strict=strict, workers=workers, scheduler=scheduler,
+                         progress=progress, sources=sources)
+    except DesignNotMet as exc:
+        doc, met = exc.doc, False
+    console.print(summary_table(doc))
+    ex = doc["executor"]
+    console.print(f"{len(doc['cases'])} runs ({ex['runs_computed']} computed, "
+                  f"{ex['runs_cached']} from the cache) in {ex['wall_time_s']:.1f} s; wrote "
+                  f"{Path(out)}/ (robot.yaml, regulators.yaml, design.json, report.html, c/, "
+                  "runs/)", highlight=False, soft_wrap=True)
+    if not met:
+        err_console.print(f"[bold red]not met:[/] {doc['failure']['text']}", highlight=False,
+                          soft_wrap=True)
+        raise typer.Exit(1)
+
+
+def summary_table(doc: dict) -> Table:
+    """Per joint the parts, the method and the worst-case error against the accuracy."""
+    t = Table(title=f"{doc['robot']}: design {doc['status']} (accuracy {doc['accuracy']:g} "
+                    f"on {', '.join(doc['accuracy_joints'])})", box=box.SIMPLE_HEAD)
+    for col in ("joint", "motor", "gear", "method", "worst max |e|", "verdict"):
+        t.add_column(col, justify="right" if col == "worst max |e|" else "left")
+    for jn, p in doc["parts"].items():
+        if p is None:
+            continue
+        err = doc["worst_case_error"].get(jn)
+        designed = jn in doc["accuracy_joints"]
+        ok = designed and err is not None and err != "inf" and err <= doc["accuracy"]
+        t.add_row(jn, p.get("motor", ""), p.get("gear", ""),
+                  doc["methods"].get(jn) or doc["support"].get(jn, "-"),
+                  "-" if err is None else (err if isinstance(err, str) else f"{err:.3g}"),
+                  ("met" if ok else "[red]missed[/]") if designed else "(not designed)")
+    return t

@@ -133,6 +133,12 @@ def test_refuses_non_empty_folder_unless_force(tmp_path, traj):
     assert res.exit_code == 2
     assert "not empty" in both(res) and "--force" in both(res)
     assert os.listdir(out) == ["keep.txt"]
+    res = run(*args, "--force")  # not a result folder: --force does not replace it
+    assert res.exit_code == 2 and "not a manipcad result" in both(res)
+    assert os.listdir(out) == ["keep.txt"]
+    (out / "keep.txt").unlink()
+    assert run(*args).exit_code == 0
+    (out / "keep.txt").write_text("earlier work")  # a result folder (metrics.json) is
     res = run(*args, "--force")
     assert res.exit_code == 0, both(res)
     assert "keep.txt" not in os.listdir(out) and (out / "metrics.json").is_file()
@@ -158,6 +164,7 @@ def test_divergent_run_exits_2_and_keeps_folder(tmp_path, traj):
     out = tmp_path / "r"
     out.mkdir()
     (out / "keep.txt").write_text("earlier work")
+    (out / "metrics.json").write_text("{}")  # an earlier result: --force may replace it
     reg = tmp_path / "bad_gains.yaml"
     reg.write_text(DIVERGENT)
     res = run("puma560", "-t", traj, "-r", reg, "-o", out, "--no-drives", "--t-end", "2",
@@ -166,7 +173,7 @@ def test_divergent_run_exits_2_and_keeps_folder(tmp_path, traj):
     msg = both(res)
     assert "diverged at t = " in msg and "joint '" in msg and "nothing was written" in msg
     assert "Traceback" not in msg
-    assert os.listdir(out) == ["keep.txt"]
+    assert sorted(os.listdir(out)) == ["keep.txt", "metrics.json"]
     assert leftovers(tmp_path) == []
 
 
@@ -239,9 +246,11 @@ def test_interrupted_run_leaves_nothing(tmp_path, traj, monkeypatch):
     assert not out.exists() and leftovers(tmp_path) == []
     out.mkdir()
     (out / "keep.txt").write_text("earlier work")
+    (out / "metrics.json").write_text("{}")  # an earlier result: --force may replace it
     res = run(*args, "--force")
     assert res.exit_code == 130
-    assert os.listdir(out) == ["keep.txt"] and leftovers(tmp_path) == []
+    assert sorted(os.listdir(out)) == ["keep.txt", "metrics.json"]
+    assert leftovers(tmp_path) == []
 
 
 def test_interrupted_simulation_leaves_nothing(tmp_path, traj, monkeypatch):
@@ -278,6 +287,7 @@ def test_store_failed_swap_restores_old_folder(tmp_path, small_result, monkeypat
     out = tmp_path / "r"
     out.mkdir()
     (out / "keep.txt").write_text("earlier work")
+    (out / "metrics.json").write_text("{}")  # an earlier result: force may replace it
     real_rename = os.rename
 
     def flaky(src, dst):
@@ -289,7 +299,8 @@ def test_store_failed_swap_restores_old_folder(tmp_path, small_result, monkeypat
     monkeypatch.setattr(store, "exchange", lambda a, b: False)  # the two-rename fallback
     with pytest.raises(KeyboardInterrupt):
         save_result(res, out, joint_types=arm.joint_types, force=True)
-    assert os.listdir(out) == ["keep.txt"] and leftovers(tmp_path) == []
+    assert sorted(os.listdir(out)) == ["keep.txt", "metrics.json"]
+    assert leftovers(tmp_path) == []
 
 
 def test_store_inputs_and_units(tmp_path, small_result):

@@ -519,17 +519,51 @@ def validation_error(source: str, exc: ValidationError,
 # --------------------------------------------------------------------------- writing
 
 
+def _kind_of(mode: int) -> str | None:
+    """What a non-regular file is ("a FIFO (named pipe)", ...), None for a regular file."""
+    for test, what in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device")):
+        if test(mode):
+            return what
+    return None if stat.S_ISREG(mode) else "not a regular file"
+
+
 def writable_target(path: str | Path) -> Path:
-    """Check that ``path`` may be written as a file: its folder exists and it is no folder.
+    """Check that ``path`` may be written as a file: its folder exists and, if it
+    exists, it is a regular file (followed through a symbolic link).
+
+    A folder, a FIFO, a socket or a device (``/dev/null``) is refused, never replaced
+    by a regular file nor written into: every file manipcad writes goes through here
+    (:func:`atomic_write`).
 
     Raises:
-        InputError: "folder '...' does not exist", or "is a folder".
+        InputError: "folder '...' does not exist", "is a folder", or "is a FIFO (named
+            pipe) / a character device / ..., not a regular file: refused".
+
+    Example:
+        >>> writable_target("/dev/null")  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        manipcad.errors.InputError: /dev/null: is a character device, not a regular file: ...
     """
     p = Path(path)
+    if not str(path).strip():
+        raise InputError(repr(str(path)), "", "empty file name")
     if not p.parent.is_dir():
         raise InputError(str(path), "", f"folder {str(p.parent)!r} does not exist")
-    if p.is_dir():
+    try:
+        mode = os.stat(p).st_mode
+    except FileNotFoundError:
+        return p  # absent (or a dangling link): a new file
+    except OSError as exc:
+        raise InputError(str(path), "", f"cannot write: {exc.strerror or exc}") from None
+    what = _kind_of(mode)
+    if what == "a folder":
         raise InputError(str(path), "", "is a folder")
+    if what is not None:
+        raise InputError(str(path), "", f"is {what}, not a regular file: refused "
+                         "(manipcad writes only regular files)")
     return p
 
 
@@ -590,6 +624,7 @@ def atomic_write(path: str | Path, write: Callable[[IO[Any]], Any], *,
             fh.flush()
             os.fsync(fh.fileno())
         os.chmod(tmp, p.stat().st_mode & 0o777 if p.exists() else 0o644)
+        writable_target(p)  # again: a FIFO or device made meanwhile is not replaced
         os.replace(tmp, p)
     except BaseException as exc:
         try:

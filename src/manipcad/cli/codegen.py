@@ -83,22 +83,22 @@ def codegen(
         folder = Path(out)
         if folder.exists() and not folder.is_dir():
             raise InputError("--out", "", f"{folder} exists and is not a folder")
+        from manipcad.fileio import atomic_write_text, writable_target
+
+        if lang == "c":
+            hdr, src = gen.c_code(p)
+            files = {f"{p}.h": hdr, f"{p}.c": src}
+            if reg_code is not None:
+                files.update({f"{p}_regulators.h": reg_code[0], f"{p}_regulators.c": reg_code[1]})
+        else:
+            files = {f"{p}_dynamics.py": gen.python_source()}
         try:
             folder.mkdir(parents=True, exist_ok=True)
-            if lang == "c":
-                hdr, src = gen.c_code(p)
-                (folder / f"{p}.h").write_text(hdr)
-                (folder / f"{p}.c").write_text(src)
-                written = [folder / f"{p}.h", folder / f"{p}.c"]
-                if reg_code is not None:
-                    (folder / f"{p}_regulators.h").write_text(reg_code[0])
-                    (folder / f"{p}_regulators.c").write_text(reg_code[1])
-                    written += [folder / f"{p}_regulators.h", folder / f"{p}_regulators.c"]
-            else:
-                (folder / f"{p}_dynamics.py").write_text(gen.python_source())
-                written = [folder / f"{p}_dynamics.py"]
         except OSError as exc:
             raise InputError("--out", "", f"cannot write into {folder}: {exc}") from None
+        for fname in files:  # every target checked before any is written
+            writable_target(folder / fname)
+        written = [atomic_write_text(folder / fname, text) for fname, text in files.items()]
     if as_json:  # the counts only: {"inverse_dynamics": {"mul": N, ...}, ...}
         print(json.dumps(gen.ops, indent=2))
         return

@@ -261,7 +261,10 @@ def compare(names: Annotated[list[str], typer.Argument(help="Result names.",
         if fig is None:
             raise InputError("--plot", "", "the results have different joints; no common "
                              "figure")
-        fig.savefig(plot, dpi=100)
+        from manipcad.fileio import atomic_write
+
+        fmt = plot.suffix.lower().lstrip(".") or "png"
+        atomic_write(plot, lambda fh: fig.savefig(fh, dpi=100, format=fmt), binary=True)
     if as_json:
         _echo_json({"results": rows, "plot": str(plot) if plot else None})
         return

@@ -263,12 +263,9 @@ def save_robot(robot: Robot, path: str | Path) -> Path:
             + yaml.safe_dump(robot_to_dict(robot), sort_keys=False, allow_unicode=True,
                              default_flow_style=None,
                              width=100))
-    try:
-        path.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        raise InputError(str(path), "", f"cannot write the robot file "
-                         f"({exc.strerror or exc})") from None
-    return path
+    from manipcad.fileio import atomic_write_text
+
+    return atomic_write_text(path, text)
 
 
 __all__ = ["save_robot", "load_tree_robot", "robot_to_dict", "drive_to_dict", "is_tree_file",

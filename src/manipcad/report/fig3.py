@@ -126,9 +126,9 @@ def plot_fig3(tracking: Mapping[str, Any], steps: Mapping[str, Mapping[str, Any]
         ax3.text(0.5, 0.5, "no run (see 'skipped' in fig3.json)", ha="center", va="center",
                  transform=ax3.transAxes, color="0.4")
     fig.suptitle("Fig. 3 study: errors of the turning servo drive (cylindrical arm of Fig. 2)")
-    out = Path(path)
-    fig.savefig(out, dpi=dpi, format="png")
-    return out
+    from manipcad.fileio import atomic_write
+
+    return atomic_write(path, lambda fh: fig.savefig(fh, dpi=dpi, format="png"), binary=True)
 
 
 def _verdict_class(v: str) -> str:

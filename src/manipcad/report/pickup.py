@@ -71,6 +71,6 @@ def plot_pickup(data: Mapping[str, Any], runs: Mapping[str, Mapping[str, Any]],
         ax.set_xlabel("t, s")
         ax.set_ylabel("|ε|, rad")
         ax.legend(fontsize=7, loc="lower right")
-    path = Path(path)
-    fig.savefig(path, dpi=dpi, format="png")
-    return path
+    from manipcad.fileio import atomic_write
+
+    return atomic_write(path, lambda fh: fig.savefig(fh, dpi=dpi, format="png"), binary=True)

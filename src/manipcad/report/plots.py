@@ -152,10 +152,10 @@ def plot_errors(result, path: str | Path, *, joint_types: Sequence[str] | None =
         >>> plot_errors(res, "/tmp/errors.png", joint_types=arm.joint_types)  # doctest: +SKIP
         PosixPath('/tmp/errors.png')
     """
-    out = Path(path)
-    errors_figure(result, joint_types=joint_types, title=title).savefig(out, dpi=dpi,
-                                                                        format="png")
-    return out
+    from manipcad.fileio import atomic_write
+
+    fig = errors_figure(result, joint_types=joint_types, title=title)
+    return atomic_write(path, lambda fh: fig.savefig(fh, dpi=dpi, format="png"), binary=True)
 
 
 __all__ = ["plot_errors", "errors_figure", "compare_figure", "joint_units"]

@@ -129,5 +129,6 @@ def write_png(path: str | Path, bands: list[Band], *, dpi: float = 100.0) -> Pat
            + _chunk(b"IHDR", struct.pack(">IIBBBBB", width, at, 8, 6, 0, 0, 0))
            + _chunk(b"pHYs", struct.pack(">IIB", ppm, ppm, 1))
            + _chunk(b"IDAT", stream) + _chunk(b"IEND", b""))
-    Path(path).write_bytes(png)
-    return Path(path)
+    from manipcad.fileio import atomic_write_bytes
+
+    return atomic_write_bytes(path, png)

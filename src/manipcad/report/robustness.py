@@ -50,5 +50,7 @@ def plot_robustness(doc: Mapping[str, Any], path: str | Path, *, dpi: int = 100)
                  f"{doc['samples']} samples; speed scale {s['speed_scale_run']:g}"
                  + (" (time-scaled)" if s["time_scaled"] else "")
                  + "\nboxes 25-75 %, whiskers 5-95 %; red: the nominal arm", fontsize=8)
-    fig.savefig(path, dpi=dpi)
-    return Path(path)
+    from manipcad.fileio import atomic_write
+
+    return atomic_write(path, lambda fh: fig.savefig(
+        fh, dpi=dpi, format=Path(path).suffix.lower().lstrip(".") or "png"), binary=True)

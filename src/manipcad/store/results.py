@@ -94,15 +94,22 @@ def check_out_dir(out_dir: str | Path, *, force: bool = False) -> Path:
         The folder as a :class:`Path`.
 
     Raises:
-        InputError: it is a file, or a non-empty folder without ``force``.
+        InputError: it is a file, a non-empty folder without ``force``, or, with
+            ``force``, a non-empty folder that is not a manipcad result (no
+            ``metrics.json``): a user's folder is never replaced.
     """
     out = Path(out_dir)
     if out.exists() or out.is_symlink():
         if not out.is_dir():
             raise InputError(str(out), "", "exists and is not a folder")
-        if any(out.iterdir()) and not force:
-            raise InputError(str(out), "", "folder exists and is not empty; use --force "
-                             "(force=True) to replace it")
+        if any(out.iterdir()):
+            if not force:
+                raise InputError(str(out), "", "folder exists and is not empty; use --force "
+                                 "(force=True) to replace it")
+            if not (out / METRICS_JSON).is_file():
+                raise InputError(str(out), "", f"not a manipcad result folder (no "
+                                 f"{METRICS_JSON}); --force replaces only a result: choose "
+                                 "another folder, or empty or remove this one yourself")
     return out
 
 

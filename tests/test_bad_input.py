@@ -1,0 +1,134 @@
+"""Bad input, kills and concurrent runs found by a new user and a fault campaign: each
+case gives one clear error (or a correct result), never a traceback, a silent wrong
+answer, a lost file or a write where none may happen.
+
+Grouped by harm: data lost or written where it must not be, security, silent wrong
+answers, tracebacks and wrong messages, what a new user tripped over.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from manipcad.errors import InputError, ManipcadError
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+
+
+def cli(*args, env=None):
+    """Run the CLI in-process: (result, stdout + stderr)."""
+    from typer.testing import CliRunner
+
+    from manipcad.cli import app
+
+    res = CliRunner().invoke(app, [str(a) for a in args], env={"COLUMNS": "300", **(env or {})})
+    return res, res.output + (res.stderr or "")
+
+
+def fails_cleanly(res, out: str, *words: str) -> None:
+    """Exit status 2, one error line naming ``words``, no traceback."""
+    assert res.exit_code == 2, out
+    assert "Traceback" not in out, out
+    for w in words:
+        assert w in out, out
+
+
+def move(tmp_path: Path, duration: float = 0.05) -> Path:
+    """A short quintic move of the PUMA's wrist (a trajectory file)."""
+    pose = [0.0, 0.5, -0.5, 0.0, 0.3, 0.0]
+    end = list(pose)
+    end[3] = 0.05
+    p = tmp_path / "move.yaml"
+    p.write_text(yaml.safe_dump({"type": "quintic", "q_start": pose, "q_end": end,
+                                 "duration": duration}))
+    return p
+
+
+# --------------------------------------------------------------------------- data lost
+
+def test_simulate_force_replaces_only_a_result_folder(tmp_path):
+    """--force replaces a folder that holds a manipcad result, never another folder."""
+    traj = move(tmp_path)
+    thesis = tmp_path / "thesis"
+    thesis.mkdir()
+    (thesis / "thesis.tex").write_text("\\documentclass{book}\n")
+    res, out = cli("simulate", "puma560", "--trajectory", traj, "--regulator",
+                   EXAMPLES / "pid_puma.yaml", "--out", thesis, "--t-end", "0.02", "--force")
+    fails_cleanly(res, out, "thesis", "not a manipcad result")
+    assert (thesis / "thesis.tex").read_text() == "\\documentclass{book}\n"
+    # a result folder is replaced
+    r1 = tmp_path / "r1"
+    args = ("simulate", "puma560", "--trajectory", traj, "--regulator",
+            EXAMPLES / "pid_puma.yaml", "--out", r1, "--t-end", "0.02")
+    res, out = cli(*args)
+    assert res.exit_code == 0, out
+    res, out = cli(*args, "--force")
+    assert res.exit_code == 0, out
+    assert (r1 / "metrics.json").is_file()
+
+
+def test_save_result_api_refuses_a_user_folder(tmp_path):
+    from manipcad.store import check_out_dir
+
+    (tmp_path / "notes.txt").write_text("mine")
+    with pytest.raises(InputError, match="not a manipcad result"):
+        check_out_dir(tmp_path, force=True)
+
+
+@pytest.fixture
+def fifo(tmp_path) -> Path:
+    p = tmp_path / "pipe"
+    os.mkfifo(p)
+    return p
+
+
+def _still_fifo(p: Path) -> bool:
+    return stat.S_ISFIFO(os.lstat(p).st_mode)
+
+
+def test_writer_refuses_non_regular_targets(tmp_path, fifo):
+    from manipcad.fileio import atomic_write_text, writable_target
+
+    for target in (fifo, Path("/dev/null")):
+        with pytest.raises(InputError, match="not a regular file"):
+            atomic_write_text(target, "x")
+    assert _still_fifo(fifo)
+    link = tmp_path / "to_null"
+    link.symlink_to("/dev/null")
+    with pytest.raises(InputError, match="character device"):
+        writable_target(link)
+    assert link.is_symlink()
+    atomic_write_text(tmp_path / "plain.txt", "ok")  # a regular file still works
+    assert (tmp_path / "plain.txt").read_text() == "ok"
+
+
+def test_cli_and_api_refuse_a_fifo_target(tmp_path, fifo):
+    import manipcad
+    from manipcad.trajectories import load_trajectory, save_trajectory
+
+    res, out = cli("synthesize", "cylindrical", "--method", "pid", "--all", "--out", fifo,
+                   "--force")
+    fails_cleanly(res, out, "FIFO")
+    assert _still_fifo(fifo)
+    traj = move(tmp_path)
+    res, out = cli("size", "puma560", "--trajectory", traj, "--plot", fifo)
+    fails_cleanly(res, out, "FIFO")
+    assert _still_fifo(fifo)
+    with pytest.raises(InputError, match="FIFO"):
+        save_trajectory(load_trajectory(traj), fifo)
+    with pytest.raises(InputError, match="FIFO"):
+        manipcad.load_robot("cylindrical").save(fifo)
+    assert _still_fifo(fifo)
+    folder = tmp_path / "code"
+    folder.mkdir()
+    os.mkfifo(folder / "cyl.c")
+    res, out = cli("codegen", "cylindrical", "--lang", "c", "--out", folder, "--prefix", "cyl")
+    fails_cleanly(res, out, "FIFO")
+    assert _still_fifo(folder / "cyl.c") and not (folder / "cyl.h").exists()

@@ -132,3 +132,65 @@ def test_cli_and_api_refuse_a_fifo_target(tmp_path, fifo):
     res, out = cli("codegen", "cylindrical", "--lang", "c", "--out", folder, "--prefix", "cyl")
     fails_cleanly(res, out, "FIFO")
     assert _still_fifo(folder / "cyl.c") and not (folder / "cyl.h").exists()
+
+
+def _dead_pid() -> int:
+    import subprocess
+    import sys
+
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    return p.pid
+
+
+def test_workspace_write_removes_leftovers_of_killed_writers(tmp_path):
+    """What a SIGKILL of 'simulate --ws --force' or 'ws add FOLDER' leaves (the staging
+    folder, the store's folder nested in it, a half-copied file) is removed by the next
+    write; a live writer's are kept."""
+    from manipcad.workspace import Workspace
+
+    ws = Workspace.init(tmp_path / "ws")
+    dead, live = _dead_pid(), os.getpid()
+    results = ws.root / "results"
+    stale = [results / f".r1.partial-{dead}-ab12cd", results / f"..r1.partial-{dead}-ab12cd"
+             f".partial-{dead}-ef34gh", results / f".r2.old-{dead}-x1y2z3"]
+    for p in stale:
+        p.mkdir()
+        (p / "metrics.json").write_text("{}")
+    half = ws.root / "trajectories" / f".m.partial-{dead}-q1w2e3"
+    half.write_text("type: quin")
+    mine = results / f".r3.partial-{live}-zz99zz"
+    mine.mkdir()
+    ws.add(move(tmp_path))
+    assert not half.exists()
+    import manipcad
+    from manipcad.sim import simulate
+
+    arm = manipcad.load_robot("cylindrical")
+    res = simulate(arm, t_end=0.01, dt=1e-3, drives=False, q0=[0.0, 0.3, 0.2])
+    ws.store_result(res, name="r9", robot=arm, plot=False)
+    assert not any(p.exists() for p in stale) and mine.is_dir()
+    assert (results / "r9" / "metrics.json").is_file()
+
+
+def test_claims_cleans_leftovers_and_a_failed_run_leaves_no_folder(tmp_path, monkeypatch):
+    import manipcad.parallel
+    from manipcad.study.claims import run_claims
+
+    def unreachable(*_a, **_k):
+        raise InputError("--scheduler", "", "cannot reach tcp://192.0.2.1:8786")
+
+    monkeypatch.setattr(manipcad.parallel, "Pool", unreachable)
+    out = tmp_path / "claims"
+    with pytest.raises(InputError, match="cannot reach"):
+        run_claims(out, workers=2, progress=False)
+    assert not out.exists()  # made by the failed run, holding no cached cell: removed
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    killed = out / f".claims.partial-{_dead_pid()}-a1b2c3"
+    killed.mkdir()
+    (killed / "claims.json").write_text("{")
+    with pytest.raises(InputError, match="cannot reach"):
+        run_claims(out, workers=2, progress=False)
+    assert not killed.exists()
+    assert (out / "notes.txt").read_text() == "mine"  # a folder it did not make stays

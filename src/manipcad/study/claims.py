@@ -88,7 +88,7 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
-from manipcad.fileio import json_safe, writable_folder
+from manipcad.fileio import clean_folder_leftovers, json_safe, writable_folder
 from manipcad.model.robot import Robot
 from manipcad.study.fig3 import (
     LAWS,
@@ -795,9 +795,7 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
         >>> doc = run_claims("/tmp/claims", workers=1)  # doctest: +SKIP
         >>> sorted(doc["claims"])  # doctest: +SKIP
     """
-    from manipcad.parallel import Pool
-    from manipcad.parallel.child import ChildCall
-    from manipcad.parallel.executor import check_workers, default_workers
+    from manipcad.parallel.executor import check_workers
 
     check_workers(workers, scheduler, "study claims")
     if grid not in GRIDS:
@@ -812,7 +810,29 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
     # per row the arm; per cell the speed scale the sizing allows (laws (2) time-scaled
     # where the motors or gears are over their limits)
     size = functools.partial(_size_rows, robot, max_payload, g["speed_scale"], targets)
+    created = not out.exists()
     out.mkdir(exist_ok=True)
+    clean_folder_leftovers(out / "claims")  # the files' folder of a writer killed earlier
+    try:
+        return _run_claims(out, robot, arm_name, max_payload, g, size, dt, workers,
+                           scheduler, progress)
+    except BaseException:
+        # a run that failed before any cell was cached (a scheduler not reachable, bad
+        # arguments found late, Ctrl-C) leaves no folder it made; cached cells are kept
+        # for the next run to resume from
+        if created and not any((out / "cache").glob("*/*.pkl")):
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+
+
+def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, g: dict,
+                size: Callable[[], list[dict]], dt: float, workers: int | None,
+                scheduler: str | None, progress: bool | Callable[[float], None]) -> dict:
+    """:func:`run_claims` once its arguments are checked and ``out`` exists."""
+    from manipcad.parallel import Pool
+    from manipcad.parallel.child import ChildCall
+    from manipcad.parallel.executor import default_workers
+
     with ExitStack() as stack:
         # a fresh run on a cluster: the rows are sized in a child process forked first,
         # on the other core, while this one imports distributed and starts the cluster
@@ -1036,7 +1056,7 @@ def _write(out: Path, doc: dict, pool=None) -> None:
     from manipcad.parallel import run_tasks
     from manipcad.report.claims import claims_html, draw_band, panel_groups, save_bands
 
-    tmp = Path(tempfile.mkdtemp(prefix=".claims.", dir=out))
+    tmp = Path(tempfile.mkdtemp(prefix=f".claims.partial-{os.getpid()}-", dir=out))
     try:
         (tmp / "claims.json").write_text(json.dumps(doc, indent=2, ensure_ascii=False) + "\n",
                                          encoding="utf-8")

@@ -432,6 +432,7 @@ class Workspace:
         facts = validate_item(kind, src, robot=robot)
         self.check_free(kind, name, force)
         folder = self.root / kind
+        self._clean_leftovers(kind)
         stored_as = ""
         if kind in FILE_KINDS:
             copy_from = src
@@ -460,6 +461,16 @@ class Workspace:
         if kind == "results":
             meta["provenance"] = self._result_provenance(tmp)
         return self._commit(kind, name, tmp, target, meta, facts, force)
+
+    def _clean_leftovers(self, kind: str) -> list[str]:
+        """Remove what killed writers left in ``kind``'s folder (the hidden
+        ``.NAME.partial-PID-*`` files and folders, nested ones included, of processes that
+        no longer run; :func:`manipcad.store.results.clean_stale`). Every write does it
+        first, so a SIGKILL's leftovers last only until the next write."""
+        from manipcad.store.results import clean_stale
+
+        folder = self.root / kind
+        return clean_stale(folder) if folder.is_dir() else []
 
     def check_free(self, kind: str, name: str, force: bool = False) -> None:
         """Refuse a name already taken by an item of ``kind`` (indexed, or a file or folder
@@ -642,6 +653,7 @@ class Workspace:
             name = datetime.now(UTC).strftime("result-%Y%m%d-%H%M%S-") + secrets.token_hex(2)
         name = check_name(name, "--out")
         self.check_free("results", name, force)
+        self._clean_leftovers("results")
         inputs: dict[str, Any] = {}
         tmpdir = None
         try:

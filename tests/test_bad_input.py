@@ -12,11 +12,10 @@ import os
 import stat
 from pathlib import Path
 
-import numpy as np
 import pytest
 import yaml
 
-from manipcad.errors import InputError, ManipcadError
+from manipcad.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"

@@ -212,7 +212,8 @@ def check_limits(required: dict[str, np.ndarray],
         drives: the robot's drives (None for a joint without one).
 
     Returns:
-        name -> :class:`LimitCheck`, in the order of :data:`ALL_LIMITS`.
+        name -> :class:`LimitCheck`, in the order of :data:`ALL_LIMITS`
+        (:func:`check_rated` on the drives' :func:`rating_table`).
 
     Example:
         >>> import numpy as np
@@ -223,21 +224,67 @@ def check_limits(required: dict[str, np.ndarray],
         >>> check_limits(req, (d,))["gear_continuous"].status
         ('fail',)
     """
-    rated = [ratings(d) for d in drives]
+    rated, geared = rating_table(drives)
+    return check_rated(required, rated, geared)
+
+
+def rating_table(drives) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The drives' ratings as arrays: check name -> (n,) rating (units of
+    :data:`ALL_LIMITS`, nan unknown), and (n,) bool: the drive has a gear
+    (:func:`has_gear`).
+
+    Example:
+        >>> from manipcad.model.robot import Drive
+        >>> rated, geared = rating_table((Drive(rated_torque=0.2), None))
+        >>> rated["continuous"].tolist()[0], geared.tolist()
+        (0.2, [False, False])
+    """
+    rows = [ratings(d) for d in drives]
+    rated = {k: np.array([r[k] for r in rows], dtype=float) for k in ALL_LIMITS}
+    return rated, np.array([has_gear(d) for d in drives], dtype=bool)
+
+
+def check_rated(required: dict[str, np.ndarray], rated: dict[str, np.ndarray],
+                geared: np.ndarray) -> dict[str, LimitCheck]:
+    """The checks of :func:`check_limits` on ratings given as arrays, vectorized.
+
+    One element per drive: a robot's joints (``size``) or a catalogue's
+    candidate drives for one joint (``select``). The statuses follow the module
+    docstring; the average checks without their own rating are decided by
+    :func:`average_bounds`' rules.
+
+    Args:
+        required: check name -> (n,) required value (units of :data:`ALL_LIMITS`);
+            names left out are not checked.
+        rated: check name -> (n,) rating, nan unknown (:func:`rating_table`).
+        geared: (n,) bool, the drive has a gear (else its gear checks are "n/a").
+
+    Returns:
+        name -> :class:`LimitCheck`, in the order of :data:`ALL_LIMITS`.
+
+    Example:
+        >>> import numpy as np
+        >>> rated = {"peak": np.array([1.0, 1.0, np.nan])}
+        >>> c = check_rated({"peak": np.array([0.5, 2.0, 1.0])}, rated, np.zeros(3, bool))
+        >>> c["peak"].status, c["peak"].margin.tolist()[:2]
+        (('pass', 'fail', 'unknown'), [0.5, -1.0])
+    """
     out = {}
     for name, (desc, unit) in ALL_LIMITS.items():
         if name not in required:
             continue
-        lim = np.array([r[name] for r in rated], dtype=float)
+        lim = np.asarray(rated[name], dtype=float)
         req = np.asarray(required[name], dtype=float)
         m = margin(req, lim)
-        status = [status_of(float(v)) for v in m]
-        if name in ("gear_average", "gear_average_speed"):
-            lim, m, status = average_bounds(name, req, lim, m, status, drives)
+        status = np.where(np.isfinite(m), np.where(m >= 0, PASS, FAIL), UNKNOWN).astype(object)
+        if name == "gear_average":
+            lim, m, status = _average_bounds(name, req, lim, m, status, rated["gear_continuous"])
+        elif name == "gear_average_speed":
+            lim, m, status = _average_bounds(name, req, lim, m, status, rated["gear_speed"])
         if name in GEAR_LIMITS:
-            status = [NA if not has_gear(d) else s for s, d in zip(status, drives, strict=True)]
+            status = np.where(np.asarray(geared, dtype=bool), status, NA)
         out[name] = LimitCheck(name=name, description=desc, unit=unit, required=req, limit=lim,
-                               margin=m, status=tuple(status))
+                               margin=m, status=tuple(status.tolist()))
     return out
 
 
@@ -273,20 +320,32 @@ def average_bounds(name: str, required: np.ndarray, limit: np.ndarray, m: np.nda
         >>> st, lim.tolist(), m.round(3).tolist()
         (['pass', 'unknown'], [40.0, nan], [0.25, nan])
     """
-    limit, m, status = limit.copy(), m.copy(), list(status)
-    for j, d in enumerate(drives):
-        if d is None or math.isfinite(limit[j]) or not math.isfinite(required[j]):
-            continue
-        if name == "gear_average":
-            bound = float(d.gear_rated_torque)
-            if math.isfinite(bound) and bound > 0 and required[j] <= bound:
-                limit[j], m[j], status[j] = bound, 1.0 - required[j] / bound, PASS
-        else:
-            bound = float(d.gear_max_input_speed)
-            if math.isfinite(bound) and bound > 0 and required[j] > bound:
-                limit[j], m[j], status[j] = bound, 1.0 - required[j] / bound, FAIL
-            else:
-                status[j] = NA
+    field = "gear_continuous" if name == "gear_average" else "gear_speed"
+    bound = rating_table(drives)[0][field]
+    limit, m, st = _average_bounds(name, np.asarray(required, dtype=float), limit, m,
+                                   np.array(status, dtype=object), bound)
+    return limit, m, st.tolist()
+
+
+def _average_bounds(name: str, required: np.ndarray, limit: np.ndarray, m: np.ndarray,
+                    status: np.ndarray, bound: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`average_bounds` on arrays: ``bound`` (n,) is the gear's rated torque
+    (N·m, for "gear_average") or its max input speed (rad/s, "gear_average_speed")."""
+    limit, m, status = limit.copy(), m.copy(), status.copy()
+    bound = np.asarray(bound, dtype=float)
+    open_ = ~np.isfinite(limit) & np.isfinite(required)
+    known = np.isfinite(bound) & (bound > 0)
+    safe = np.where(known, bound, 1.0)
+    if name == "gear_average":
+        hit = open_ & known & (required <= safe)
+        status[hit] = PASS
+    else:
+        hit = open_ & known & (required > safe)
+        status[hit] = FAIL
+        status[open_ & ~hit] = NA
+    limit[hit] = bound[hit]
+    m[hit] = 1.0 - required[hit] / bound[hit]
     return limit, m, status
 
 

@@ -33,12 +33,14 @@ scaled). With η = 1 this is P / i_r.
 
 The functions broadcast: ``ratio`` may be an array of shape (R, 1) against
 samples of shape (N,), giving (R, N) — this is how the ratio sweep evaluates
-every ratio in one pass.
+every ratio in one pass. The drive's numbers (J, k_v, M_f, R, L, k_m, k_w,
+efficiency) may be arrays of shape (C, 1) too, one row per candidate drive:
+this is how drive selection (:mod:`manipcad.sizing.select`) evaluates a
+catalogue's (motor, gear) pairs in one pass.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -109,9 +111,8 @@ def efficiency_factor(drive: Drive, tau_rigid: np.ndarray, qd: np.ndarray) -> np
         ...                   np.array([1.0, -1.0])).tolist()
         [1.25, 0.8]
     """
-    eta = float(drive.efficiency)
-    if math.isnan(eta):      # unknown: η = 1 here; the sizing bounds what it cannot know
-        eta = 1.0
+    eta = np.asarray(drive.efficiency, dtype=float)
+    eta = np.where(np.isnan(eta), 1.0, eta)  # unknown: η = 1 here; the sizing bounds the rest
     return np.where(tau_rigid * qd >= 0, 1.0 / eta, eta)
 
 

@@ -1,0 +1,943 @@
+"""Drive selection: the lightest (or least inertia, or least power) catalogue drive per joint.
+
+For each joint, every candidate drive — each compatible (motor, gear) pair of
+the catalogue, and each motor alone as a direct drive on a revolute joint —
+is checked with the checks ``manipcad size`` makes
+(:func:`manipcad.sizing.limits.check_rated`: the motor's continuous and peak
+torque, speed and voltage, the gear's rated, repeated-peak and average output
+torque, its max and average input speed) on every trajectory at both ends of
+the payload range, and the feasible candidate with the least objective wins:
+
+- ``"mass"``: the drive's mass, motor + gear, kg (default);
+- ``"rotor_inertia"``: the rotor and gear inertia referred to the joint,
+  J·i_r², kg·m² (kg for a prismatic joint);
+- ``"power"``: the mean electrical power u_a·i over the run, the largest over
+  the cases, W (what ``size`` reports as "mean u_a·i").
+
+A candidate is feasible when every check passes with the margin: ``margin``
+M means required·M <= rating for every rating, i.e. a check margin (1 -
+required/rating) of at least 1 - 1/M; ``margin=1.0`` is exactly the limits
+``size`` applies; the default :data:`DEFAULT_MARGIN` = 1.1 keeps 10 % of every
+rating in reserve. A check that cannot be made ("unknown": a rating or the
+gear efficiency the catalogue does not give) makes a candidate infeasible
+unless ``allow_unknown`` (``size --allow-unknown``'s reading). "n/a" (a gear
+check of a direct drive) passes.
+
+How the candidates are evaluated at once: the rigid-body joint torque
+P_rigid, q̇, q̈ of a joint do not depend on the joint's own drive, so one
+inverse-dynamics pass per case (:func:`manipcad.sizing.motion.sample_motion`)
+serves every candidate. The gear checks and the speed checks need only
+per-joint statistics of that motion, scaled by each candidate's ratio
+(peak and mean |ω_m| = |i_r|·peak and mean |q̇|), so they are decided for the
+whole catalogue in O(C). The candidates that pass them are then evaluated
+through the same motor model as ``size`` (:func:`~manipcad.sizing.motor.joint_torque`
+and :func:`~manipcad.sizing.motor.motor_series`, broadcast over a (C, N)
+block of candidates × samples): RMS and peak motor torque, peak armature
+voltage, mean electrical power. A candidate whose gear efficiency is unknown
+has its motor torque and voltage checks "unknown" (``size`` may call some of
+them "fail"; both are infeasible).
+
+The drives' own masses load the arm. Convention: a drive (motor + gear) sits
+on the link before its joint — the link of the parent joint — as a point
+mass at the joint's origin (``mounts={joint: "before"}``, the default); a
+drive mounted on the base (``"base"``: a remote motor driving through a
+belt, a cable or a shaft) loads nothing. A joint's torque depends only on
+the links it moves, so a drive's mass loads the joints proximal to it, never
+its own joint. The selection sweeps the joints from the distal end to the
+base (each joint chosen with the masses of the drives beyond it) and repeats
+the sweep until no choice changes: the fixed point; :attr:`Selection.iterations`
+counts the sweeps (the last one changes nothing). The result is verified by
+:func:`~manipcad.sizing.requirements.required_drive` — ``size`` itself — on
+every case; a candidate that fails there (a rounding at ``margin=1.0``) is
+struck out and the sweep repeated.
+
+Example:
+    >>> import manipcad
+    >>> from manipcad.sizing.select import select_drives
+    >>> from manipcad.trajectories import cosine
+    >>> arm = manipcad.load_robot("cylindrical").without_drives()
+    >>> traj = cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], 1.6)
+    >>> sel = select_drives(arm, [traj], joints=["turn"], dt=5e-3)   # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from manipcad.errors import InputError, ManipcadError
+from manipcad.model.robot import PRISMATIC, Drive, Robot, combine_bodies
+from manipcad.sizing.limits import (
+    ALL_LIMITS,
+    FAIL,
+    NA,
+    PASS,
+    UNKNOWN,
+    LimitCheck,
+    check_rated,
+    rating_table,
+)
+from manipcad.sizing.motion import SampledMotion, sample_motion
+from manipcad.sizing.motor import joint_torque, motor_series
+from manipcad.sizing.stats import peak, time_mean, time_rms, weighted_cubic_mean
+from manipcad.trajectories.base import Trajectory
+
+#: objectives: name -> (what is minimized, unit)
+OBJECTIVES: dict[str, tuple[str, str]] = {
+    "mass": ("drive mass, motor + gear", "kg"),
+    "rotor_inertia": ("rotor + gear inertia at the joint, J·i_r²", "kg·m²"),
+    "power": ("mean electrical power u_a·i, largest over the cases", "W"),
+}
+#: the default margin: every rating at least 1.1 × what the motion needs
+DEFAULT_MARGIN = 1.1
+#: mount conventions of a drive's mass (module docstring)
+MOUNTS = ("before", "base")
+#: the gear type of a candidate without a gear
+DIRECT = "direct"
+#: the checks decided per candidate from per-joint statistics (no time series)
+_CHEAP = ("speed", "gear_continuous", "gear_peak", "gear_speed", "gear_average",
+          "gear_average_speed")
+#: the checks that need the candidate's motor time series
+_SERIES = ("continuous", "peak", "voltage")
+#: elements per vectorized block (candidates × samples)
+_BLOCK = 400_000
+#: how many alternatives and rejected candidates a report lists per joint
+N_ALTERNATIVES = 5
+#: most sweeps of the fixed point before giving up
+MAX_ITERATIONS = 10
+
+
+class NoFeasibleDrive(ManipcadError):
+    """No candidate drive meets every check on a joint.
+
+    Attributes:
+        joint: the joint's name.
+        closest: the candidate whose worst check margin is the largest (a dict
+            as in :meth:`Candidate.to_dict`), or None when there are none.
+        check: the check it fails (the worst), or "".
+        considered: how many candidates were checked.
+    """
+
+    def __init__(self, joint: str, closest: dict | None, check: str, considered: int,
+                 reason: str = "", need: float = 0.0) -> None:
+        self.joint, self.closest, self.check, self.considered = joint, closest, check, considered
+        if closest is None:
+            msg = (f"joint {joint!r}: no candidate drive to check "
+                   f"({reason or 'none in the catalogue'})")
+        else:
+            c = (closest.get("checks") or {}).get(check) or {}
+            m = c.get("margin")
+            if c.get("status") == UNKNOWN:
+                how = f"cannot be checked: {check} unknown"
+            elif c.get("status") == PASS and m is not None:
+                how = (f"leaves {m:.1%} of its {check} rating, under the margin asked "
+                       f"({need:.1%} of every rating)")
+            elif m is not None:
+                how = f"fails {check} (margin {m:+.1%})"
+            else:
+                how = closest.get("reason") or "fails"
+            msg = (f"joint {joint!r}: no feasible drive among {considered} candidates; the "
+                   f"closest, {closest['label']}, {how}")
+        super().__init__(msg)
+
+
+# --------------------------------------------------------------------------- candidates
+
+
+@dataclass(frozen=True)
+class Part:
+    """A candidate drive: a motor and a gear (or none) from the catalogue.
+
+    Attributes:
+        motor: the motor's catalogue name (its key).
+        gear: the gear's catalogue name, "" for a direct drive.
+        maker: the motor's maker (lower case, e.g. "maxon").
+        gear_type: "planetary", "harmonic", ... or "direct".
+        mass: motor + gear mass, kg (nan if either is unknown).
+        drive: the :class:`~manipcad.model.robot.Drive` the pair makes, as a
+            robot file naming them would (gear efficiency, ratings referred to
+            the joint and the motor shaft).
+    """
+
+    motor: str
+    gear: str
+    maker: str
+    gear_type: str
+    mass: float
+    drive: Drive
+
+    @property
+    def label(self) -> str:
+        """"MOTOR + GEAR" or "MOTOR (direct)"."""
+        return f"{self.motor} + {self.gear}" if self.gear else f"{self.motor} (direct)"
+
+
+def _builtin_maker(name: str) -> str:
+    return name.split("_", 1)[0].lower()
+
+
+@lru_cache(maxsize=8)
+def builtin_parts(prismatic: bool = False) -> tuple[Part, ...]:
+    """Every candidate drive of the built-in parts (``src/manipcad/model/catalog``).
+
+    Pairs: every motor with every gear whose output suits the joint (rotary
+    gears for a revolute joint, screws, racks and belts for a prismatic one;
+    the built-in parts carry no compatibility table, so the checks decide),
+    and every motor alone as a direct drive on a revolute joint. Built as a
+    robot file's ``drive: {motor: M, gear: G}`` is (:func:`~manipcad.model.yaml_robot.build_drive`).
+
+    Args:
+        prismatic: candidates for a prismatic joint.
+
+    Returns:
+        The parts, in name order.
+
+    Example:
+        >>> parts = builtin_parts()
+        >>> any(p.gear == "" for p in parts), all(p.drive.ratio != 0 for p in parts)
+        (True, True)
+    """
+    from manipcad.model.yaml_robot import (
+        DriveSpec,
+        _catalog_names,
+        build_drive,
+        load_gear,
+        load_motor,
+    )
+
+    out = []
+    gears = [(g, load_gear(g)) for g in _catalog_names("gears")]
+    for m in _catalog_names("motors"):
+        spec = load_motor(m)
+        m_mass = math.nan if spec.mass is None else float(spec.mass)
+        if not prismatic:
+            d = build_drive(DriveSpec(motor=m), "catalog", "drive")
+            out.append(Part(m, "", _builtin_maker(m), DIRECT, m_mass, d))
+        for g, gs in gears:
+            if gs.linear != prismatic:
+                continue
+            d = build_drive(DriveSpec(motor=m, gear=[g]), "catalog", "drive")
+            g_mass = math.nan if gs.mass is None else float(gs.mass)
+            out.append(Part(m, g, _builtin_maker(m), gs.type, m_mass + g_mass, d))
+    return tuple(out)
+
+
+#: where the candidates come from: a function (prismatic) -> parts
+PARTS_SOURCE: Callable[[bool], Sequence[Part]] = builtin_parts
+
+
+def catalogue_parts(prismatic: bool = False) -> Sequence[Part]:
+    """The candidate drives of the parts library for a revolute (or prismatic) joint."""
+    return PARTS_SOURCE(prismatic)
+
+
+class _Arrays:
+    """A candidate table's drive numbers as (C, 1) arrays, duck-typed as a
+    :class:`Drive` for :func:`joint_torque` and :func:`motor_series`."""
+
+    FIELDS = ("J", "k_v", "R", "L", "k_m", "k_w", "efficiency")
+
+    def __init__(self, drives: Sequence[Drive]) -> None:
+        for name in self.FIELDS:
+            setattr(self, name, np.array([float(getattr(d, name)) for d in drives])[:, None])
+        self.M_f = (np.array([d.M_f[0] for d in drives])[:, None],
+                    np.array([d.M_f[1] for d in drives])[:, None])
+        self.ratio = np.array([float(d.ratio) for d in drives])[:, None]
+
+    def take(self, idx: np.ndarray) -> _Arrays:
+        out = object.__new__(_Arrays)
+        for name in (*self.FIELDS, "ratio"):
+            setattr(out, name, getattr(self, name)[idx])
+        out.M_f = (self.M_f[0][idx], self.M_f[1][idx])
+        return out
+
+
+@dataclass
+class _Table:
+    """The candidates of one joint type, as arrays (built once per catalogue)."""
+
+    parts: tuple[Part, ...]
+    arrays: _Arrays
+    rated: dict[str, np.ndarray]
+    geared: np.ndarray
+    mass: np.ndarray
+    ratio: np.ndarray
+    J: np.ndarray
+    maker: np.ndarray
+    gear_type: np.ndarray
+
+    @classmethod
+    def build(cls, parts: Sequence[Part]) -> _Table:
+        drives = [p.drive for p in parts]
+        rated, geared = rating_table(drives)
+        return cls(parts=tuple(parts), arrays=_Arrays(drives), rated=rated, geared=geared,
+                   mass=np.array([p.mass for p in parts], dtype=float),
+                   ratio=np.array([d.ratio for d in drives], dtype=float),
+                   J=np.array([d.J for d in drives], dtype=float),
+                   maker=np.array([p.maker.lower() for p in parts], dtype=object),
+                   gear_type=np.array([p.gear_type.lower() for p in parts], dtype=object))
+
+
+_TABLES: dict[tuple[int, bool], tuple[Sequence[Part], _Table]] = {}
+
+
+def _table(prismatic: bool) -> _Table:
+    parts = catalogue_parts(prismatic)
+    key = (id(PARTS_SOURCE), prismatic)
+    hit = _TABLES.get(key)
+    if hit is None or hit[0] is not parts:
+        hit = (parts, _Table.build(parts))
+        _TABLES[key] = hit
+    return hit[1]
+
+
+# --------------------------------------------------------------------------- results
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One candidate drive as the report gives it.
+
+    Attributes:
+        part: the motor and gear.
+        objective: the objective's value (unit of :data:`OBJECTIVES`), nan if unknown.
+        feasible: every check passes with the margin.
+        checks: check name -> (required, rating, margin, status), the worst case
+            over trajectories and payloads (units of :data:`ALL_LIMITS`; margin
+            1 - required/rating). The motor torque and voltage checks of a
+            candidate that fails a gear or speed check are not computed
+            (status "not evaluated").
+        binding: the check with the least margin ("" if none has one).
+        binding_margin: its margin.
+        reason: why it is infeasible, in words ("" if feasible).
+    """
+
+    part: Part
+    objective: float
+    feasible: bool
+    checks: dict[str, tuple[float, float, float, str]]
+    binding: str
+    binding_margin: float
+    reason: str = ""
+
+    @property
+    def label(self) -> str:
+        return self.part.label
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: motor, gear, maker, gear_type, ratio, mass (kg), rotor_inertia
+        (J·i_r², kg·m²), objective, feasible, binding, binding_margin, worst_margin,
+        reason, checks {name: {required, rating, margin, status}}."""
+        from manipcad.fileio import json_safe
+
+        d = self.part.drive
+        worst = [v[2] for v in self.checks.values() if math.isfinite(v[2])]
+        return json_safe({
+            "label": self.label, "motor": self.part.motor, "gear": self.part.gear or None,
+            "maker": self.part.maker, "gear_type": self.part.gear_type,
+            "ratio": float(d.ratio), "mass": self.part.mass,
+            "rotor_inertia": float(d.J * d.ratio ** 2), "objective": self.objective,
+            "feasible": self.feasible, "binding": self.binding or None,
+            "binding_margin": self.binding_margin,
+            "worst_margin": min(worst) if worst else None, "reason": self.reason or None,
+            "checks": {k: {"required": v[0], "rating": v[1], "margin": v[2], "status": v[3]}
+                       for k, v in self.checks.items()},
+        })
+
+
+@dataclass(frozen=True)
+class JointChoice:
+    """The selection of one joint.
+
+    Attributes:
+        joint: its name; index: its index.
+        chosen: the winner.
+        alternatives: the next feasible candidates by objective (up to 5).
+        rejected: the candidates with a smaller objective than the winner that
+            fail, least objective first (up to 5), each with its reason.
+        considered: how many candidates were checked; feasible: how many pass.
+        mount: "before" or "base"; mount_link: the link carrying the drive's
+            mass ("" for the base); drive_mass: the winner's mass, kg.
+    """
+
+    joint: str
+    index: int
+    chosen: Candidate
+    alternatives: tuple[Candidate, ...]
+    rejected: tuple[Candidate, ...]
+    considered: int
+    feasible: int
+    mount: str
+    mount_link: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"joint": self.joint, "chosen": self.chosen.to_dict(),
+                "alternatives": [c.to_dict() for c in self.alternatives],
+                "rejected": [c.to_dict() for c in self.rejected],
+                "considered": self.considered, "feasible": self.feasible,
+                "mount": self.mount, "mount_link": self.mount_link or None,
+                "drive_mass": self.chosen.part.mass}
+
+
+@dataclass(frozen=True)
+class Selection:
+    """Drives chosen from the catalogue for a robot.
+
+    Attributes:
+        robot: the robot with the chosen drives, each drive's mass added as a
+            point mass to the link carrying it (:func:`with_drive_masses`);
+            its ``source`` says so. Save it with :func:`save_selection`.
+        joints: per selected joint, its :class:`JointChoice` (joint order).
+        iterations: sweeps to the fixed point (the last changed nothing).
+        objective: "mass", "rotor_inertia" or "power"; margin: M (ratings >=
+            M × required).
+        payloads: the payload masses checked, kg (both ends of the range).
+        trajectories: the trajectories' labels.
+        dt: the sampling step, s.
+        verified: every selected joint passes ``size``'s checks
+            (:func:`~manipcad.sizing.requirements.required_drive`) on every case.
+    """
+
+    robot: Robot
+    joints: tuple[JointChoice, ...]
+    iterations: int
+    objective: str
+    margin: float
+    payloads: tuple[float, ...]
+    trajectories: tuple[str, ...]
+    dt: float
+    verified: bool = False
+    history: tuple[tuple[str, ...], ...] = field(default=(), repr=False)
+
+    @property
+    def total_drive_mass(self) -> float:
+        """Sum of the chosen drives' masses, kg."""
+        return float(sum(c.chosen.part.mass for c in self.joints))
+
+    @property
+    def report(self) -> dict[str, Any]:
+        """The report as JSON-ready data (:meth:`to_dict`)."""
+        return self.to_dict()
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"robot", "objective", "objective_unit", "margin", "payloads" (kg),
+        "trajectories", "dt" (s), "iterations", "verified", "total_drive_mass" (kg),
+        "joints": [JointChoice.to_dict()]}``."""
+        return {"robot": self.robot.name, "objective": self.objective,
+                "objective_unit": OBJECTIVES[self.objective][1], "margin": self.margin,
+                "payloads": list(self.payloads), "trajectories": list(self.trajectories),
+                "dt": self.dt, "iterations": self.iterations, "verified": self.verified,
+                "total_drive_mass": self.total_drive_mass,
+                "joints": [c.to_dict() for c in self.joints]}
+
+
+# --------------------------------------------------------------------------- masses
+
+
+def mount_body(robot: Robot, joint: int, mount: str = "before") -> int:
+    """The body that carries a drive's mass: the parent link of the joint for
+    "before" (-1: the base), -1 for "base".
+
+    Example:
+        >>> import manipcad
+        >>> mount_body(manipcad.load_robot("puma560"), 2)
+        1
+    """
+    if mount not in MOUNTS:
+        raise InputError("mount", robot.joint_names[joint], f"unknown mount {mount!r}; "
+                         f"expected one of {', '.join(MOUNTS)}")
+    return int(robot.parent[joint]) if mount == "before" else -1
+
+
+def with_drive_masses(robot: Robot, masses: Mapping[int, float],
+                      mounts: Mapping[int, str] | None = None) -> Robot:
+    """The robot with each drive's mass as a point mass on the link that carries it.
+
+    Args:
+        robot: the robot.
+        masses: joint index -> drive mass (motor + gear), kg.
+        mounts: joint index -> "before" (default: on the parent joint's link, at
+            this joint's origin) or "base" (not on the arm: adds nothing).
+
+    Returns:
+        A new robot (this one is unchanged).
+
+    Example:
+        >>> import manipcad
+        >>> arm = manipcad.load_robot("puma560")
+        >>> heavier = with_drive_masses(arm, {2: 1.5})
+        >>> round(float(heavier.mass[1] - arm.mass[1]), 9)
+        1.5
+    """
+    mounts = mounts or {}
+    mass, com, inertia = robot.mass.copy(), robot.com.copy(), robot.inertia.copy()
+    for j, m in masses.items():
+        if not (math.isfinite(m) and m >= 0):
+            raise InputError("drive mass", robot.joint_names[j], f"must be >= 0 kg, got {m}")
+        b = mount_body(robot, j, mounts.get(j, "before"))
+        if b < 0 or m == 0:
+            continue
+        mass[b], com[b], inertia[b] = combine_bodies(mass[b], com[b], inertia[b], float(m),
+                                                     robot.placement_p[j], np.zeros((3, 3)))
+    return robot.replace(mass=mass, com=com, inertia=inertia)
+
+
+# --------------------------------------------------------------------------- evaluation
+
+
+def _columns(motion: SampledMotion, j: int) -> tuple[np.ndarray, ...]:
+    return (motion.tau_rigid[:, j], motion.qd[:, j], motion.qdd[:, j],
+            motion.dtau_rigid[:, j], motion.jerk[:, j])
+
+
+def _series_requirements(arr: _Arrays, motion: SampledMotion, j: int
+                         ) -> dict[str, np.ndarray]:
+    """RMS and peak motor torque (N·m), peak armature voltage (V) and mean
+    electrical power (W) of each candidate on one motion: ``size``'s motor model
+    (:func:`joint_torque`, :func:`motor_series`) broadcast over the candidates."""
+    tau_rigid, qd, qdd, dtau, jerk = _columns(motion, j)
+    t = motion.t
+    C = arr.ratio.shape[0]
+    out = {k: np.empty(C) for k in ("continuous", "peak", "voltage", "power")}
+    step = max(1, _BLOCK // max(1, t.shape[0]))
+    for k in range(0, C, step):
+        sub = arr.take(slice(k, k + step))
+        tau = joint_torque(sub, sub.ratio, tau_rigid, qd, qdd)
+        s = motor_series(sub, sub.ratio, tau, qd, qdd, dtau, jerk, tau_rigid)
+        sl = slice(k, k + sub.ratio.shape[0])
+        out["continuous"][sl] = time_rms(s.torque, t, axis=1)
+        out["peak"][sl] = peak(s.torque, axis=1)
+        out["voltage"][sl] = peak(s.voltage, axis=1)
+        out["power"][sl] = time_mean(s.voltage * s.current, t, axis=1)
+    return out
+
+
+@dataclass
+class _JointEval:
+    """Every candidate of one joint: worst-case requirements, checks, feasibility."""
+
+    idx: np.ndarray                 # candidate indices into the table
+    checks: dict[str, LimitCheck]
+    evaluated: np.ndarray           # motor series computed
+    ok: np.ndarray                  # every check passes with the margin
+    objective: np.ndarray
+    worst: np.ndarray               # least finite margin over the checks (nan: none)
+    unknown_objective: np.ndarray
+
+
+def _evaluate_joint(table: _Table, idx: np.ndarray, motions: Sequence[SampledMotion], j: int,
+                    need: float, allow_unknown: bool, objective: str) -> _JointEval:
+    """Check the candidates ``idx`` on joint ``j`` over the motions (module docstring)."""
+    r = np.abs(table.ratio[idx])
+    C = idx.size
+    rated = {k: v[idx] for k, v in table.rated.items()}
+    geared = table.geared[idx]
+    req: dict[str, np.ndarray] = {k: np.full(C, -np.inf) for k in ALL_LIMITS}
+    for mo in motions:
+        tau_rigid, qd = mo.tau_rigid[:, j], mo.qd[:, j]
+        stats = {"gear_continuous": float(time_rms(tau_rigid, mo.t)),
+                 "gear_peak": float(peak(tau_rigid)),
+                 "gear_average": float(weighted_cubic_mean(tau_rigid, qd, mo.t)),
+                 "speed": r * float(peak(qd)),
+                 "gear_average_speed": r * float(time_mean(np.abs(qd), mo.t))}
+        stats["gear_speed"] = stats["speed"]
+        for k in _CHEAP:
+            req[k] = np.maximum(req[k], stats[k])
+    cheap = check_rated({k: req[k] for k in _CHEAP}, rated, geared)
+    passing = np.ones(C, dtype=bool)
+    for k in _CHEAP:
+        passing &= _ok(cheap[k], need, allow_unknown)
+    # the motor series of the candidates that pass the cheap checks
+    sel = np.flatnonzero(passing)
+    power = np.full(C, np.nan)
+    for k in _SERIES:
+        req[k] = np.full(C, np.nan)
+    if sel.size:
+        arr = table.arrays.take(idx[sel])
+        worst = {k: np.full(sel.size, -np.inf) for k in (*_SERIES, "power")}
+        for mo in motions:
+            s = _series_requirements(arr, mo, j)
+            for k in worst:
+                worst[k] = np.maximum(worst[k], s[k])
+        for k in _SERIES:
+            req[k][sel] = worst[k]
+        power[sel] = worst["power"]
+    series = check_rated({k: req[k] for k in _SERIES}, rated, geared)
+    eta_unknown = np.isnan(table.arrays.efficiency[idx, 0])
+    checks: dict[str, LimitCheck] = {}
+    for name in ALL_LIMITS:
+        c = series[name] if name in _SERIES else cheap[name]
+        if name in _SERIES:
+            st = np.array(c.status, dtype=object)
+            st[~passing] = "not evaluated"
+            st[passing & eta_unknown] = UNKNOWN
+            m = np.where(passing & eta_unknown, np.nan, c.margin)
+            c = LimitCheck(c.name, c.description, c.unit, c.required, c.limit, m,
+                           tuple(st.tolist()))
+        checks[name] = c
+    ok = passing.copy()
+    for k in _SERIES:
+        ok &= _ok(checks[k], need, allow_unknown)
+    value = {"mass": table.mass[idx], "rotor_inertia": table.J[idx] * table.ratio[idx] ** 2,
+             "power": power}[objective]
+    unknown_obj = ~np.isfinite(value) | ~np.isfinite(table.mass[idx])  # the mass loads the arm
+    margins = np.vstack([checks[k].margin for k in ALL_LIMITS])
+    finite = np.where(np.isfinite(margins), margins, np.inf)
+    worst_m = finite.min(axis=0)
+    worst_m[~np.isfinite(worst_m)] = np.nan
+    return _JointEval(idx=idx, checks=checks, evaluated=passing, ok=ok & ~unknown_obj,
+                      objective=value, worst=worst_m, unknown_objective=unknown_obj)
+
+
+def _ok(check: LimitCheck, need: float, allow_unknown: bool) -> np.ndarray:
+    """Per candidate: the check passes with the margin (``need`` = 1 - 1/M), is n/a,
+    or is unknown and unknowns are allowed."""
+    st = np.array(check.status, dtype=object)
+    m = np.where(np.isfinite(check.margin), check.margin, -np.inf)
+    good = ((st == PASS) & (m >= need)) | (st == NA)
+    if allow_unknown:
+        good |= st == UNKNOWN
+    return good
+
+
+def _candidate(table: _Table, ev: _JointEval, k: int, need: float) -> Candidate:
+    """The report entry of candidate ``k`` (position in ``ev.idx``)."""
+    checks = {name: (float(c.required[k]), float(c.limit[k]), float(c.margin[k]), c.status[k])
+              for name, c in ev.checks.items()}
+    graded = [(v[2], name) for name, v in checks.items() if math.isfinite(v[2])]
+    binding, bmargin = ("", math.nan) if not graded else (min(graded)[1], min(graded)[0])
+    reason = ""
+    if not ev.ok[k]:
+        fails = sorted((v[2], n) for n, v in checks.items() if v[3] == FAIL)
+        short = sorted((v[2], n) for n, v in checks.items() if v[3] == PASS and v[2] < need)
+        unknown = [n for n, v in checks.items() if v[3] == UNKNOWN]
+        if fails:
+            reason = "fails " + ", ".join(f"{n} ({m:+.0%})" for m, n in fails)
+        elif short:
+            reason = "margin under the one asked: " + ", ".join(
+                f"{n} ({m:+.0%})" for m, n in short)
+        elif unknown:
+            reason = "cannot be checked: " + ", ".join(unknown) + " unknown"
+        elif ev.unknown_objective[k]:
+            reason = ("mass unknown (the catalogue gives none; a drive's mass loads the arm)"
+                      if not math.isfinite(table.parts[ev.idx[k]].mass) else "objective unknown")
+    return Candidate(part=table.parts[ev.idx[k]], objective=float(ev.objective[k]),
+                     feasible=bool(ev.ok[k]), checks=checks, binding=binding,
+                     binding_margin=bmargin, reason=reason)
+
+
+def _failing_check(cand: Candidate, need: float) -> str:
+    fails = sorted((v[2], n) for n, v in cand.checks.items()
+                   if v[3] == FAIL or (v[3] == PASS and v[2] < need))
+    if fails:
+        return fails[0][1]
+    unknown = [n for n, v in cand.checks.items() if v[3] == UNKNOWN]
+    return unknown[0] if unknown else ("objective" if not math.isfinite(cand.objective) else "")
+
+
+def _choose(table: _Table, ev: _JointEval, name: str, j: int, need: float,
+            banned: set[str]) -> tuple[int, JointChoice | None]:
+    """The winner's position in ``ev.idx`` and the joint's report; raises
+    :class:`NoFeasibleDrive` when none is feasible."""
+    ok = ev.ok & np.array([table.parts[i].label not in banned for i in ev.idx], dtype=bool)
+    order = np.lexsort((-np.nan_to_num(ev.worst, nan=-np.inf),
+                        np.where(np.isfinite(ev.objective), ev.objective, np.inf)))
+    feas = [k for k in order if ok[k]]
+    if not feas:
+        raise _no_feasible(table, ev, name, need)
+    win = feas[0]
+    alts = tuple(_candidate(table, ev, k, need) for k in feas[1:1 + N_ALTERNATIVES])
+    lighter = [k for k in order if not ok[k] and np.isfinite(ev.objective[k])
+               and ev.objective[k] <= ev.objective[win]][:N_ALTERNATIVES]
+    rejected = tuple(_candidate(table, ev, k, need) for k in lighter)
+    choice = JointChoice(joint=name, index=j, chosen=_candidate(table, ev, win, need),
+                         alternatives=alts, rejected=rejected, considered=int(ev.idx.size),
+                         feasible=int(ok.sum()), mount="", mount_link="")
+    return win, choice
+
+
+def _no_feasible(table: _Table, ev: _JointEval, name: str, need: float) -> NoFeasibleDrive:
+    if ev.idx.size == 0:
+        return NoFeasibleDrive(name, None, "", 0, "no candidate passes the maker and gear "
+                               "type filters")
+    # the closest: the largest worst margin; a candidate not evaluated on the motor
+    # checks has a worst margin at most its cheap one, so rank all by what is known
+    w = np.where(np.isfinite(ev.worst), ev.worst, -np.inf)
+    unknown = np.zeros(ev.idx.size, dtype=bool)
+    for c in ev.checks.values():
+        unknown |= np.array(c.status, dtype=object) == UNKNOWN
+    k = int(np.lexsort((-w, unknown))[0])     # fully checked first, then the best worst margin
+    cand = _candidate(table, ev, k, need)
+    return NoFeasibleDrive(name, cand.to_dict(), _failing_check(cand, need), int(ev.idx.size),
+                           need=need)
+
+
+# --------------------------------------------------------------------------- selection
+
+
+def _label(traj: Any, k: int) -> str:
+    return str(getattr(traj, "label", "") or getattr(traj, "name", "") or f"trajectory {k + 1}")
+
+
+def _payload_ends(payload: Any, payload_range: Any) -> tuple[float, ...]:
+    if payload is not None and payload_range is not None:
+        raise InputError("payload", "", "give a payload or a payload range, not both")
+    if payload_range is not None:
+        try:
+            lo, hi = (float(x) for x in payload_range)
+        except (TypeError, ValueError):
+            raise InputError("payload_range", "", "expected two masses LO, HI (kg)") from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi):
+            raise InputError("payload_range", "", f"needs 0 <= LO <= HI kg, got {lo}, {hi}")
+        return (lo,) if lo == hi else (lo, hi)
+    if payload is None:
+        return (0.0,)
+    try:
+        p = float(payload)
+    except (TypeError, ValueError):
+        raise InputError("payload", "", f"expected a mass in kg, got {payload!r}") from None
+    if not (math.isfinite(p) and p >= 0):
+        raise InputError("payload", "", f"must be a mass >= 0 kg, got {p}")
+    return (p,)
+
+
+def _filter(table: _Table, makers: Sequence[str] | None,
+            gear_types: Sequence[str] | None) -> np.ndarray:
+    keep = np.ones(len(table.parts), dtype=bool)
+    if makers:
+        want = {m.strip().lower() for m in makers if m.strip()}
+        known = set(table.maker.tolist())
+        bad = sorted(want - known)
+        if bad:
+            raise InputError("makers", "", f"no parts of {', '.join(bad)}; makers: "
+                             f"{', '.join(sorted(known))}")
+        keep &= np.isin(table.maker, list(want))
+    if gear_types:
+        want = {g.strip().lower() for g in gear_types if g.strip()}
+        known = set(table.gear_type.tolist()) | {DIRECT}
+        bad = sorted(want - known)
+        if bad:
+            raise InputError("gear_types", "", f"unknown gear type {', '.join(bad)}; types: "
+                             f"{', '.join(sorted(known))}")
+        keep &= np.isin(table.gear_type, list(want))
+    return np.flatnonzero(keep)
+
+
+def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
+                  payload: float | None = None,
+                  payload_range: tuple[float, float] | None = None,
+                  objective: str = "mass", margin: float = DEFAULT_MARGIN,
+                  makers: Sequence[str] | None = None,
+                  gear_types: Sequence[str] | None = None,
+                  joints: Sequence[int | str] | None = None,
+                  mounts: Mapping[int | str, str] | None = None,
+                  allow_unknown: bool = False, dt: float = 1e-3,
+                  t_end: float | None = None, verify: bool = True) -> Selection:
+    """Choose each joint's drive from the catalogue (module docstring).
+
+    Args:
+        robot: the arm; its link masses must not already hold drive masses.
+            The selected joints' drives are replaced; the others keep theirs.
+        trajectories: one or more trajectories of ``robot.n`` joints.
+        payload: a payload mass on the last link, kg (added to any payload the
+            robot already carries; at the last link's origin, as ``size --payload``).
+        payload_range: (LO, HI) kg: both ends are checked. Give one of the two or neither.
+        objective: "mass" (default), "rotor_inertia" or "power" (:data:`OBJECTIVES`).
+        margin: M >= 1: every rating at least M × what the motion needs
+            (default :data:`DEFAULT_MARGIN`; 1.0 is ``size``'s limits).
+        makers: keep only motors of these makers (e.g. ["maxon", "faulhaber"]).
+        gear_types: keep only these gear types ("planetary", "harmonic", ...;
+            "direct" for no gear).
+        joints: the joints to select for (names or indices; default all).
+        mounts: joint -> "before" (default) or "base": where its drive's mass sits.
+        allow_unknown: accept a check that cannot be made (``size --allow-unknown``).
+        dt: sampling step, s (``size``'s default 1e-3).
+        t_end: end of every run, s (default each trajectory's duration).
+        verify: check the result with :func:`~manipcad.sizing.requirements.required_drive`.
+
+    Returns:
+        :class:`Selection`.
+
+    Raises:
+        NoFeasibleDrive: a joint has no feasible candidate (naming it, the
+            closest candidate and the check it fails).
+        InputError: bad arguments.
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.trajectories import cosine
+        >>> arm = manipcad.load_robot("cylindrical").without_drives()
+        >>> traj = cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], 1.6)
+        >>> sel = select_drives(arm, [traj], joints=["turn"], dt=1e-2, margin=1.0)
+        >>> sel.joints[0].joint, sel.joints[0].chosen.feasible
+        ('turn', True)
+    """
+    if objective not in OBJECTIVES:
+        raise InputError("objective", "", f"unknown objective {objective!r}; expected one of "
+                         f"{', '.join(OBJECTIVES)}")
+    try:
+        margin = float(margin)
+    except (TypeError, ValueError):
+        raise InputError("margin", "", f"expected a number >= 1, got {margin!r}") from None
+    if not (math.isfinite(margin) and margin >= 1.0):
+        raise InputError("margin", "", f"must be a number >= 1 (1.0: exactly the ratings), "
+                         f"got {margin}")
+    trajectories = list(trajectories)
+    if not trajectories:
+        raise InputError("trajectories", "", "give at least one trajectory")
+    payloads = _payload_ends(payload, payload_range)
+    need = 1.0 - 1.0 / margin
+    sel_joints = (list(range(robot.n)) if joints is None
+                  else sorted({robot.joint_index(j) for j in joints}))
+    mount_of = {j: "before" for j in sel_joints}
+    for key, m in (mounts or {}).items():
+        j = robot.joint_index(key)
+        mount_body(robot, j, m)
+        mount_of[j] = m
+    if "selected by manipcad select" in robot.source:
+        raise InputError("robot", "", "its link masses already hold the drive masses of a "
+                         "previous selection (see its source); select on the robot it was "
+                         "made from")
+    cand_idx = {}
+    for j in sel_joints:
+        table = _table(robot.joint_types[j] == PRISMATIC)
+        cand_idx[j] = _filter(table, makers, gear_types)
+
+    drives = list(robot.drives)
+    masses: dict[int, float] = {}
+    banned: dict[int, set[str]] = {j: set() for j in sel_joints}
+    chosen: dict[int, JointChoice] = {}
+    history: list[tuple[str, ...]] = []
+    cache: dict[tuple, list[SampledMotion]] = {}
+
+    def motions_for(current: dict[int, float]) -> list[SampledMotion]:
+        key = tuple(sorted(current.items()))
+        if key not in cache:
+            arm = with_drive_masses(robot, current, mount_of)
+            cache.clear()
+            cache[key] = [sample_motion(arm, tr, t_end=t_end, dt=dt, payload=p)
+                          for tr in trajectories for p in payloads]
+        return cache[key]
+
+    # a joint's torque depends only on the bodies it moves: the masses mounted on them
+    moved = [set() for _ in range(robot.n)]
+    for b in range(robot.n):
+        a = b
+        while a >= 0:
+            moved[a].add(b)
+            a = int(robot.parent[a])
+    evaluated: dict[tuple, _JointEval] = {}
+
+    def evaluate(j: int, table: _Table) -> _JointEval:
+        key = (j, tuple(sorted((k, m) for k, m in masses.items()
+                               if mount_body(robot, k, mount_of[k]) in moved[j])))
+        if key not in evaluated:
+            evaluated[key] = _evaluate_joint(table, cand_idx[j], motions_for(masses), j, need,
+                                             allow_unknown, objective)
+        return evaluated[key]
+
+    iterations = 0
+    verified = False
+    for _ in range(MAX_ITERATIONS):
+        iterations += 1
+        changed = False
+        for j in sorted(sel_joints, reverse=True):
+            table = _table(robot.joint_types[j] == PRISMATIC)
+            ev = evaluate(j, table)
+            win, choice = _choose(table, ev, robot.joint_names[j], j, need, banned[j])
+            body = mount_body(robot, j, mount_of[j])
+            choice = JointChoice(**{**choice.__dict__, "mount": mount_of[j],
+                                    "mount_link": "" if body < 0 else robot.link_names[body]})
+            part = choice.chosen.part
+            if j not in chosen or chosen[j].chosen.part != part:
+                changed = True
+            chosen[j] = choice
+            masses[j] = part.mass
+            drives[j] = part.drive
+        history.append(tuple(chosen[j].chosen.label for j in sel_joints))
+        if changed:
+            continue
+        if not verify:
+            break
+        failed = _verify(robot, drives, masses, mount_of, trajectories, payloads, sel_joints,
+                         dt, t_end, allow_unknown)
+        if not failed:
+            verified = True
+            break
+        for j in failed:
+            banned[j].add(chosen[j].chosen.label)
+    else:
+        raise ManipcadError(f"drive selection did not reach a fixed point in {MAX_ITERATIONS} "
+                            f"sweeps (choices per sweep: {history})")
+    arm = with_drive_masses(robot, masses, mount_of).replace(drives=tuple(drives))
+    note = ("drives selected by manipcad select (" + objective + f", margin {margin:g}); "
+            "link masses include the drives' masses: " + ", ".join(
+                f"{robot.joint_names[j]} {masses[j]:.4g} kg on "
+                f"{chosen[j].mount_link or 'the base'}" for j in sel_joints))
+    arm = arm.replace(source=(robot.source + "; " if robot.source else "") + note)
+    return Selection(robot=arm, joints=tuple(chosen[j] for j in sel_joints),
+                     iterations=iterations, objective=objective, margin=margin,
+                     payloads=payloads,
+                     trajectories=tuple(_label(t, k) for k, t in enumerate(trajectories)),
+                     dt=dt, verified=verified, history=tuple(history))
+
+
+def _verify(robot: Robot, drives: list, masses: dict[int, float], mounts: dict[int, str],
+            trajectories: Sequence[Trajectory], payloads: Sequence[float],
+            joints: Sequence[int], dt: float, t_end: float | None,
+            allow_unknown: bool) -> list[int]:
+    """The selected joints that ``size`` (:func:`required_drive`) does not pass on some case."""
+    from manipcad.sizing.requirements import required_drive
+
+    arm = with_drive_masses(robot, masses, mounts).replace(drives=tuple(drives))
+    bad = set()
+    for tr in trajectories:
+        for p in payloads:
+            req = required_drive(arm, tr, t_end=t_end, dt=dt, payload=p)
+            for j in joints:
+                st = req.status[j]
+                if st == FAIL or (st == UNKNOWN and not allow_unknown):
+                    bad.add(j)
+    return sorted(bad)
+
+
+def save_selection(selection: Selection, path: Any) -> Any:
+    """Write the selected robot as a tree-form robot file (:meth:`Robot.save`'s form)
+    with a header naming the chosen parts, their masses and where they sit.
+
+    Args:
+        selection: the result of :func:`select_drives`.
+        path: the .yaml file (str or Path; its folder must exist).
+
+    Returns:
+        The path written.
+    """
+    import yaml
+
+    from manipcad.fileio import atomic_write_text
+    from manipcad.model.tree_file import robot_to_dict
+
+    lines = ["# manipcad robot, tree form (docs/robot-files.md); SI units: m, rad, kg, kg·m²,",
+             "# drive fields as in robot files (motor side J kg·m², R Ω, L H, k_m N·m/A, ...).",
+             f"# Drives selected by `manipcad select` (objective {selection.objective}, margin "
+             f"{selection.margin:g}, payloads {', '.join(f'{p:g}' for p in selection.payloads)}"
+             " kg):"]
+    for c in selection.joints:
+        lines.append(f"#   {c.joint}: {c.chosen.label}, {c.chosen.part.mass:.4g} kg on "
+                     f"{c.mount_link or 'the base'}")
+    lines.append("# The link masses include these drive masses (point masses at the joint "
+                 "origins).")
+    text = "\n".join(lines) + "\n" + yaml.safe_dump(
+        robot_to_dict(selection.robot), sort_keys=False, allow_unicode=True,
+        default_flow_style=None, width=100)
+    return atomic_write_text(path, text)
+
+
+__all__ = ["select_drives", "Selection", "JointChoice", "Candidate", "Part", "NoFeasibleDrive",
+           "OBJECTIVES", "DEFAULT_MARGIN", "with_drive_masses", "save_selection",
+           "builtin_parts", "catalogue_parts", "mount_body"]

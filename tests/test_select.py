@@ -1,0 +1,214 @@
+"""Drive selection from the catalogue (manipcad.sizing.select, `manipcad select`).
+
+Optimality is checked by brute force with `size`'s own code path
+(:func:`required_drive` on the robot with the candidate put in), independent of
+the vectorized evaluation the selection uses.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import manipcad
+import manipcad.sizing.select as S
+from manipcad.sizing.requirements import required_drive
+from manipcad.trajectories import cosine
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+DT = 4e-3
+
+
+def _traj(n: int, scale: float = 1.0):
+    amp = scale * np.array([0.6, 0.5, 0.4, 0.8, 0.6, 0.8][:n])
+    return cosine(amp, [3.0, 2.5, 3.5, 4.0, 4.5, 5.0][:n], 2.0)
+
+
+def _subset(names: set[str]):
+    parts = tuple(p for p in S.builtin_parts(False) if p.motor in names)
+    return lambda prismatic=False: parts
+
+
+@pytest.fixture
+def small_catalogue(monkeypatch):
+    """Three motors, each direct and with every built-in rotary gear."""
+    src = _subset({"maxon_ec45flat_411812", "maxon_re40_148867", "maxon_re65_353297"})
+    monkeypatch.setattr(S, "PARTS_SOURCE", src)
+    return src()
+
+
+def _feasible_by_size(robot, j, drive, masses, trajs, payloads, need):
+    """Brute force: joint j with ``drive`` passes size's checks with the margin on
+    every case (``masses``: the other drives' masses, joint -> kg)."""
+    drives = list(robot.drives)
+    drives[j] = drive
+    arm = S.with_drive_masses(robot, masses).replace(drives=tuple(drives))
+    for tr in trajs:
+        for p in payloads:
+            req = required_drive(arm, tr, dt=DT, payload=p)
+            for c in req.checks.values():
+                st, m = c.status[j], c.margin[j]
+                if st == "n/a":
+                    continue
+                if st != "pass" or m < need:
+                    return False
+    return True
+
+
+@pytest.mark.parametrize("objective", ["mass", "rotor_inertia"])
+def test_no_single_swap_improves(small_catalogue, objective):
+    """Every chosen drive is feasible by size's checks, and every candidate with a
+    smaller objective on that joint fails them (the others kept): the optimum."""
+    arm = manipcad.load_robot("puma560").without_drives()
+    trajs = [_traj(6), _traj(6, 0.5)]
+    sel = S.select_drives(arm, trajs, payload_range=(0.0, 1.0), joints=[0, 1, 2],
+                          objective=objective, margin=1.2, dt=DT)
+    need = 1.0 - 1.0 / 1.2
+    masses = {c.index: c.chosen.part.mass for c in sel.joints}
+    checked = 0
+    for c in sel.joints:
+        assert c.chosen.feasible and c.feasible >= 1 and c.considered == len(small_catalogue)
+        assert _feasible_by_size(arm, c.index, c.chosen.part.drive, masses, trajs, (0.0, 1.0),
+                                 need)
+        value = c.chosen.objective
+        for p in small_catalogue:
+            obj = (p.mass if objective == "mass" else p.drive.J * p.drive.ratio ** 2)
+            if not obj < value or not math.isfinite(p.mass):   # no mass: cannot load the arm
+                continue
+            checked += 1
+            assert not _feasible_by_size(arm, c.index, p.drive, masses, trajs, (0.0, 1.0),
+                                         need), (c.joint, p.label)
+        # the report lists the lighter ones as rejected with a reason
+        assert all(r.reason and not r.feasible and r.objective <= value for r in c.rejected)
+        assert all(a.feasible and a.objective >= value for a in c.alternatives)
+    assert checked > 0
+
+
+def test_vectorized_requirements_equal_size(small_catalogue):
+    """The per-candidate worst-case requirements are size's numbers (required_drive
+    with the candidate put in), for candidates evaluated on the motor model."""
+    arm = manipcad.load_robot("puma560").without_drives()
+    trajs = [_traj(6)]
+    motions = [S.sample_motion(arm, trajs[0], dt=DT, payload=0.5)]
+    table = S._table(False)
+    idx = np.arange(len(table.parts))
+    ev = S._evaluate_joint(table, idx, motions, 1, 0.0, False, "mass")
+    done = np.flatnonzero(ev.evaluated)[:8]
+    assert done.size >= 3
+    for k in done:
+        drives = list(arm.drives)
+        drives[1] = table.parts[k].drive
+        req = required_drive(arm.replace(drives=tuple(drives)), trajs[0], dt=DT, payload=0.5)
+        for name, c in ev.checks.items():
+            want = req.checks[name]
+            assert c.status[k] == want.status[1] or (
+                c.status[k] == "unknown" and want.status[1] in ("unknown", "fail")), name
+            if math.isfinite(want.required[1]) and not (
+                    name in ("continuous", "peak", "voltage")
+                    and math.isnan(table.parts[k].drive.efficiency)):   # size: a bound there
+                assert c.required[k] == pytest.approx(want.required[1], rel=1e-9), name
+
+
+def test_fixed_point_of_drive_masses(small_catalogue):
+    """Distal drive masses load the proximal joints: the result is a fixed point —
+    each joint re-selected alone with the others' masses on the arm keeps its choice —
+    and the robot carries each drive's mass on the link before its joint."""
+    arm = manipcad.load_robot("puma560").without_drives()
+    trajs = [_traj(6)]
+    sel = S.select_drives(arm, trajs, payload=1.0, joints=[0, 1, 2, 3], margin=1.0, dt=DT)
+    assert sel.iterations >= 2 and sel.history[-1] == sel.history[-2] and sel.verified
+    masses = {c.index: c.chosen.part.mass for c in sel.joints}
+    added = sel.robot.mass - arm.mass
+    for c in sel.joints:
+        body = int(arm.parent[c.index])
+        expect = sum(m for k, m in masses.items() if int(arm.parent[k]) == body)
+        if body >= 0:
+            assert added[body] == pytest.approx(expect, abs=1e-12)
+            assert c.mount_link == arm.link_names[body]
+    assert added[3] == pytest.approx(0.0, abs=1e-12)   # joint 4's link carries no drive
+    for c in sel.joints:
+        others = {k: m for k, m in masses.items() if k != c.index}
+        alone = S.select_drives(S.with_drive_masses(arm, others), trajs, payload=1.0,
+                                joints=[c.index], margin=1.0, dt=DT)
+        assert alone.joints[0].chosen.part == c.chosen.part
+    # without the drive masses the proximal joints would see a lighter arm
+    light = S._evaluate_joint(S._table(False), np.arange(len(small_catalogue)),
+                              [S.sample_motion(arm, trajs[0], dt=DT, payload=1.0)], 1, 0.0,
+                              False, "mass")
+    heavy = S._evaluate_joint(S._table(False), np.arange(len(small_catalogue)),
+                              [S.sample_motion(S.with_drive_masses(arm, others), trajs[0],
+                                               dt=DT, payload=1.0)], 1, 0.0, False, "mass")
+    assert heavy.checks["gear_continuous"].required[0] > light.checks[
+        "gear_continuous"].required[0]
+
+
+def test_base_mount_loads_nothing():
+    arm = manipcad.load_robot("puma560").without_drives()
+    same = S.with_drive_masses(arm, {2: 3.0}, {2: "base"})
+    assert (same.mass == arm.mass).all()
+    with pytest.raises(manipcad.errors.InputError, match="mount"):
+        S.with_drive_masses(arm, {2: 3.0}, {2: "after"})
+
+
+def test_infeasible_names_joint_candidate_and_check(monkeypatch, tmp_path):
+    """No feasible drive: NoFeasibleDrive naming the joint, the closest candidate and
+    the check it fails; the CLI exits 1 with that message and writes nothing."""
+    monkeypatch.setattr(S, "PARTS_SOURCE", _subset({"maxon_ec45flat_411812"}))
+    arm = manipcad.load_robot("puma560").without_drives()
+    with pytest.raises(S.NoFeasibleDrive) as err:
+        S.select_drives(arm, [_traj(6)], payload=2.0, joints=[1], dt=DT)
+    e = err.value
+    assert e.joint == arm.joint_names[1] and e.closest is not None and e.check
+    c = e.closest["checks"][e.check]
+    assert c["status"] in ("fail", "unknown") or c["margin"] < 1 - 1 / S.DEFAULT_MARGIN
+    assert e.joint in str(e) and e.closest["label"] in str(e) and e.check in str(e)
+    traj = tmp_path / "t.yaml"
+    from manipcad.trajectories import save_trajectory
+    save_trajectory(_traj(6), traj)
+    robot = tmp_path / "arm.yaml"
+    arm.save(robot)
+    out = tmp_path / "out.yaml"
+    from manipcad.cli import app
+    res = CliRunner().invoke(app, ["select", str(robot), "-t", str(traj), "--payload", "2",
+                                   "--joints", "2", "--dt", str(DT), "--out", str(out)])
+    assert res.exit_code == 1, res.output
+    assert e.joint in res.output and e.closest["label"] in res.output and e.check in res.output
+    assert not out.exists()
+
+
+def test_bad_arguments():
+    arm = manipcad.load_robot("puma560").without_drives()
+    Err = manipcad.errors.InputError
+    with pytest.raises(Err, match="objective"):
+        S.select_drives(arm, [_traj(6)], objective="cost")
+    with pytest.raises(Err, match="margin"):
+        S.select_drives(arm, [_traj(6)], margin=0.9)
+    with pytest.raises(Err, match="makers"):
+        S.select_drives(arm, [_traj(6)], makers=["nobody"])
+    with pytest.raises(Err, match="not both"):
+        S.select_drives(arm, [_traj(6)], payload=1.0, payload_range=(0, 1))
+
+
+@pytest.mark.parametrize("which", ["ur5", "panda"])
+def test_examples_select_then_size_passes(which, tmp_path):
+    """`select` on the bare example arm (URDF + payload, no drives) writes a robot
+    file that loads and that `size` passes (exit 0), at both payload ends."""
+    from manipcad.cli import app
+    runner = CliRunner()
+    out = tmp_path / f"{which}.yaml"
+    pick = EXAMPLES / which / "pick.yaml"
+    res = runner.invoke(app, ["select", str(EXAMPLES / which / f"{which}_bare.yaml"), "-t",
+                              str(pick), "--payload-range", "0,0.5", "--out", str(out),
+                              "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.output)
+    assert doc["ok"] and doc["verified"] and doc["iterations"] >= 2
+    assert len(doc["joints"]) == manipcad.load_robot(out).n
+    for payload in ("0", "0.5"):
+        res = runner.invoke(app, ["size", str(out), "-t", str(pick), "--payload", payload])
+        assert res.exit_code == 0, res.output

@@ -84,7 +84,13 @@ from manipcad.sizing.limits import (
 )
 from manipcad.sizing.motion import SampledMotion, sample_motion
 from manipcad.sizing.motor import joint_torque, motor_series
-from manipcad.sizing.stats import peak, time_mean, time_rms, weighted_cubic_mean
+from manipcad.sizing.stats import (
+    peak,
+    time_mean,
+    time_rms,
+    trapezoid_weights,
+    weighted_cubic_mean,
+)
 from manipcad.trajectories.base import Trajectory
 
 #: objectives: name -> (what is minimized, unit)
@@ -105,7 +111,9 @@ _CHEAP = ("speed", "gear_continuous", "gear_peak", "gear_speed", "gear_average",
 #: the checks that need the candidate's motor time series
 _SERIES = ("continuous", "peak", "voltage")
 #: elements per vectorized block (candidates × samples)
-_BLOCK = 400_000
+_BLOCK = 200_000
+#: samples of the lower-bound pass (every m-th sample of the grid, and the peaks)
+_SCREEN_SAMPLES = 256
 #: how many alternatives and rejected candidates a report lists per joint
 N_ALTERNATIVES = 5
 #: most sweeps of the fixed point before giving up
@@ -177,6 +185,88 @@ class Part:
         return f"{self.motor} + {self.gear}" if self.gear else f"{self.motor} (direct)"
 
 
+class _Arrays:
+    """Candidate drives' numbers as (C, 1) arrays, duck-typed as a :class:`Drive`
+    for :func:`joint_torque` and :func:`motor_series` (module docstring)."""
+
+    FIELDS = ("J", "k_v", "R", "L", "k_m", "k_w", "efficiency", "ratio")
+
+    def __init__(self, columns: Mapping[str, np.ndarray]) -> None:
+        for name in self.FIELDS:
+            setattr(self, name, np.asarray(columns[name], dtype=float).reshape(-1, 1))
+        self.M_f = (np.asarray(columns["M_f+"], dtype=float).reshape(-1, 1),
+                    np.asarray(columns["M_f-"], dtype=float).reshape(-1, 1))
+
+    def take(self, idx) -> _Arrays:
+        out = object.__new__(_Arrays)
+        for name in self.FIELDS:
+            setattr(out, name, getattr(self, name)[idx])
+        out.M_f = (self.M_f[0][idx], self.M_f[1][idx])
+        return out
+
+
+@dataclass
+class CandidateTable:
+    """Candidate drives as arrays, one row per (motor, gear) pair or direct drive.
+
+    Attributes:
+        motor, gear: (C,) part names ("" gear: a direct drive).
+        maker, gear_type: (C,) lower-case maker of the motor; gear type or "direct".
+        mass: (C,) motor + gear mass, kg (nan unknown).
+        ratio: (C,) signed gear ratio i_r; J: (C,) rotor + gear inertia, kg·m².
+        arrays: the drive numbers for the motor model (:class:`_Arrays`).
+        rated: check name -> (C,) rating (:func:`~manipcad.sizing.limits.rating_table`'s form).
+        geared: (C,) bool, the candidate has a gear.
+        drive_of: row -> its :class:`Drive`, built by the parts library's own
+            composition (what a robot file naming the pair gives).
+    """
+
+    motor: np.ndarray
+    gear: np.ndarray
+    maker: np.ndarray
+    gear_type: np.ndarray
+    mass: np.ndarray
+    ratio: np.ndarray
+    J: np.ndarray
+    arrays: _Arrays
+    rated: dict[str, np.ndarray]
+    geared: np.ndarray
+    drive_of: Callable[[int], Drive]
+    _parts: dict[int, Part] = field(default_factory=dict, repr=False)
+
+    def __len__(self) -> int:
+        return int(self.motor.shape[0])
+
+    def part(self, i: int) -> Part:
+        """Candidate ``i`` as a :class:`Part` (its Drive built on first use)."""
+        i = int(i)
+        if i not in self._parts:
+            self._parts[i] = Part(str(self.motor[i]), str(self.gear[i]), str(self.maker[i]),
+                                  str(self.gear_type[i]), float(self.mass[i]), self.drive_of(i))
+        return self._parts[i]
+
+    def label(self, i: int) -> str:
+        m, g = str(self.motor[i]), str(self.gear[i])
+        return f"{m} + {g}" if g else f"{m} (direct)"
+
+    @classmethod
+    def from_parts(cls, parts: Sequence[Part]) -> CandidateTable:
+        """A table of ready-made parts (their Drives give every number)."""
+        drives = [p.drive for p in parts]
+        rated, geared = rating_table(drives)
+        cols = {k: np.array([float(getattr(d, k)) for d in drives]) for k in _Arrays.FIELDS}
+        cols["M_f+"] = np.array([d.M_f[0] for d in drives])
+        cols["M_f-"] = np.array([d.M_f[1] for d in drives])
+        parts = tuple(parts)
+        return cls(motor=np.array([p.motor for p in parts], dtype=object),
+                   gear=np.array([p.gear for p in parts], dtype=object),
+                   maker=np.array([p.maker.lower() for p in parts], dtype=object),
+                   gear_type=np.array([p.gear_type.lower() for p in parts], dtype=object),
+                   mass=np.array([p.mass for p in parts], dtype=float),
+                   ratio=cols["ratio"], J=cols["J"], arrays=_Arrays(cols), rated=rated,
+                   geared=geared, drive_of=lambda i: parts[i].drive)
+
+
 def _builtin_maker(name: str) -> str:
     return name.split("_", 1)[0].lower()
 
@@ -227,73 +317,24 @@ def builtin_parts(prismatic: bool = False) -> tuple[Part, ...]:
     return tuple(out)
 
 
-#: where the candidates come from: a function (prismatic) -> parts
-PARTS_SOURCE: Callable[[bool], Sequence[Part]] = builtin_parts
+def builtin_table(prismatic: bool = False) -> CandidateTable:
+    """The candidate table of :func:`builtin_parts`."""
+    return CandidateTable.from_parts(builtin_parts(prismatic))
 
 
-def catalogue_parts(prismatic: bool = False) -> Sequence[Part]:
-    """The candidate drives of the parts library for a revolute (or prismatic) joint."""
-    return PARTS_SOURCE(prismatic)
+#: where the candidates come from: a function (prismatic) -> CandidateTable
+TABLE_SOURCE: Callable[[bool], CandidateTable] = builtin_table
+
+_TABLES: dict[tuple[int, bool], CandidateTable] = {}
 
 
-class _Arrays:
-    """A candidate table's drive numbers as (C, 1) arrays, duck-typed as a
-    :class:`Drive` for :func:`joint_torque` and :func:`motor_series`."""
-
-    FIELDS = ("J", "k_v", "R", "L", "k_m", "k_w", "efficiency")
-
-    def __init__(self, drives: Sequence[Drive]) -> None:
-        for name in self.FIELDS:
-            setattr(self, name, np.array([float(getattr(d, name)) for d in drives])[:, None])
-        self.M_f = (np.array([d.M_f[0] for d in drives])[:, None],
-                    np.array([d.M_f[1] for d in drives])[:, None])
-        self.ratio = np.array([float(d.ratio) for d in drives])[:, None]
-
-    def take(self, idx: np.ndarray) -> _Arrays:
-        out = object.__new__(_Arrays)
-        for name in (*self.FIELDS, "ratio"):
-            setattr(out, name, getattr(self, name)[idx])
-        out.M_f = (self.M_f[0][idx], self.M_f[1][idx])
-        return out
-
-
-@dataclass
-class _Table:
-    """The candidates of one joint type, as arrays (built once per catalogue)."""
-
-    parts: tuple[Part, ...]
-    arrays: _Arrays
-    rated: dict[str, np.ndarray]
-    geared: np.ndarray
-    mass: np.ndarray
-    ratio: np.ndarray
-    J: np.ndarray
-    maker: np.ndarray
-    gear_type: np.ndarray
-
-    @classmethod
-    def build(cls, parts: Sequence[Part]) -> _Table:
-        drives = [p.drive for p in parts]
-        rated, geared = rating_table(drives)
-        return cls(parts=tuple(parts), arrays=_Arrays(drives), rated=rated, geared=geared,
-                   mass=np.array([p.mass for p in parts], dtype=float),
-                   ratio=np.array([d.ratio for d in drives], dtype=float),
-                   J=np.array([d.J for d in drives], dtype=float),
-                   maker=np.array([p.maker.lower() for p in parts], dtype=object),
-                   gear_type=np.array([p.gear_type.lower() for p in parts], dtype=object))
-
-
-_TABLES: dict[tuple[int, bool], tuple[Sequence[Part], _Table]] = {}
-
-
-def _table(prismatic: bool) -> _Table:
-    parts = catalogue_parts(prismatic)
-    key = (id(PARTS_SOURCE), prismatic)
-    hit = _TABLES.get(key)
-    if hit is None or hit[0] is not parts:
-        hit = (parts, _Table.build(parts))
-        _TABLES[key] = hit
-    return hit[1]
+def candidate_table(prismatic: bool = False) -> CandidateTable:
+    """The candidate drives of the parts library for a revolute (or prismatic) joint,
+    built once per source."""
+    key = (id(TABLE_SOURCE), prismatic)
+    if key not in _TABLES:
+        _TABLES[key] = TABLE_SOURCE(prismatic)
+    return _TABLES[key]
 
 
 # --------------------------------------------------------------------------- results
@@ -315,6 +356,9 @@ class Candidate:
         binding: the check with the least margin ("" if none has one).
         binding_margin: its margin.
         reason: why it is infeasible, in words ("" if feasible).
+        bounded: its motor torque and voltage requirements are lower bounds
+            (from part of the samples: enough to rule it out), so its margins
+            there are upper bounds.
     """
 
     part: Part
@@ -324,6 +368,7 @@ class Candidate:
     binding: str
     binding_margin: float
     reason: str = ""
+    bounded: bool = False
 
     @property
     def label(self) -> str:
@@ -345,6 +390,7 @@ class Candidate:
             "feasible": self.feasible, "binding": self.binding or None,
             "binding_margin": self.binding_margin,
             "worst_margin": min(worst) if worst else None, "reason": self.reason or None,
+            "bounded": self.bounded,
             "checks": {k: {"required": v[0], "rating": v[1], "margin": v[2], "status": v[3]}
                        for k, v in self.checks.items()},
         })
@@ -495,26 +541,47 @@ def _columns(motion: SampledMotion, j: int) -> tuple[np.ndarray, ...]:
             motion.dtau_rigid[:, j], motion.jerk[:, j])
 
 
-def _series_requirements(arr: _Arrays, motion: SampledMotion, j: int
-                         ) -> dict[str, np.ndarray]:
+def _series_requirements(arr: _Arrays, motion: SampledMotion, j: int,
+                         rows: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """RMS and peak motor torque (N·m), peak armature voltage (V) and mean
     electrical power (W) of each candidate on one motion: ``size``'s motor model
-    (:func:`joint_torque`, :func:`motor_series`) broadcast over the candidates."""
-    tau_rigid, qd, qdd, dtau, jerk = _columns(motion, j)
+    (:func:`joint_torque`, :func:`motor_series`) broadcast over the candidates.
+
+    With ``rows`` (sample indices), only those samples are evaluated and the
+    results are lower bounds: the peaks over part of the grid, and the RMS from
+    the part of the trapezoidal sum those samples make (no power then)."""
+    cols = _columns(motion, j)
     t = motion.t
+    if rows is not None:
+        cols = tuple(c[rows] for c in cols)
+        w = trapezoid_weights(t)[rows] / float(t[-1] - t[0])
+    tau_rigid, qd, qdd, dtau, jerk = cols
     C = arr.ratio.shape[0]
     out = {k: np.empty(C) for k in ("continuous", "peak", "voltage", "power")}
-    step = max(1, _BLOCK // max(1, t.shape[0]))
+    step = max(1, _BLOCK // max(1, qd.shape[0]))
     for k in range(0, C, step):
         sub = arr.take(slice(k, k + step))
         tau = joint_torque(sub, sub.ratio, tau_rigid, qd, qdd)
         s = motor_series(sub, sub.ratio, tau, qd, qdd, dtau, jerk, tau_rigid)
         sl = slice(k, k + sub.ratio.shape[0])
-        out["continuous"][sl] = time_rms(s.torque, t, axis=1)
         out["peak"][sl] = peak(s.torque, axis=1)
         out["voltage"][sl] = peak(s.voltage, axis=1)
-        out["power"][sl] = time_mean(s.voltage * s.current, t, axis=1)
+        if rows is None:
+            out["continuous"][sl] = time_rms(s.torque, t, axis=1)
+            out["power"][sl] = time_mean(s.voltage * s.current, t, axis=1)
+        else:
+            out["continuous"][sl] = np.sqrt(np.square(s.torque) @ w)
+            out["power"][sl] = np.nan
     return out
+
+
+def _screen_rows(motion: SampledMotion, j: int) -> np.ndarray:
+    """The samples of the cheap lower-bound pass: every m-th sample (about
+    :data:`_SCREEN_SAMPLES`) and where each input of the motor model peaks."""
+    N = motion.t.shape[0]
+    m = max(1, N // _SCREEN_SAMPLES)
+    extra = [int(np.argmax(np.abs(c))) for c in _columns(motion, j)]
+    return np.unique(np.concatenate([np.arange(0, N, m), extra]))
 
 
 @dataclass
@@ -523,16 +590,22 @@ class _JointEval:
 
     idx: np.ndarray                 # candidate indices into the table
     checks: dict[str, LimitCheck]
-    evaluated: np.ndarray           # motor series computed
+    evaluated: np.ndarray           # motor series computed (exactly or as bounds)
+    bounded: np.ndarray             # motor checks from lower bounds of the requirement
     ok: np.ndarray                  # every check passes with the margin
     objective: np.ndarray
     worst: np.ndarray               # least finite margin over the checks (nan: none)
     unknown_objective: np.ndarray
 
 
-def _evaluate_joint(table: _Table, idx: np.ndarray, motions: Sequence[SampledMotion], j: int,
-                    need: float, allow_unknown: bool, objective: str) -> _JointEval:
-    """Check the candidates ``idx`` on joint ``j`` over the motions (module docstring)."""
+def _evaluate_joint(table: CandidateTable, idx: np.ndarray, motions: Sequence[SampledMotion],
+                    j: int, need: float, allow_unknown: bool, objective: str) -> _JointEval:
+    """Check the candidates ``idx`` on joint ``j`` over the motions (module docstring).
+
+    Three passes, each on fewer candidates: the gear and speed checks from the
+    joint's statistics (exact, O(C)); lower bounds of the motor torque and
+    voltage requirements on a few hundred samples (a candidate that fails with
+    its lower bound fails); the full motor series of the rest."""
     r = np.abs(table.ratio[idx])
     C = idx.size
     rated = {k: v[idx] for k, v in table.rated.items()}
@@ -552,46 +625,66 @@ def _evaluate_joint(table: _Table, idx: np.ndarray, motions: Sequence[SampledMot
     passing = np.ones(C, dtype=bool)
     for k in _CHEAP:
         passing &= _ok(cheap[k], need, allow_unknown)
-    # the motor series of the candidates that pass the cheap checks
-    sel = np.flatnonzero(passing)
-    power = np.full(C, np.nan)
+    eta_unknown = np.isnan(table.arrays.efficiency[idx, 0])
+    mass_known = np.isfinite(table.mass[idx])
+    # the motor series: of the candidates that pass the cheap checks and could be chosen
+    series_ok = passing & mass_known & (~eta_unknown | allow_unknown)
     for k in _SERIES:
         req[k] = np.full(C, np.nan)
+    power = np.full(C, np.nan)
+    bounded = np.zeros(C, dtype=bool)
+    sel = np.flatnonzero(series_ok)
     if sel.size:
         arr = table.arrays.take(idx[sel])
-        worst = {k: np.full(sel.size, -np.inf) for k in (*_SERIES, "power")}
+        lower = {k: np.full(sel.size, -np.inf) for k in _SERIES}
         for mo in motions:
-            s = _series_requirements(arr, mo, j)
-            for k in worst:
-                worst[k] = np.maximum(worst[k], s[k])
+            s = _series_requirements(arr, mo, j, _screen_rows(mo, j))
+            for k in _SERIES:
+                lower[k] = np.maximum(lower[k], s[k])
+        lb = check_rated(lower, {k: rated[k][sel] for k in _SERIES}, geared[sel])
+        out = np.zeros(sel.size, dtype=bool)
         for k in _SERIES:
-            req[k][sel] = worst[k]
-        power[sel] = worst["power"]
+            out |= ~_ok(lb[k], need, False)
+        out &= ~eta_unknown[sel]       # at η unknown the values at η = 1 bound nothing
+        for k in _SERIES:
+            req[k][sel[out]] = lower[k][out]
+        bounded[sel[out]] = True
+        full = sel[~out]
+        if full.size:
+            arr = table.arrays.take(idx[full])
+            worst = {k: np.full(full.size, -np.inf) for k in (*_SERIES, "power")}
+            for mo in motions:
+                s = _series_requirements(arr, mo, j)
+                for k in worst:
+                    worst[k] = np.maximum(worst[k], s[k])
+            for k in _SERIES:
+                req[k][full] = worst[k]
+            power[full] = worst["power"]
     series = check_rated({k: req[k] for k in _SERIES}, rated, geared)
-    eta_unknown = np.isnan(table.arrays.efficiency[idx, 0])
     checks: dict[str, LimitCheck] = {}
     for name in ALL_LIMITS:
         c = series[name] if name in _SERIES else cheap[name]
         if name in _SERIES:
             st = np.array(c.status, dtype=object)
-            st[~passing] = "not evaluated"
+            st[~series_ok] = "not evaluated"
             st[passing & eta_unknown] = UNKNOWN
             m = np.where(passing & eta_unknown, np.nan, c.margin)
             c = LimitCheck(c.name, c.description, c.unit, c.required, c.limit, m,
                            tuple(st.tolist()))
         checks[name] = c
-    ok = passing.copy()
+    ok = series_ok & ~bounded
     for k in _SERIES:
         ok &= _ok(checks[k], need, allow_unknown)
     value = {"mass": table.mass[idx], "rotor_inertia": table.J[idx] * table.ratio[idx] ** 2,
              "power": power}[objective]
-    unknown_obj = ~np.isfinite(value) | ~np.isfinite(table.mass[idx])  # the mass loads the arm
+    unknown_obj = ~np.isfinite(value) | ~mass_known       # the mass loads the arm
     margins = np.vstack([checks[k].margin for k in ALL_LIMITS])
     finite = np.where(np.isfinite(margins), margins, np.inf)
     worst_m = finite.min(axis=0)
     worst_m[~np.isfinite(worst_m)] = np.nan
-    return _JointEval(idx=idx, checks=checks, evaluated=passing, ok=ok & ~unknown_obj,
-                      objective=value, worst=worst_m, unknown_objective=unknown_obj)
+    return _JointEval(idx=idx, checks=checks, evaluated=series_ok, bounded=bounded,
+                      ok=ok & ~unknown_obj, objective=value, worst=worst_m,
+                      unknown_objective=unknown_obj)
 
 
 def _ok(check: LimitCheck, need: float, allow_unknown: bool) -> np.ndarray:
@@ -605,7 +698,7 @@ def _ok(check: LimitCheck, need: float, allow_unknown: bool) -> np.ndarray:
     return good
 
 
-def _candidate(table: _Table, ev: _JointEval, k: int, need: float) -> Candidate:
+def _candidate(table: CandidateTable, ev: _JointEval, k: int, need: float) -> Candidate:
     """The report entry of candidate ``k`` (position in ``ev.idx``)."""
     checks = {name: (float(c.required[k]), float(c.limit[k]), float(c.margin[k]), c.status[k])
               for name, c in ev.checks.items()}
@@ -616,19 +709,24 @@ def _candidate(table: _Table, ev: _JointEval, k: int, need: float) -> Candidate:
         fails = sorted((v[2], n) for n, v in checks.items() if v[3] == FAIL)
         short = sorted((v[2], n) for n, v in checks.items() if v[3] == PASS and v[2] < need)
         unknown = [n for n, v in checks.items() if v[3] == UNKNOWN]
+        bound = bool(ev.bounded[k])
+
+        def pct(m: float, n: str) -> str:
+            at_most = "at most " if bound and n in _SERIES else ""
+            return f"{n} ({at_most}{m:+.0%})"
+
         if fails:
-            reason = "fails " + ", ".join(f"{n} ({m:+.0%})" for m, n in fails)
+            reason = "fails " + ", ".join(pct(m, n) for m, n in fails)
         elif short:
-            reason = "margin under the one asked: " + ", ".join(
-                f"{n} ({m:+.0%})" for m, n in short)
+            reason = "margin under the one asked: " + ", ".join(pct(m, n) for m, n in short)
         elif unknown:
             reason = "cannot be checked: " + ", ".join(unknown) + " unknown"
         elif ev.unknown_objective[k]:
             reason = ("mass unknown (the catalogue gives none; a drive's mass loads the arm)"
-                      if not math.isfinite(table.parts[ev.idx[k]].mass) else "objective unknown")
-    return Candidate(part=table.parts[ev.idx[k]], objective=float(ev.objective[k]),
+                      if not math.isfinite(table.mass[ev.idx[k]]) else "objective unknown")
+    return Candidate(part=table.part(ev.idx[k]), objective=float(ev.objective[k]),
                      feasible=bool(ev.ok[k]), checks=checks, binding=binding,
-                     binding_margin=bmargin, reason=reason)
+                     binding_margin=bmargin, reason=reason, bounded=bool(ev.bounded[k]))
 
 
 def _failing_check(cand: Candidate, need: float) -> str:
@@ -640,11 +738,11 @@ def _failing_check(cand: Candidate, need: float) -> str:
     return unknown[0] if unknown else ("objective" if not math.isfinite(cand.objective) else "")
 
 
-def _choose(table: _Table, ev: _JointEval, name: str, j: int, need: float,
+def _choose(table: CandidateTable, ev: _JointEval, name: str, j: int, need: float,
             banned: set[str]) -> tuple[int, JointChoice | None]:
     """The winner's position in ``ev.idx`` and the joint's report; raises
     :class:`NoFeasibleDrive` when none is feasible."""
-    ok = ev.ok & np.array([table.parts[i].label not in banned for i in ev.idx], dtype=bool)
+    ok = ev.ok & np.array([table.label(i) not in banned for i in ev.idx], dtype=bool)
     order = np.lexsort((-np.nan_to_num(ev.worst, nan=-np.inf),
                         np.where(np.isfinite(ev.objective), ev.objective, np.inf)))
     feas = [k for k in order if ok[k]]
@@ -661,17 +759,18 @@ def _choose(table: _Table, ev: _JointEval, name: str, j: int, need: float,
     return win, choice
 
 
-def _no_feasible(table: _Table, ev: _JointEval, name: str, need: float) -> NoFeasibleDrive:
+def _no_feasible(table: CandidateTable, ev: _JointEval, name: str, need: float) -> NoFeasibleDrive:
     if ev.idx.size == 0:
         return NoFeasibleDrive(name, None, "", 0, "no candidate passes the maker and gear "
                                "type filters")
     # the closest: the largest worst margin; a candidate not evaluated on the motor
     # checks has a worst margin at most its cheap one, so rank all by what is known
     w = np.where(np.isfinite(ev.worst), ev.worst, -np.inf)
-    unknown = np.zeros(ev.idx.size, dtype=bool)
+    partial = ~np.isfinite(table.mass[ev.idx])        # never eligible: no mass
     for c in ev.checks.values():
-        unknown |= np.array(c.status, dtype=object) == UNKNOWN
-    k = int(np.lexsort((-w, unknown))[0])     # fully checked first, then the best worst margin
+        st = np.array(c.status, dtype=object)
+        partial |= (st == UNKNOWN) | (st == "not evaluated")
+    k = int(np.lexsort((-w, partial))[0])     # fully checked first, then the best worst margin
     cand = _candidate(table, ev, k, need)
     return NoFeasibleDrive(name, cand.to_dict(), _failing_check(cand, need), int(ev.idx.size),
                            need=need)
@@ -706,9 +805,9 @@ def _payload_ends(payload: Any, payload_range: Any) -> tuple[float, ...]:
     return (p,)
 
 
-def _filter(table: _Table, makers: Sequence[str] | None,
+def _filter(table: CandidateTable, makers: Sequence[str] | None,
             gear_types: Sequence[str] | None) -> np.ndarray:
-    keep = np.ones(len(table.parts), dtype=bool)
+    keep = np.ones(len(table), dtype=bool)
     if makers:
         want = {m.strip().lower() for m in makers if m.strip()}
         known = set(table.maker.tolist())
@@ -805,7 +904,7 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
                          "made from")
     cand_idx = {}
     for j in sel_joints:
-        table = _table(robot.joint_types[j] == PRISMATIC)
+        table = candidate_table(robot.joint_types[j] == PRISMATIC)
         cand_idx[j] = _filter(table, makers, gear_types)
 
     drives = list(robot.drives)
@@ -833,7 +932,7 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
             a = int(robot.parent[a])
     evaluated: dict[tuple, _JointEval] = {}
 
-    def evaluate(j: int, table: _Table) -> _JointEval:
+    def evaluate(j: int, table: CandidateTable) -> _JointEval:
         key = (j, tuple(sorted((k, m) for k, m in masses.items()
                                if mount_body(robot, k, mount_of[k]) in moved[j])))
         if key not in evaluated:
@@ -847,7 +946,7 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
         iterations += 1
         changed = False
         for j in sorted(sel_joints, reverse=True):
-            table = _table(robot.joint_types[j] == PRISMATIC)
+            table = candidate_table(robot.joint_types[j] == PRISMATIC)
             ev = evaluate(j, table)
             win, choice = _choose(table, ev, robot.joint_names[j], j, need, banned[j])
             body = mount_body(robot, j, mount_of[j])
@@ -940,4 +1039,4 @@ def save_selection(selection: Selection, path: Any) -> Any:
 
 __all__ = ["select_drives", "Selection", "JointChoice", "Candidate", "Part", "NoFeasibleDrive",
            "OBJECTIVES", "DEFAULT_MARGIN", "with_drive_masses", "save_selection",
-           "builtin_parts", "catalogue_parts", "mount_body"]
+           "builtin_parts", "candidate_table", "CandidateTable", "mount_body"]

@@ -11,9 +11,11 @@ For every driven joint along the trajectories (paper section 2):
    proximal ones), the counterweight of least squares
    (:func:`manipcad.analysis.counterbalance.fit_counterweight`) for each arm length of
    :data:`ARMS`; it *pays* when it lowers the joint's RMS motor torque by at least
-   :data:`PAYS` (10 %) and turns no joint's sizing from pass to fail or unknown; of
-   the arms that pay, the one with the smallest largest rating utilization over the
-   joints is proposed;
+   :data:`PAYS` (10 %), turns no joint's sizing from pass to fail or unknown, and is
+   no heavier than the links it balances (the links beyond the joint, payload
+   included: a counterweight heavier than that would load the joints before it more
+   than it relieves this one); of the arms that pay, the one with the smallest sum of
+   the joints' largest rating utilizations is proposed (the lighter one on a tie);
 4. what the proposal changes: each joint's class, required RMS and peak joint torque,
    sizing verdict and largest rating utilization (1 − margin) with and without it.
 
@@ -37,7 +39,7 @@ DOMINANT = 0.5
 #: a counterweight pays when it lowers the joint's RMS motor torque by this fraction
 PAYS = 0.10
 #: counterweight arm lengths tried, m
-ARMS = (0.1, 0.15, 0.2, 0.3)
+ARMS = (0.1, 0.15, 0.2, 0.3, 0.4, 0.5)
 #: sampling step of the trajectories for the analysis and the sizing, s
 DT = 2e-3
 
@@ -210,6 +212,24 @@ def _worse(a: Sizing, b: Sizing) -> list[int]:
             if _ORDER.get(b.status[j], 1) > _ORDER.get(a.status[j], 1)]
 
 
+def subtree_mass(robot: Robot, joint: int) -> float:
+    """The mass of the links joint ``joint`` moves (its own and its descendants'), kg.
+
+    Example:
+        >>> import manipcad
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> subtree_mass(arm, 0) == float(arm.mass.sum())
+        True
+    """
+    inside = [False] * robot.n
+    total = 0.0
+    for k in range(robot.n):
+        inside[k] = k == joint or (robot.parent[k] >= 0 and inside[robot.parent[k]])
+        if inside[k]:
+            total += float(robot.mass[k])
+    return total
+
+
 def decouple(robot: Robot, trajectories, *, mode: str = "none", arms=ARMS) -> Decoupling:
     """Propose the counterweights that pay, report what they change, apply them with "auto".
 
@@ -236,11 +256,16 @@ def decouple(robot: Robot, trajectories, *, mode: str = "none", arms=ARMS) -> De
         name = robot.joint_names[j]
         best = None
         why = []
+        carried = subtree_mass(current, j)
         for arm in arms:
             cw = fit_counterweight(current, q, j, arm=arm)
             if cw is None:
                 why.append("its gravity torque does not depend on its link's orientation")
                 break
+            if cw.mass > carried:
+                why.append(f"arm {arm:g} m: {cw.mass:.3g} kg, heavier than the "
+                           f"{carried:.3g} kg it balances")
+                continue
             trial = cw.apply(current)
             s = size(trial, trajectories)
             gain = 1.0 - s.rms_motor_torque[j] / max(cur_size.rms_motor_torque[j], 1e-300)
@@ -253,7 +278,7 @@ def decouple(robot: Robot, trajectories, *, mode: str = "none", arms=ARMS) -> De
                 why.append(f"arm {arm:g} m ({cw.mass:.3g} kg): the RMS motor torque drops "
                            f"{100 * gain:.3g} % (< {100 * PAYS:g} %)")
                 continue
-            score = max(s.utilization)
+            score = (sum(s.utilization), cw.mass)
             if best is None or score < best[0]:
                 best = (score, cw, trial, s)
         if best is None:

@@ -148,7 +148,7 @@ def joint_ratings(d) -> dict | None:
 
 def write_outputs(out: Path, *, req, arm, nominal, trajectories, outcome, runs, results,
                   decoupling, drive_info, recs, methods, designed, trace, settings, sources,
-                  store_runs, wall, parts_before) -> dict:
+                  store_runs, wall, parts_before, stage_times=None) -> dict:
     """Write every file of the design folder; return the design.json document."""
     from manipcad.control.files import regulators_yaml
     from manipcad.design.drives import parts
@@ -173,7 +173,8 @@ def write_outputs(out: Path, *, req, arm, nominal, trajectories, outcome, runs, 
                           methods=methods, designed=designed, trace=trace, settings=settings,
                           sources=sources, traj_files=traj_files, c_files=c_files,
                           counts=results.get("_counts", [0, 0]), wall=wall,
-                          parts_now=parts(arm), store_runs=store_runs)
+                          parts_now=parts(arm), store_runs=store_runs,
+                          stage_times=stage_times or {})
     atomic_write_text(out / "design.json", json.dumps(json_safe(doc), indent=2,
                                                       ensure_ascii=False) + "\n")
     from manipcad.report.design import write_report
@@ -184,7 +185,7 @@ def write_outputs(out: Path, *, req, arm, nominal, trajectories, outcome, runs, 
 
 def design_document(*, req, arm, nominal, outcome, runs, decoupling, drive_info, recs, methods,
                     designed, trace, settings, sources, traj_files, c_files, counts, wall,
-                    parts_now, store_runs) -> dict[str, Any]:
+                    parts_now, store_runs, stage_times=None) -> dict[str, Any]:
     """The design.json document.
 
     Keys: ``status`` ("met" | "not met"), ``accuracy`` (rad or m) and the joints it applies
@@ -290,7 +291,7 @@ def design_document(*, req, arm, nominal, outcome, runs, decoupling, drive_info,
         "sources": {k: (str(v) if not isinstance(v, list) else [str(x) for x in v])
                     for k, v in sources.items()},
         "executor": {"runs_computed": int(counts[0]), "runs_cached": int(counts[1]),
-                     "wall_time_s": wall},
+                     "wall_time_s": wall, "stage_wall_s": dict(stage_times or {})},
         "files": {"robot": "robot.yaml", "regulators": "regulators.yaml",
                   "trajectories": traj_files, "report": "report.html",
                   "c": [f"c/{f}" for f in c_files], "runs": "runs/" if store_runs else None},

@@ -44,8 +44,8 @@ from manipcad.design.judge import FAIL
 from manipcad.design.sweep import run_sweep
 from manipcad.errors import InputError, ManipcadError
 
-#: the label of the runs of the final combination
-DESIGN = "design"
+#: the label of the runs of a combination of methods (numbered: mix1, mix2, ...)
+DESIGN = "mix"
 
 
 class DesignNotMet(ManipcadError):
@@ -200,7 +200,7 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
     support = [j for j in driven if j not in designed]
     names = arm.joint_names
 
-    state = {"arm": arm, "levels": dict.fromkeys(methods, 0), "excluded": set()}
+    state = {"arm": arm, "levels": dict.fromkeys(methods, 0), "excluded": set(), "mixes": {}}
     runs_all: list[dict] = []
     results: dict[str, Any] = {}
     cache_dir = out / "cache"
@@ -230,7 +230,7 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
             stage(f"round {it + 1}: sweep", 0.2 + 0.7 * it / max_iterations)
             recs_it = _sweep(docs, plants, trajs, payloads, dt, period, accuracy, designed,
                              pool, workers, scheduler, cache_dir, progress, results)
-            runs_all += [r for r in recs_it if r["id"] not in {x["id"] for x in runs_all}]
+            _merge(runs_all, recs_it)
             evals = {names[j]: {m: evaluate([r for r in recs_it if r["label"] == labels[m]],
                                             names[j], strict=strict)
                                 for m in labels if j in synth[m].regulators}
@@ -244,16 +244,17 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
                                   joint=jn, iteration=it)
             choice = choose(evals, costs, state["excluded"])
             outcome = {"evals": evals, "costs": costs, "synth": synth, "labels": labels,
+                       "mixes": state["mixes"],
                        "docs": docs, "choice": choice, "support": support_regs,
                        "nominal": nominal, "plants": plants}
             if all(choice[names[j]] is not None for j in designed):
                 mix, mix_regs = _mix(choice, synth, designed, names, support_regs, nominal)
-                mix_label = _mix_label(choice, labels, designed, names)
+                mix_label = _mix_label(choice, labels, designed, names, state["mixes"])
                 if mix_label not in docs:
                     recs_mix = _sweep({mix_label: mix}, plants, trajs, payloads, dt, period,
                                       accuracy, designed, pool, workers, scheduler, cache_dir,
                                       progress, results)
-                    runs_all += recs_mix
+                    _merge(runs_all, recs_mix)
                 else:
                     recs_mix = [r for r in recs_it if r["label"] == mix_label]
                 final = {names[j]: evaluate(recs_mix, names[j], strict=strict)
@@ -263,10 +264,15 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
                                final_runs=recs_mix)
                 if not bad:
                     for jn in choice:
+                        alt = [f"{m} (cost {costs[jn][m]:.4g})" for m, e in evals[jn].items()
+                               if e.passed and m != choice[jn]
+                               and (jn, m) not in state["excluded"]]
                         trace.add("decide", f"{jn}: {choice[jn]}, the least complex method "
                                   f"that passes every case (cost {costs[jn][choice[jn]]:.4g}; "
                                   f"worst error {final[jn].worst_error:.3g} in "
-                                  f"{final[jn].worst_case})", joint=jn, method=choice[jn])
+                                  f"{final[jn].worst_case})"
+                                  + (f"; also passing, more complex: {', '.join(alt)}"
+                                     if alt else ""), joint=jn, method=choice[jn])
                     outcome["met"] = True
                     break
                 for jn in bad:
@@ -309,7 +315,8 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
                                   "counterbalance": counterbalance,
                                   "workers": workers, "scheduler": scheduler},
                         sources=sources or {}, store_runs=store_runs,
-                        wall=time.perf_counter() - t0, parts_before=parts(arm))
+                        wall=time.perf_counter() - t0, parts_before=parts(arm),
+                        stage_times=stage.times)
     stage("done", 1.0)
     if doc["status"] != "met":
         raise DesignNotMet(doc["failure"]["text"], doc)
@@ -319,10 +326,26 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
 # ------------------------------------------------------------------ steps
 
 
-def _stages(progress):
-    if callable(progress):
-        return progress
-    return lambda text, frac: None
+class _Stages:
+    """Calls ``progress(text, fraction)`` (if callable) and times each stage (wall, s)."""
+
+    def __init__(self, progress) -> None:
+        self.progress = progress if callable(progress) else None
+        self.times: dict[str, float] = {}
+        self._cur: tuple[str, float] | None = None
+
+    def __call__(self, text: str, frac: float) -> None:
+        now = time.perf_counter()
+        if self._cur is not None:
+            name = self._cur[0].split(":")[-1].strip()
+            self.times[name] = self.times.get(name, 0.0) + now - self._cur[1]
+        self._cur = (text, now)
+        if self.progress is not None:
+            self.progress(text, frac)
+
+
+def _stages(progress) -> _Stages:
+    return _Stages(progress)
 
 
 def _pool(stack: ExitStack, workers, scheduler):
@@ -403,9 +426,14 @@ def _mix(choice, synth, designed, names, support_regs, nominal) -> tuple[dict, l
     return _document(nominal, regs), regs
 
 
-def _mix_label(choice, labels, designed, names) -> str:
+def _mix_label(choice, labels, designed, names, mixes: dict) -> str:
+    """The label of a combination's runs: the method's when every joint has the same,
+    else ``mixK``, numbered in the order the combinations are first tried."""
     used = {labels[choice[names[j]]] for j in designed}
-    return used.pop() if len(used) == 1 else DESIGN
+    if len(used) == 1:
+        return used.pop()
+    key = tuple(sorted((jn, labels[m]) for jn, m in choice.items()))
+    return mixes.setdefault(key, f"{DESIGN}{len(mixes) + 1}")
 
 
 def _case_id(label: str, p: dict, ti: int) -> str:
@@ -446,6 +474,17 @@ def _sweep(docs, plants, trajs, payloads, dt, period, accuracy, designed, pool, 
     results[key][0] += out_counts[0]
     results[key][1] += out_counts[1]
     return out
+
+
+def _merge(runs_all: list[dict], new: list[dict]) -> None:
+    """Add runs to the list of every run; a run of the same id (a later round) replaces it."""
+    at = {r["id"]: k for k, r in enumerate(runs_all)}
+    for r in new:
+        if r["id"] in at:
+            runs_all[at[r["id"]]] = r
+        else:
+            at[r["id"]] = len(runs_all)
+            runs_all.append(r)
 
 
 def _remedy(state, choice, evals, costs, designed, names, methods, accuracy, trajs,
@@ -497,13 +536,13 @@ def _closest(outcome, designed, names, accuracy, trace, *, plants, trajs, payloa
             raise ManipcadError(f"no method could be synthesized for {jn}; see the trace")
         choice[jn] = c
     mix, mix_regs = _mix(choice, synth, designed, names, outcome["support"], outcome["nominal"])
-    mix_label = _mix_label(choice, labels, designed, names)
+    mix_label = _mix_label(choice, labels, designed, names, outcome["mixes"])
     if mix_label in outcome["docs"]:
         recs_mix = [r for r in runs_all if r["label"] == mix_label]
     else:
         recs_mix = _sweep({mix_label: mix}, plants, trajs, payloads, dt, period, accuracy,
                           designed, pool, workers, scheduler, cache_dir, progress, results)
-        runs_all += [r for r in recs_mix if r["id"] not in {x["id"] for x in runs_all}]
+        _merge(runs_all, recs_mix)
     final = {names[j]: evaluate(recs_mix, names[j], strict=strict) for j in designed}
     outcome.update(choice=choice, mix=mix, mix_regs=mix_regs, mix_label=mix_label, final=final,
                    final_runs=recs_mix, met=False)

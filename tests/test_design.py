@@ -241,3 +241,59 @@ def test_bad_input_exits_2(tmp_path):
     r = runner.invoke(app, ["design", *FIG3, "--payload-range", "2,1", "--out",
                             str(tmp_path / "d")])
     assert r.exit_code == 2 and "payload" in r.output
+
+
+# ------------------------------------------------------------------ the UR5 and the Panda
+
+
+@pytest.mark.parametrize("robot,pose", [
+    ("examples/ur5/ur5_unloaded.yaml", [[0.0, -1.57, 0.0, -1.57, 0.0, 0.0],
+                                        [0.4, -1.3, -0.3, -1.4, 0.3, 0.3]]),
+    ("examples/panda/panda.yaml", [[0.0, -0.5, 0.0, -2.0, 0.0, 1.5, 0.8],
+                                   [0.4, -0.2, 0.3, -1.7, 0.3, 1.8, 1.1]]),
+])
+def test_example_arms_designed_reproduced_and_compiled(robot, pose, tmp_path):
+    """A short move of each example arm (0.6 s and a 0.2 s hold), 0..0.5 kg: the design
+    meets 1e-3 rad on every joint in every case, simulate on the saved files gives the
+    nominal case's numbers, and the C compiles."""
+    traj = tmp_path / "move.yaml"
+    traj.write_text(yaml.safe_dump({"type": "waypoints", "points": pose, "move_time": 0.6,
+                                    "dwell": 0.2, "profile": "quintic"}))
+    req = "examples/ur5/requirements.yaml" if "ur5" in robot else \
+        "examples/panda/requirements.yaml"
+    out = tmp_path / "d"
+    r = runner.invoke(app, ["design", req, "--robot", robot, "-t", str(traj),
+                            "--payload-range", "0,0.5", "--max-methods", "2", "--workers",
+                            "1", "--no-progress", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "design.json").read_text())
+    assert doc["status"] == "met"
+    assert len(doc["accuracy_joints"]) == len(doc["parts"])
+    assert max(doc["worst_case_error"].values()) <= doc["accuracy"]
+    assert len(doc["final_cases"]) == 3
+    r = runner.invoke(app, ["simulate", str(out / "robot.yaml"), "-t",
+                            str(out / "trajectories/traj-0.yaml"), "-r",
+                            str(out / "regulators.yaml"), "--out", str(tmp_path / "run")])
+    assert r.exit_code == 0, r.output
+    got = json.loads((tmp_path / "run" / "metrics.json").read_text())["metrics"]
+    for jn, v in doc["reproduce"]["max_error"].items():
+        assert got[jn]["max_error"] == pytest.approx(v, rel=1e-4)
+    if shutil.which("gcc"):
+        for src in ("design.c", "design_regulators.c"):
+            subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror",
+                            "-c", str(out / "c" / src), "-o", str(tmp_path / "x.o")],
+                           check=True, capture_output=True)
+
+
+def test_drives_selected_from_the_catalogue_when_the_robot_file_has_none(tmp_path):
+    """The bare two-link arm (no drives): the design selects them (manipcad select's API)."""
+    from manipcad.design.drives import resolve_drives
+
+    arm = manipcad.load_robot("examples/two_link.yaml").without_drives()
+    tr = [quintic([0.0, 0.0], [0.6, -0.8], 2.0)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        new, info = resolve_drives(arm, tr, [0.0, 0.2])
+    assert all(d is not None for d in new.drives)
+    assert set(info["source"].values()) == {"catalogue selection"}
+    assert [j["joint"] for j in info["selection"]["joints"]] == ["shoulder", "elbow"]

@@ -1,25 +1,30 @@
 """The drives of the design: the robot file's, else selected from the catalogue.
 
-:func:`resolve_drives` keeps the drives the robot file gives. A joint without one is
-given one by the catalogue selection (:func:`select_drives`, one call) when the
-selection is available in this installation; otherwise the design stops with one
-clear error naming the joints. :func:`next_drive_up` is the design loop's remedy for a
-joint that no method can control within its drive's ratings: the next feasible
-catalogue pair with a larger objective, or None when the selection cannot give one.
+:func:`resolve_drives` keeps the drives the robot file gives; the joints without one get
+theirs from the catalogue selection (:func:`manipcad.sizing.select.select_drives`, the
+API of ``manipcad select``, one call: every compatible motor and gear checked with
+``size``'s checks on every trajectory at both ends of the payload range, the least
+objective that passes with the margin, the drives' masses on the links).
+
+:func:`next_drive_up` is the design loop's remedy for a joint that no method controls
+within its drive's ratings: the joint's feasible catalogue candidates in the order of
+the objective (the selection's choice and its alternatives), the first whose
+joint-side peak torque is larger than the present drive's.
+
+The selection puts a payload at the last link's origin (as ``size --payload``); the
+verification sweep puts it at the tool point.
 """
 
 from __future__ import annotations
 
-import importlib.util
+import math
 from typing import Any
 
-from manipcad.errors import InputError
-from manipcad.model.robot import Robot
+from manipcad.errors import InputError, ManipcadError
+from manipcad.model.robot import Drive, Robot
 
-
-def selection_available() -> bool:
-    """Whether the catalogue selection (``manipcad.sizing.select``) is installed."""
-    return importlib.util.find_spec("manipcad.sizing.select") is not None
+#: where a robot made by the selection says so (select writes it into ``Robot.source``)
+SELECTED = "selected by manipcad select"
 
 
 def parts(robot: Robot) -> dict[str, dict[str, Any]]:
@@ -38,60 +43,97 @@ def parts(robot: Robot) -> dict[str, dict[str, Any]]:
     return out
 
 
-def select_drives(robot: Robot, trajectories, payloads, *, joints=None, makers=None):
-    """Drives for ``joints`` from the catalogue (``manipcad select``'s API).
+def peak_joint_torque(d: Drive) -> float:
+    """What a drive can apply at the joint, N·m (N): the smaller of the motor's peak
+    torque·|i_r| and the gear's repeated peak (nan if neither is known).
 
-    Returns:
-        (the robot with the selected drives, the selection's report as a mapping).
-
-    Raises:
-        InputError: the selection is not available, or no catalogue pair is feasible.
+    Example:
+        >>> import manipcad
+        >>> peak_joint_torque(manipcad.load_robot("cylindrical").drives[0]) > 0
+        True
     """
-    if not selection_available():
-        names = ", ".join(joints or robot.joint_names)
-        raise InputError("--robot", "drives", f"no drive on {names}, and the catalogue "
-                         "selection is not available: give the drives in the robot file")
-    from manipcad.sizing import select as sel  # the catalogue selection
+    vals = [float(d.peak_torque) * abs(float(d.ratio)), float(d.gear_peak_torque)]
+    vals = [v for v in vals if math.isfinite(v)]
+    return min(vals) if vals else math.nan
 
-    result = sel.select(robot, list(trajectories), payload_range=(min(payloads), max(payloads)),
-                        makers=makers, joints=joints)
+
+def select_drives(robot: Robot, trajectories, payloads, *, joints=None, makers=None,
+                  objective: str = "mass", margin: float | None = None):
+    """Drives for ``joints`` from the catalogue: (the robot with them, the report)."""
+    from manipcad.sizing import select as sel
+
+    kw: dict[str, Any] = {"payload_range": (min(payloads), max(payloads)), "makers": makers,
+                          "joints": joints, "objective": objective}
+    if margin is not None:
+        kw["margin"] = margin
+    result = sel.select_drives(robot, list(trajectories), **kw)
     return result.robot, result.to_dict()
 
 
-def resolve_drives(robot: Robot, trajectories, payloads, *, makers=None
+def resolve_drives(robot: Robot, trajectories, payloads, *, makers=None,
+                   objective: str = "mass", margin: float | None = None
                    ) -> tuple[Robot, dict[str, Any]]:
     """The robot with a drive on every joint, and where each came from.
 
     Returns:
-        (robot, {"source": {joint: "robot file" | "selected"}, "selection": report or None}).
+        (robot, {"source": {joint: "robot file" | "catalogue selection"},
+        "selection": the selection's report or None}).
+
+    Raises:
+        NoFeasibleDrive: no catalogue pair is feasible for a joint (naming it, the
+            closest candidate and the check it fails).
     """
     missing = [robot.joint_names[j] for j, d in enumerate(robot.drives) if d is None]
     source = {n: "robot file" for n in robot.joint_names if n not in missing}
     if not missing:
         return robot, {"source": source, "selection": None}
-    robot, report = select_drives(robot, trajectories, payloads, joints=missing, makers=makers)
-    source.update({n: "selected" for n in missing})
+    robot, report = select_drives(robot, trajectories, payloads, joints=missing,
+                                  makers=makers, objective=objective, margin=margin)
+    source.update({n: "catalogue selection" for n in missing})
     return robot, {"source": source, "selection": report}
 
 
-def next_drive_up(robot: Robot, joint: int, trajectories, payloads, *, makers=None):
-    """The next larger catalogue drive for ``joint``, or None (with the reason).
+def next_drive_up(robot: Robot, joint: int, trajectories, payloads, *, makers=None,
+                  tried=()) -> tuple[Robot | None, str]:
+    """The arm with the next larger catalogue drive on ``joint``, or (None, why not).
+
+    Args:
+        robot: the arm (its drives from a robot file: a selected arm's links already
+            hold the drives' masses and are not re-selected).
+        joint: the joint's index.
+        trajectories, payloads: what the candidates must pass (``size``'s checks).
+        makers: the makers allowed.
+        tried: labels of candidates already tried on this joint.
 
     Returns:
-        (robot with it, None) or (None, why not).
+        (robot, label of the new drive) or (None, the reason).
     """
-    if not selection_available():
-        return None, "the catalogue selection is not available in this installation"
     from manipcad.sizing import select as sel
 
+    if SELECTED in robot.source:
+        return None, ("the arm's drives come from the catalogue selection (their masses are "
+                      "on its links): select again with a larger margin")
+    d0 = robot.drives[joint]
+    have = peak_joint_torque(d0) if d0 is not None else 0.0
     try:
-        new = sel.next_up(robot, joint, list(trajectories),
-                          payload_range=(min(payloads), max(payloads)), makers=makers)
-    except (AttributeError, InputError) as exc:
-        return None, str(exc)
-    if new is None:
-        return None, "no larger feasible catalogue pair"
-    return new, None
+        res = sel.select_drives(robot, list(trajectories),
+                                payload_range=(min(payloads), max(payloads)), makers=makers,
+                                joints=[joint], verify=False)
+    except (ManipcadError, InputError) as exc:
+        return None, f"the catalogue has no feasible drive: {exc}"
+    ch = res.joints[0]
+    for cand in (ch.chosen, *ch.alternatives):
+        cap = peak_joint_torque(cand.part.drive)
+        if cand.label in tried or not (math.isfinite(cap) and cap > (have or 0.0)):
+            continue
+        drives = list(robot.drives)
+        drives[joint] = cand.part.drive
+        arm = robot.replace(drives=tuple(drives))
+        masses = {joint: cand.part.mass} if math.isfinite(cand.part.mass) else {}
+        arm = sel.with_drive_masses(arm, masses) if masses else arm
+        return arm, cand.label
+    return None, (f"no feasible catalogue drive for {robot.joint_names[joint]} can apply more "
+                  f"than its present {have:.4g} N·m")
 
 
-__all__ = ["resolve_drives", "select_drives", "next_drive_up", "parts", "selection_available"]
+__all__ = ["resolve_drives", "select_drives", "next_drive_up", "parts", "peak_joint_torque"]

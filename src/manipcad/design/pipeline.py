@@ -164,7 +164,7 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
     arm, drive_info = resolve_drives(arm, trajs, payloads, makers=makers)
     for name, src in drive_info["source"].items():
         d = arm.drive(name)
-        trace.add("drives", f"{name}: {d.name or 'motor'} + {d.gear or 'gear'} "
+        trace.add("drives", f"{name}: {d.name or 'motor'} + {d.gear or 'no gear (direct)'} "
                   f"(i_r = {d.ratio:g}) from the {src}")
     # 2. decoupling
     stage("decoupling", 0.05)
@@ -200,7 +200,8 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
     support = [j for j in driven if j not in designed]
     names = arm.joint_names
 
-    state = {"arm": arm, "levels": dict.fromkeys(methods, 0), "excluded": set(), "mixes": {}}
+    state = {"arm": arm, "levels": dict.fromkeys(methods, 0), "excluded": set(), "mixes": {},
+             "tried": {}}
     runs_all: list[dict] = []
     results: dict[str, Any] = {}
     cache_dir = out / "cache"
@@ -500,16 +501,18 @@ def _remedy(state, choice, evals, costs, designed, names, methods, accuracy, tra
         e = evals[jn][best]
         rating = any(not why.startswith("tracking") for _, whys in e.failing for why in whys)
         if rating:
-            new, why = next_drive_up(state["arm"], j, trajs, payloads, makers=makers)
+            tried = state["tried"].setdefault(jn, set())
+            new, label = next_drive_up(state["arm"], j, trajs, payloads, makers=makers,
+                                       tried=tried)
             if new is not None:
+                tried.add(label)
                 state["arm"] = new
                 trace.add("remedy", f"{jn}: the closest method {best} fails a rating check; "
-                          f"next drive up: {new.drive(j).name} + {new.drive(j).gear}",
-                          joint=jn, iteration=it)
+                          f"next drive up: {label}", joint=jn, iteration=it)
                 acted = True
                 continue
             trace.add("remedy", f"{jn}: {best} fails a rating check and no larger drive "
-                      f"is available ({why})", joint=jn, iteration=it)
+                      f"is available ({label})", joint=jn, iteration=it)
     if stuck:
         tight = [m for m in methods if m in TIGHTENABLE]
         if tight:

@@ -29,9 +29,18 @@ def _canvas(w: float, h: float):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(w, h), layout="constrained")
+    fig = Figure(figsize=(w, h))       # fixed margins: a layout engine costs seconds here
     FigureCanvasAgg(fig)
     return fig
+
+
+def _log(ax) -> None:
+    """A log y axis with few ticks (their layout is what a log axis costs)."""
+    from matplotlib.ticker import LogLocator, NullLocator
+
+    ax.set_yscale("log")
+    ax.yaxis.set_major_locator(LogLocator(numticks=5))
+    ax.yaxis.set_minor_locator(NullLocator())
 
 
 def _png(fig, dpi: int = 90) -> bytes:
@@ -70,12 +79,14 @@ def envelope_figure(doc: Mapping[str, Any], runs: Sequence[Mapping[str, Any]]) -
                     ax.step(t, [max(e[k], 1e-12) for e in r["envelope"]["error"]],
                             where="post", color="k", lw=0.8, label="nominal case")
         ax.axhline(doc["accuracy"], color="r", ls="--", lw=1, label="accuracy")
-        ax.set_yscale("log")
-        ax.set_ylabel(f"{jn}\n|e|")
-        ax.grid(True, which="both", alpha=0.3)
+        _log(ax)
+        ax.set_ylabel(f"{jn}\n|e|", fontsize=8)
+        ax.grid(True, alpha=0.3)
     axes[0].legend(fontsize=7, loc="upper right")
     axes[-1].set_xlabel("t, s")
     fig.suptitle("Tracking error over the sweep (max |e| per time bin)", fontsize=10)
+    fig.subplots_adjust(left=0.16, right=0.97, top=1 - 0.45 / fig.get_figheight(),
+                        bottom=0.5 / fig.get_figheight(), hspace=0.15)
     return _png(fig)
 
 
@@ -107,6 +118,7 @@ def ratings_figure(doc: Mapping[str, Any]) -> bytes:
     ax.legend(fontsize=7)
     ax.grid(True, axis="y", alpha=0.3)
     ax.set_title("Torques, speeds and currents against the ratings (worst case)", fontsize=10)
+    fig.subplots_adjust(left=0.09, right=0.98, top=0.9, bottom=0.22)
     return _png(fig)
 
 
@@ -130,19 +142,20 @@ def methods_figure(doc: Mapping[str, Any]) -> bytes:
             hatch.append(per.get(jn, {}).get("passed"))
         bars = ax.bar(x + (k - (len(labels) - 1) / 2) * w, vals, w, label=lab)
         for b, ok, jn in zip(bars, hatch, joints, strict=True):
+            chosen = doc["methods"].get(jn) == doc["candidates"][lab]["method"] and ok
+            b.set_edgecolor("k" if chosen or ok is False else "none")
+            b.set_linewidth(1.8 if chosen else 0.5)
             if ok is False:
                 b.set_hatch("//")
-            if doc["methods"].get(jn) == doc["candidates"][lab]["method"] and ok:
-                b.set_edgecolor("k")
-                b.set_linewidth(1.5)
     ax.axhline(doc["accuracy"], color="r", ls="--", lw=1, label="accuracy")
-    ax.set_yscale("log")
+    _log(ax)
     ax.set_xticks(x, joints, rotation=20, fontsize=8)
     ax.set_ylabel("worst-case max |e|")
     ax.legend(fontsize=7, ncol=2)
-    ax.grid(True, axis="y", which="both", alpha=0.3)
+    ax.grid(True, axis="y", alpha=0.3)
     ax.set_title("Methods compared (hatched: fails a check in some case; outlined: chosen)",
                  fontsize=10)
+    fig.subplots_adjust(left=0.09, right=0.98, top=0.9, bottom=0.22)
     return _png(fig)
 
 

@@ -7,7 +7,8 @@ c/ and runs/.
 - ``regulators.yaml``: the chosen method of every joint, one regulator file.
 - ``trajectories/traj-K.yaml``: the trajectories, as the runs used them.
 - ``design.json``: see :func:`design_document`.
-- ``report.html``: one self-contained page (:mod:`manipcad.report.design`).
+- ``report.html``: one self-contained page (:mod:`manipcad.report.design`); its figures
+  also as ``figures/envelope.png``, ``ratings.png``, ``methods.png``.
 - ``c/``: the drive processor's C99: the arm's dynamics (``<prefix>.h/.c``) and the
   regulators' updates (``<prefix>_regulators.h/.c``).
 - ``runs/<case>/``: every run of the sweep as a result folder (:mod:`manipcad.store`),
@@ -179,7 +180,7 @@ def write_outputs(out: Path, *, req, arm, nominal, trajectories, outcome, runs, 
                                                       ensure_ascii=False) + "\n")
     from manipcad.report.design import write_report
 
-    write_report(out / "report.html", doc, runs)
+    write_report(out / "report.html", doc, runs, png_dir=out / "figures")
     return doc
 
 
@@ -293,6 +294,8 @@ def design_document(*, req, arm, nominal, outcome, runs, decoupling, drive_info,
         "executor": {"runs_computed": int(counts[0]), "runs_cached": int(counts[1]),
                      "wall_time_s": wall, "stage_wall_s": dict(stage_times or {})},
         "files": {"robot": "robot.yaml", "regulators": "regulators.yaml",
+                  "figures": ["figures/envelope.png", "figures/ratings.png",
+                              "figures/methods.png"],
                   "trajectories": traj_files, "report": "report.html",
                   "c": [f"c/{f}" for f in c_files], "runs": "runs/" if store_runs else None},
         "units": {"accuracy": "rad (m for prismatic joints)",

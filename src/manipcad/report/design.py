@@ -181,8 +181,16 @@ def _counterbalance(cb: Mapping[str, Any]) -> str:
                          "sizing (drive)"], rows)
 
 
-def design_html(doc: Mapping[str, Any], runs: Sequence[Mapping[str, Any]]) -> str:
-    """The report page (self-contained HTML)."""
+def figures(doc: Mapping[str, Any], runs: Sequence[Mapping[str, Any]]) -> dict[str, bytes]:
+    """The report's three figures as PNG bytes: envelope, ratings, methods."""
+    return {"envelope": envelope_figure(doc, runs), "ratings": ratings_figure(doc),
+            "methods": methods_figure(doc)}
+
+
+def design_html(doc: Mapping[str, Any], runs: Sequence[Mapping[str, Any]],
+                figs: Mapping[str, bytes] | None = None) -> str:
+    """The report page (self-contained HTML); ``figs`` as :func:`figures` gives them."""
+    figs = figures(doc, runs) if figs is None else figs
     met = doc["status"] == "met"
     body = []
     verdict = ("The design meets the accuracy in every case." if met
@@ -201,11 +209,11 @@ def design_html(doc: Mapping[str, Any], runs: Sequence[Mapping[str, Any]]) -> st
         body.append(paragraph(f"Reproduce the nominal case ({rep['case']}) in the design "
                               f"folder: {rep['command']}"))
     body.append(section("Tracking error over the sweep",
-                        figure(envelope_figure(doc, runs), "Largest |e| per time bin over "
+                        figure(figs["envelope"], "Largest |e| per time bin over "
                                "the payloads and uncertainty samples; black: nominal case; "
                                "red: the accuracy.")))
     body.append(section("Torques, speeds and currents against the ratings",
-                        figure(ratings_figure(doc), "Peak over the final cases over the "
+                        figure(figs["ratings"], "Peak over the final cases over the "
                                "drive's joint-side rating; above 1 exceeds it.")))
     marg = []
     for jn, checks in doc["worst_margins"].items():
@@ -214,7 +222,7 @@ def design_html(doc: Mapping[str, Any], runs: Sequence[Mapping[str, Any]]) -> st
                          c.get("margin"), c.get("verdict"), c.get("case")])
     body.append(section("Every check's worst margin", table(
         ["joint", "check", "value", "limit", "unit", "margin", "verdict", "case"], marg)))
-    body.append(section("Methods compared", figure(methods_figure(doc), "Worst-case error "
+    body.append(section("Methods compared", figure(figs["methods"], "Worst-case error "
                         "of each candidate per joint.")))
     cand_rows = []
     for lab, c in doc["candidates"].items():
@@ -254,12 +262,19 @@ def design_html(doc: Mapping[str, Any], runs: Sequence[Mapping[str, Any]]) -> st
 
 
 def write_report(path: str | Path, doc: Mapping[str, Any],
-                 runs: Sequence[Mapping[str, Any]]) -> Path:
-    """Write report.html (see :func:`design_html`)."""
-    from manipcad.fileio import atomic_write_text
+                 runs: Sequence[Mapping[str, Any]], *, png_dir: str | Path | None = None
+                 ) -> Path:
+    """Write report.html (see :func:`design_html`) and, with ``png_dir``, its figures as
+    envelope.png, ratings.png and methods.png there."""
+    from manipcad.fileio import atomic_write_bytes, atomic_write_text
 
-    return atomic_write_text(path, design_html(doc, runs))
+    figs = figures(doc, runs)
+    if png_dir is not None:
+        Path(png_dir).mkdir(parents=True, exist_ok=True)
+        for name, data in figs.items():
+            atomic_write_bytes(Path(png_dir) / f"{name}.png", data)
+    return atomic_write_text(path, design_html(doc, runs, figs))
 
 
-__all__ = ["write_report", "design_html", "envelope_figure", "ratings_figure",
+__all__ = ["write_report", "design_html", "figures", "envelope_figure", "ratings_figure",
            "methods_figure"]

@@ -13,6 +13,8 @@ import pytest
 import yaml
 
 import manipcad
+from manipcad.catalog.efficiency import strain_wave_assumption
+from manipcad.catalog.files import PARTS
 from manipcad.errors import InputError
 from manipcad.model.robot import Drive
 from manipcad.model.yaml_robot import CONSTANTS, compose_gears, load_gear
@@ -40,8 +42,11 @@ def test_csg_entry_loads_ordered_and_sourced(size, ratio):
     assert g.max_average_input_speed == pytest.approx(3500 * RPM, rel=1e-15)
     assert g.rated_input_speed == pytest.approx(2000 * RPM, rel=1e-15)
     assert g.J == pytest.approx(SIZE[size][1], rel=1e-12)
-    # what the transcription does not give stays unknown, and the source says so
-    assert g.efficiency is None and g.stiffness is None and g.mass is None
+    # what the transcription does not give stays unknown, and the source says so; the
+    # efficiency is the library's stated strain-wave assumption, marked as such
+    assert g.stiffness is None and g.mass is None
+    assert g.efficiency == strain_wave_assumption()[0] and g.efficiency_basis == "assumed"
+    assert "HFUC-20-80" in g.assumed["efficiency"]
     assert f"size {size}, ratio {ratio}" in " ".join(g.source.split())
     assert "transcription" in g.source and "efficiency" in g.source
 
@@ -60,7 +65,8 @@ def test_csf_units_from_the_product_pages(name, ratings):
     assert g.max_average_torque is None
     assert g.max_average_input_speed == pytest.approx(3500 * RPM, rel=1e-15)
     if name != "harmonic_csf17_100":
-        assert g.max_input_speed is None and g.efficiency is None and g.stiffness is None
+        assert g.max_input_speed is None and g.stiffness is None
+        assert g.efficiency_basis == "assumed"
     else:
         assert "NOT CONFIRMED" in g.source      # its efficiency and max speed
 
@@ -75,8 +81,8 @@ def test_csg_25_100_cross_check():
 def test_rating_order_validator_names_the_field(tmp_path):
     """A transcription that swapped two columns (rated above the repeated peak) fails
     with the field named; so does an average input speed above the maximum."""
-    base = yaml.safe_load(open(load_gear.__globals__["CATALOG"].joinpath(
-        "gears", "harmonic_csg20_100.yaml"), encoding="utf-8"))
+    base = yaml.safe_load(open(PARTS.joinpath("gears", "harmonic_csg20_100.yaml"),
+                               encoding="utf-8"))
     bad = dict(base, max_continuous_torque=120)
     p = tmp_path / "swapped.yaml"
     p.write_text(yaml.safe_dump(bad), encoding="utf-8")
@@ -97,20 +103,30 @@ def test_rating_order_validator_names_the_field(tmp_path):
     assert exc.value.field == "max_momentary_torque"
 
 
+def _unknown_eta_gear(tmp_path):
+    """The CSG-20-100 file with ``efficiency: unknown`` (no assumption), as a path."""
+    base = yaml.safe_load(open(PARTS.joinpath("gears", "harmonic_csg20_100.yaml"),
+                               encoding="utf-8"))
+    p = tmp_path / "csg20_100_unknown.yaml"
+    p.write_text(yaml.safe_dump(dict(base, efficiency="unknown")), encoding="utf-8")
+    return str(p)
+
+
 def test_unknown_efficiency_composes_to_nan_and_round_trips(tmp_path):
-    f, _ = compose_gears([load_gear("harmonic_csg20_100")])
-    assert math.isnan(f["efficiency"])
+    unknown = _unknown_eta_gear(tmp_path)
+    f, _ = compose_gears([load_gear(unknown)])
+    assert math.isnan(f["efficiency"]) and "assumed" not in f
     assert (f["gear_rated_torque"], f["gear_peak_torque"]) == (52.0, 107.0)
     assert f["gear_max_input_speed"] == pytest.approx(6500 * RPM, rel=1e-15)
     # a chain: the rating of a gear before one of unknown efficiency is unknown too
-    f, _ = compose_gears([load_gear("wittenstein_tp004mf_10"), load_gear("harmonic_csg20_100")])
+    f, _ = compose_gears([load_gear("wittenstein_tp004mf_10"), load_gear(unknown)])
     assert math.isnan(f["efficiency"]) and "gear_rated_torque" not in f
     assert "gear_max_input_speed" in f                      # speeds need no efficiency
     doc = {"name": "one", "joints": [{
         "name": "j1", "type": "revolute", "dh": {"a": 0, "alpha": 0, "d": 0, "theta": 0},
         "link": {"mass": 1.0, "com": [0.1, 0, 0], "inertia": {"ixx": 0.01, "iyy": 0.01,
                                                                "izz": 0.01}},
-        "drive": {"motor": "maxon_ec90flat_244879", "gear": "harmonic_csg20_100"}}]}
+        "drive": {"motor": "maxon_ec90flat_244879", "gear": unknown}}]}
     p = tmp_path / "one.yaml"
     p.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
     arm = manipcad.load_robot(p)
@@ -181,8 +197,9 @@ def test_lower_bound_is_a_bound():
 
 
 def test_cli_size_says_why_unknown(tmp_path):
-    """`manipcad size` on a drive through a CSG gear: exit 1 (unknown), and it names the
-    unknown gear efficiency as the reason; --allow-unknown exits 0."""
+    """`manipcad size` on a drive through a CSG gear stated ``efficiency: unknown``: exit 1
+    (unknown), and it names the unknown gear efficiency as the reason; --allow-unknown
+    exits 0."""
     from typer.testing import CliRunner
 
     from manipcad.cli import app
@@ -192,7 +209,8 @@ def test_cli_size_says_why_unknown(tmp_path):
         "name": "j1", "type": "revolute", "dh": {"a": 0, "alpha": "pi/2", "d": 0, "theta": 0},
         "link": {"mass": 1.0, "com": [0.1, 0, 0], "inertia": {"ixx": 0.01, "iyy": 0.01,
                                                                "izz": 0.01}},
-        "drive": {"motor": "maxon_ec45flat_411812", "gear": "harmonic_csg14_100"}}]}
+        "drive": {"motor": "maxon_ec45flat_411812", "gear": "harmonic_csg14_100",
+                  "efficiency": "unknown"}}]}
     robot = tmp_path / "one.yaml"
     robot.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
     traj = tmp_path / "t.yaml"

@@ -22,6 +22,7 @@ from typer.testing import CliRunner
 
 from manipcad.cli import app
 from manipcad.errors import InputError, ManipcadWarning
+from manipcad.catalog.files import PARTS
 from manipcad.model.load import CATALOG
 from manipcad.sim.simulate import SimulationResult
 from manipcad.workspace import Workspace, parse_where, resolve_input
@@ -33,7 +34,7 @@ runner = CliRunner()
 
 
 def catalog(kind: str, name: str) -> Path:
-    return Path(str(CATALOG / kind / f"{name}.yaml"))
+    return Path(str((CATALOG if kind == "robots" else PARTS) / kind / f"{name}.yaml"))
 
 
 def fake_result(scale: float, n: int = 3, k: int = 50) -> SimulationResult:

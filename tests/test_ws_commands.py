@@ -59,7 +59,7 @@ def test_study_size_and_identify_take_the_workspace(tmp_path):
 
 
 def test_robots_list_shows_the_catalog_and_the_workspace(tmp_path):
-    from manipcad.model.load import CATALOG
+    from manipcad.catalog.files import PARTS as CATALOG
 
     ws = tmp_path / "ws"
     assert run("ws", "init", ws).exit_code == 0

@@ -31,6 +31,7 @@ from manipcad.model.yaml_robot import (
 
 ROOT = Path(__file__).resolve().parents[1]
 CATALOG = ROOT / "src" / "manipcad" / "model" / "catalog"
+PARTS = ROOT / "src" / "manipcad" / "catalog" / "data" / "parts"
 
 # --------------------------------------------------------------------------- helpers
 
@@ -231,6 +232,10 @@ def test_beckhoff_ratings_reach_the_sizing(tmp_path):
     req = required_drive(arm, traj)
     assert req.checks["speed"].status == ("pass",)
     assert req.checks["speed"].limit[0] == pytest.approx(10000 * RPM, rel=1e-15)
+    for k in ("continuous", "peak", "voltage"):   # on the CSG's assumed efficiency
+        assert req.checks[k].status == ("pass",), k
+    assert arm.drives[0].assumed[0][0] == "efficiency"
+    req = required_drive(robot("beckhoff_am8122_0fh1", efficiency="unknown"), traj)
     for k in ("continuous", "peak", "voltage"):
         assert req.checks[k].status == ("unknown",), k
     assert required_drive(robot("maxon_ec90flat_244879"), traj).checks["speed"].status \
@@ -592,7 +597,7 @@ def test_explicit_drive_defaults_and_friction_pair(tmp_path):
 
 def test_motor_by_path_relative_to_robot_file(tmp_path):
     (tmp_path / "my_motor.yaml").write_text(
-        (CATALOG / "motors" / "maxon_re25_118743.yaml").read_text())
+        (PARTS / "motors" / "maxon_re25_118743.yaml").read_text())
     doc = base_doc()
     doc["joints"][0]["drive"] = {"motor": "my_motor.yaml", "ratio": 10}
     robot = load_yaml_robot(write(tmp_path, doc))

@@ -5,6 +5,7 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
+from manipcad.catalog.files import part_names
 from manipcad.errors import InputError
 from manipcad.fileio import check_readable
 from manipcad.model.robot import Robot
@@ -13,7 +14,11 @@ CATALOG = resources.files("manipcad.model") / "catalog"
 
 
 def catalog_names(kind: str = "robots") -> list[str]:
-    """Names of the built-in catalog entries of a kind: "robots", "motors" or "gears"."""
+    """Names of the built-in catalog entries of a kind: "robots", "motors" or "gears"
+    (the motors and gears of the built-in part files; ``manipcad catalog list`` shows
+    the whole parts library)."""
+    if kind in ("motors", "gears"):
+        return part_names(kind)
     folder = CATALOG / kind
     return sorted(p.name.rsplit(".", 1)[0] for p in folder.iterdir()
                   if p.name.endswith((".yaml", ".urdf")))

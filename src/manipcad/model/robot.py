@@ -98,6 +98,9 @@ class Drive:
             (nan if unknown or not rated).
         gear_average_input_speed: the gear's limit for the average input
             speed, referred to the motor shaft, rad/s (nan if unknown or not rated).
+        assumed: the fields whose values are assumed rather than printed on a
+            data sheet, as sorted (field, why) pairs, e.g. (("efficiency", "Harmonic
+            Drive AG's efficiency model ..."),); ``size --strict`` takes them as unknown.
     """
 
     J: float = 0.0
@@ -126,6 +129,7 @@ class Drive:
     gear_max_input_speed: float = float("nan")
     gear_average_torque: float = float("nan")
     gear_average_input_speed: float = float("nan")
+    assumed: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self) -> None:
         mf = self.M_f
@@ -135,6 +139,12 @@ class Drive:
             raise ModelError("drive M_f must be one value or a [positive, negative] pair")
         # the negative-motion value may be given signed, as Corke's Tc-
         object.__setattr__(self, "M_f", (abs(float(mf[0])), abs(float(mf[1]))))
+        assumed = dict(self.assumed)
+        if set(assumed) - {f.name for f in dataclasses.fields(self)}:
+            raise ModelError(f"drive assumed names no drive field: "
+                             f"{sorted(set(assumed) - {f.name for f in dataclasses.fields(self)})}",
+                             field="assumed")
+        object.__setattr__(self, "assumed", tuple(sorted(assumed.items())))
         _check_drive_values(self)
         if not (float(self.stiffness) > 0):
             raise ModelError(f"drive stiffness must be > 0 N·m/rad (inf: rigid), "

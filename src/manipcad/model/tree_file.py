@@ -201,6 +201,8 @@ def drive_to_dict(d: Drive) -> dict[str, Any]:
     out["M_f"] = [float(d.M_f[0]), float(d.M_f[1])]
     if d.elastic:
         out["elasticity"] = [float(d.stiffness), float(d.damping)]
+    if d.assumed:
+        out["assumed"] = dict(d.assumed)
     return out
 
 

@@ -60,14 +60,9 @@ the dotted field (``joints[2].link.mass``) and the reason.
 
 from __future__ import annotations
 
-import ast
 import math
-import operator
-import typing
 import warnings
 from collections.abc import Callable, Mapping
-from functools import lru_cache
-from importlib import resources
 from importlib.abc import Traversable
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -76,100 +71,21 @@ import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
 from manipcad import fileio
+from manipcad.catalog import compose_drive
+from manipcad.catalog.files import (
+    GearSpec,
+    MotorSpec,
+    compose_gears,
+    load_gear,
+    load_motor,
+)
 from manipcad.errors import InputError, ManipcadWarning, ModelError
 from manipcad.model import dh
 from manipcad.model.robot import PRISMATIC, REVOLUTE, Drive, Robot
-
-CATALOG: Traversable = resources.files("manipcad.model") / "catalog"
+from manipcad.schema import CONSTANTS, Friction, Num, OptNum, evaluate, problem
+from manipcad.schema import to_float as _to_float
 
 # --------------------------------------------------------------------------- numbers
-
-#: Named constants usable in numeric fields (SI values).
-CONSTANTS: dict[str, float] = {
-    "pi": math.pi,
-    "deg": math.pi / 180.0,  # rad per degree
-    "rpm": 2.0 * math.pi / 60.0,  # rad/s per rev/min
-    "inch": 0.0254,  # m
-    "mm": 1e-3,  # m
-    "gcm2": 1e-7,  # kg·m² per g·cm²
-}
-_BINOPS: dict[type, Callable[[float, float], float]] = {
-    ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
-    ast.Div: operator.truediv, ast.Pow: operator.pow,
-}
-_UNARY: dict[type, Callable[[float], float]] = {ast.USub: operator.neg, ast.UAdd: operator.pos}
-
-
-#: the longest numeric expression a file may hold, characters
-MAX_EXPRESSION = 200
-
-
-def evaluate(text: str) -> float:
-    """Evaluate a numeric field written as text: a number or an arithmetic
-    expression over numbers and :data:`CONSTANTS` with ``+ - * / **`` and
-    parentheses (e.g. ``"-pi/2"``, ``"26.45*inch"``). Raises ValueError."""
-    allowed = (f"only numbers, + - * / ** ( ) and the constants "
-               f"{', '.join(CONSTANTS)} are allowed")
-
-    def fail(detail: str) -> ValueError:
-        shown = text if len(text) <= 60 else f"{text[:40]}...({len(text)} characters)"
-        return ValueError(f"expected a number, got {shown!r}: {detail}")
-
-    if len(text) > MAX_EXPRESSION:  # bounds the parser's and ev's recursion and time
-        raise fail(f"expression too long ({len(text)} characters; at most {MAX_EXPRESSION})")
-    try:
-        tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError:
-        raise fail(allowed) from None
-
-    def ev(node: ast.AST) -> float:
-        if isinstance(node, ast.Constant) and type(node.value) in (int, float):
-            return float(node.value)
-        if isinstance(node, ast.Name) and node.id in CONSTANTS:
-            return CONSTANTS[node.id]
-        if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
-            return _UNARY[type(node.op)](ev(node.operand))
-        if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
-            left, right = ev(node.left), ev(node.right)
-            if isinstance(node.op, ast.Pow) and abs(right) > 64:
-                raise fail("exponent too large")
-            try:
-                return _BINOPS[type(node.op)](left, right)
-            except ZeroDivisionError:
-                raise fail("division by zero") from None
-            except OverflowError:
-                raise fail("overflow") from None
-        if isinstance(node, ast.Name):
-            raise fail(f"unknown name {node.id!r} ({allowed})")
-        raise fail(allowed)
-
-    value = ev(tree.body)
-    if isinstance(value, complex):  # e.g. (-1)**0.5
-        raise fail("not a real number")
-    return float(value)
-
-
-def _to_float(v: Any) -> float:
-    if isinstance(v, bool) or v is None:
-        raise ValueError(f"expected a number, got {v!r}")
-    if isinstance(v, int | float):
-        try:
-            x = float(v)
-        except OverflowError:  # an integer of hundreds of digits
-            raise ValueError(f"expected a number, got an integer too large for a float "
-                             f"({len(str(v))} digits)") from None
-    elif isinstance(v, str):
-        x = evaluate(v)
-    else:
-        raise ValueError(f"expected a number, got {type(v).__name__} {v!r}")
-    if math.isnan(x):
-        raise ValueError("expected a number, got nan")
-    return x
-
-
-def _opt_float(v: Any) -> float | None:
-    return None if v is None else _to_float(v)
-
 
 def _vector(n: int, what: str) -> Callable[[Any], tuple[float, ...]]:
     def convert(v: Any) -> tuple[float, ...]:
@@ -190,18 +106,6 @@ def _opt_pair(v: Any) -> tuple[float, ...] | None:
     return None if v is None else _vector(2, "[lower, upper]")(v)
 
 
-def _friction(v: Any) -> tuple[float, float] | None:
-    """M_f: one number (both directions) or a [positive, negative] pair, N·m."""
-    if v is None:
-        return None
-    if isinstance(v, list | tuple):
-        if len(v) != 2:
-            raise ValueError(f"expected one number or a [positive, negative] pair, got {v!r}")
-        return _to_float(v[0]), _to_float(v[1])
-    x = _to_float(v)
-    return x, x
-
-
 def _names(v: Any) -> list[str] | None:
     if v is None:
         return None
@@ -212,11 +116,8 @@ def _names(v: Any) -> list[str] | None:
     raise ValueError(f"expected a catalog name or a list of names, got {v!r}")
 
 
-Num = Annotated[float, BeforeValidator(_to_float)]
-OptNum = Annotated[float | None, BeforeValidator(_opt_float)]
 Vec3 = Annotated[tuple[float, float, float], BeforeValidator(_vector(3, "[x, y, z]"))]
 OptPair = Annotated[tuple[float, float] | None, BeforeValidator(_opt_pair)]
-Friction = Annotated[tuple[float, float] | None, BeforeValidator(_friction)]
 NameList = Annotated[list[str] | None, BeforeValidator(_names)]
 
 # --------------------------------------------------------------------------- schema
@@ -284,7 +185,8 @@ class DriveSpec(_Spec):
     gear_max_input_speed / gear_average_input_speed rad/s on the motor shaft;
     efficiency η in (0, 1], or "unknown" (what a
     gear without a stated efficiency gives: sizing does not assume η = 1);
-    motor_name / gear_name are labels for reports when no catalog part is named)."""
+    motor_name / gear_name are labels for reports when no catalog part is named;
+    assumed maps a field to why its value is assumed rather than printed)."""
 
     motor: str | None = None
     gear: NameList = None
@@ -313,6 +215,7 @@ class DriveSpec(_Spec):
     max_speed: OptNum = None
     rated_voltage: OptNum = None
     rated_current: OptNum = None
+    assumed: dict[str, str] | None = None
 
 
 class JointSpec(_Spec):
@@ -346,87 +249,6 @@ class RobotSpec(_Spec):
     joints: list[JointSpec] = Field(min_length=1)
 
 
-class MotorSpec(_Spec):
-    """A catalog DC servo motor (motor side, SI units): rotor inertia J kg·m²,
-    R Ω, L H, k_m N·m/A, k_w V·s/rad, viscous k_v N·m·s/rad, dry friction M_f N·m,
-    ratings (N·m, rad/s, V, A), data-sheet extras and the source."""
-
-    source: str = Field(min_length=1)
-    description: str = ""
-    order_number: str = ""
-    J: Num
-    R: Num
-    L: Num
-    k_m: Num
-    k_w: Num
-    k_v: Num = 0.0
-    M_f: Friction = (0.0, 0.0)
-    rated_torque: OptNum = None
-    peak_torque: OptNum = None
-    max_speed: OptNum = None
-    rated_voltage: OptNum = None
-    rated_current: OptNum = None
-    no_load_speed: OptNum = None
-    no_load_current: OptNum = None
-    stall_current: OptNum = None
-    mass: OptNum = None
-
-    def drive_fields(self) -> dict[str, Any]:
-        """The :class:`Drive` fields this motor sets (u_max = rated voltage if known)."""
-        out: dict[str, Any] = {k: getattr(self, k) for k in
-                               ("J", "R", "L", "k_m", "k_w", "k_v", "M_f")}
-        for k in ("rated_torque", "peak_torque", "max_speed", "rated_voltage",
-                  "rated_current"):
-            if getattr(self, k) is not None:
-                out[k] = getattr(self, k)
-        if self.rated_voltage is not None:
-            out["u_max"] = self.rated_voltage
-        return out
-
-
-class GearSpec(_Spec):
-    """A catalog transmission: ratio i (input rad per output rad, or per output m
-    for screws, racks and belts), direction ±1, input-side inertia J kg·m²,
-    efficiency, output torque limits (N·m, or N for linear ones), max input speed
-    rad/s, torsional stiffness on the output N·m/rad (N/m; used as the contact
-    stiffness when a drive gives backlash without elasticity), mass kg, and the
-    source.
-
-    The torque ratings, output side (N·m, or N): ``max_continuous_torque`` the
-    rated torque (a harmonic drive's at ``rated_input_speed``, rad/s, e.g. 2000
-    rpm), ``max_average_torque`` the limit for the average load torque,
-    ``max_intermittent_torque`` the repeated peak (acceleration) torque,
-    ``max_momentary_torque`` the momentary (emergency-stop, collision) peak. Input
-    speeds, rad/s: ``max_input_speed`` and ``max_average_input_speed`` (the limit
-    for the average input speed). A rating the source does not give is left out
-    (unknown); the loader checks the ones given are in the catalogues' order
-    (rated <= average <= repeated peak <= momentary; average speed <= max speed)."""
-
-    source: str = Field(min_length=1)
-    description: str = ""
-    order_number: str = ""
-    type: Literal["planetary", "harmonic", "spur", "ball_screw", "rack_pinion", "belt"]
-    ratio: Num
-    direction: Literal[1, -1] = 1
-    J: Num = 0.0
-    efficiency: OptNum = None
-    stages: int | None = None
-    max_continuous_torque: OptNum = None
-    max_intermittent_torque: OptNum = None
-    max_input_speed: OptNum = None
-    stiffness: OptNum = None
-    mass: OptNum = None
-    rated_input_speed: OptNum = None
-    max_average_torque: OptNum = None
-    max_momentary_torque: OptNum = None
-    max_average_input_speed: OptNum = None
-
-    @property
-    def linear(self) -> bool:
-        """True when the output is a translation (ratio in rad/m)."""
-        return self.type in ("ball_screw", "rack_pinion", "belt")
-
-
 # --------------------------------------------------------------------------- reading
 
 
@@ -435,27 +257,6 @@ def read_yaml(source: str | Path | Traversable, label: str | None = None) -> Any
     YAML syntax with the line...) is an :class:`InputError` naming the file as
     ``label`` (default its path). See :func:`manipcad.fileio.read_yaml`."""
     return fileio.read_yaml(source, label=label)
-
-
-def _inner_model(annotation: Any) -> type[BaseModel] | None:
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
-    for arg in typing.get_args(annotation):
-        found = _inner_model(arg)
-        if found is not None:
-            return found
-    return None
-
-
-def _model_at(root: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | None:
-    model: type[BaseModel] | None = root
-    for part in loc:
-        if isinstance(part, int):
-            continue
-        if model is None or part not in model.model_fields:
-            return None
-        model = _inner_model(model.model_fields[part].annotation)
-    return model
 
 
 def _reason(err: Mapping[str, Any], root: type[BaseModel], data: dict[str, Any]) -> str:
@@ -467,30 +268,8 @@ def _reason(err: Mapping[str, Any], root: type[BaseModel], data: dict[str, Any])
         if isinstance(joints, list) and loc[1] < len(joints):
             j = joints[loc[1]]
             if isinstance(j, dict) and isinstance(j.get("name"), str):
-                return f"{_problem(err, root)} (joint {j['name']!r})"
-    return _problem(err, root)
-
-
-def _problem(err: Mapping[str, Any], root: type[BaseModel]) -> str:
-    kind, value = err["type"], err.get("input")
-    if kind == "missing":
-        return "required field is missing"
-    if kind == "extra_forbidden":
-        model = _model_at(root, err["loc"][:-1])
-        allowed = f"; allowed keys: {', '.join(model.model_fields)}" if model else ""
-        return f"unknown key {err['loc'][-1]!r}{allowed}"
-    if kind == "literal_error":
-        return f"unknown value {value!r}; expected {err['ctx']['expected']}"
-    if kind in ("model_type", "dict_type", "model_attributes_type"):
-        return f"expected a mapping of keys to values, got {value!r}"
-    if kind == "list_type":
-        return f"expected a list, got {value!r}"
-    if kind == "string_type":
-        return f"expected text, got {value!r}"
-    if kind == "int_type" or kind.startswith("int_"):
-        return f"expected a whole number, got {value!r}"
-    msg = str(err["msg"])
-    return msg.removeprefix("Value error, ")
+                return f"{problem(err, root)} (joint {j['name']!r})"
+    return problem(err, root)
 
 
 def validate(model: type[BaseModel], data: Any, label: str, prefix: str = "") -> Any:
@@ -504,104 +283,6 @@ def validate(model: type[BaseModel], data: Any, label: str, prefix: str = "") ->
     except ValidationError as exc:
         raise fileio.validation_error(label, exc, lambda err: _reason(err, model, data),
                                       prefix=prefix) from None
-
-
-# --------------------------------------------------------------------------- catalog
-
-
-def catalog_entry(kind: str, name: str) -> Traversable | None:
-    """The catalog file of a motor, gear or robot name, or None (also for a name that is a
-    path: ``/x/motor`` or ``../x`` would lead out of the catalog folder)."""
-    if not name or "/" in name or "\\" in name or name.startswith("."):
-        return None
-    entry = CATALOG / kind / f"{name}.yaml"
-    return entry if entry.is_file() else None
-
-
-def _catalog_names(kind: str) -> list[str]:
-    return sorted(p.name[:-5] for p in (CATALOG / kind).iterdir() if p.name.endswith(".yaml"))
-
-
-@lru_cache(maxsize=256)
-def _load_spec(kind: str, file: str) -> MotorSpec | GearSpec:
-    model = MotorSpec if kind == "motors" else GearSpec
-    path = Path(file)
-    spec = validate(model, read_yaml(path), file)
-    if isinstance(spec, GearSpec):
-        if spec.ratio <= 0:
-            raise InputError(file, "ratio", f"must be > 0, got {spec.ratio}")
-        if spec.efficiency is not None and not 0 < spec.efficiency <= 1:
-            raise InputError(file, "efficiency", f"must be in (0, 1], got {spec.efficiency}")
-        _check_gear_ratings(spec, file)
-    for key in ("J", "R", "L", "k_m", "k_w", "k_v"):
-        v = getattr(spec, key, None)
-        if v is not None and v < 0:
-            raise InputError(file, key, f"must be >= 0, got {v}")
-    return spec
-
-
-#: a gear's ratings that must come in this order where given (GearSpec docstring)
-_GEAR_ORDER: tuple[tuple[str, str], ...] = (
-    ("max_continuous_torque", "max_average_torque"),
-    ("max_continuous_torque", "max_intermittent_torque"),
-    ("max_average_torque", "max_intermittent_torque"),
-    ("max_intermittent_torque", "max_momentary_torque"),
-    ("max_continuous_torque", "max_momentary_torque"),
-    ("max_average_input_speed", "max_input_speed"),
-)
-
-
-def _check_gear_ratings(spec: GearSpec, file: str) -> None:
-    """Every rating given is > 0, and they come in the order of :data:`_GEAR_ORDER`
-    (a transcription that swapped two columns of a rating table fails here)."""
-    for key in ("max_continuous_torque", "max_average_torque", "max_intermittent_torque",
-                "max_momentary_torque", "max_input_speed", "max_average_input_speed",
-                "rated_input_speed", "stiffness", "mass"):
-        v = getattr(spec, key)
-        if v is not None and not v > 0:
-            raise InputError(file, key, f"must be > 0, got {v}")
-    for low, high in _GEAR_ORDER:
-        a, b = getattr(spec, low), getattr(spec, high)
-        if a is not None and b is not None and a > b:
-            raise InputError(file, high, f"{b:g} is below {low} {a:g}: the ratings must "
-                             f"come in the order rated <= average <= repeated peak <= "
-                             f"momentary (torque), average <= max (input speed)")
-
-
-def _resolve(kind: str, name: str, base_dir: Path | None) -> Path | None:
-    if name.endswith((".yaml", ".yml")):
-        p = Path(name)
-        if not p.is_absolute() and base_dir is not None:
-            p = base_dir / p
-        return p if p.is_file() else None
-    entry = catalog_entry(kind, name)
-    if entry is None:
-        return None
-    with resources.as_file(entry) as p:
-        return Path(p)
-
-
-def load_motor(name: str, base_dir: Path | None = None) -> MotorSpec:
-    """A motor by catalog name (``manipcad robots list``) or by a .yaml path
-    (relative to ``base_dir``). Raises :class:`InputError`."""
-    path = _resolve("motors", name, base_dir)
-    if path is None:
-        raise InputError(name, "", "unknown motor; catalog motors: "
-                         + ", ".join(_catalog_names("motors")))
-    spec = _load_spec("motors", str(path))
-    assert isinstance(spec, MotorSpec)
-    return spec
-
-
-def load_gear(name: str, base_dir: Path | None = None) -> GearSpec:
-    """A gear (transmission) by catalog name or .yaml path. Raises :class:`InputError`."""
-    path = _resolve("gears", name, base_dir)
-    if path is None:
-        raise InputError(name, "", "unknown gear; catalog gears: "
-                         + ", ".join(_catalog_names("gears")))
-    spec = _load_spec("gears", str(path))
-    assert isinstance(spec, GearSpec)
-    return spec
 
 
 # --------------------------------------------------------------------------- building
@@ -765,8 +446,8 @@ def _check_link(link: LinkSpec, label: str, where: str) -> tuple[float, np.ndarr
 def build_drive(spec: DriveSpec, label: str, where: str, base_dir: Path | None = None) -> Drive:
     """Compose a :class:`Drive` from catalog motor/gear names and explicit fields
     (see the module docstring); errors name ``label`` and ``where``."""
-    fields: dict[str, Any] = {}
     motor_name = gear_name = ""
+    motor = None
     if spec.motor is not None:
         try:
             motor = load_motor(spec.motor, base_dir)
@@ -775,11 +456,9 @@ def build_drive(spec: DriveSpec, label: str, where: str, base_dir: Path | None =
                 raise
             raise InputError(label, f"{where}.motor", f"unknown motor {spec.motor!r}; "
                              + exc.reason.removeprefix("unknown motor; ")) from None
-        fields.update(motor.drive_fields())
         motor_name = spec.motor
-    gear_stiffness = None
+    gears = []
     if spec.gear is not None:
-        gears = []
         for k, g in enumerate(spec.gear):
             try:
                 gears.append(load_gear(g, base_dir))
@@ -789,15 +468,19 @@ def build_drive(spec: DriveSpec, label: str, where: str, base_dir: Path | None =
                 sub = f"{where}.gear" + (f"[{k}]" if len(spec.gear) > 1 else "")
                 raise InputError(label, sub, f"unknown gear {g!r}; "
                                  + exc.reason.removeprefix("unknown gear; ")) from None
-        composed, gear_stiffness = compose_gears(gears)
-        fields["J"] = fields.get("J", 0.0) + composed.pop("J")
-        fields.update(composed)
         gear_name = " + ".join(spec.gear)
+    fields, gear_stiffness = compose_drive(motor, gears)
     explicit = spec.model_dump(exclude={"motor", "gear", "motor_name", "gear_name",
-                                        "elasticity"}, exclude_none=True)
+                                        "elasticity", "assumed"}, exclude_none=True)
     if explicit.get("efficiency") == "unknown":
         explicit["efficiency"] = math.nan
     fields.update(explicit)
+    # a value given in the robot file replaces the part's assumed one; the file's own
+    # assumptions (a written-out robot's) are kept
+    assumed = {k: why for k, why in fields.pop("assumed", ()) if k not in explicit}
+    assumed.update(spec.assumed or {})
+    if assumed:
+        fields["assumed"] = tuple(sorted(assumed.items()))
     motor_name = spec.motor_name or motor_name
     gear_name = spec.gear_name or gear_name
     if spec.elasticity is not None:
@@ -824,75 +507,6 @@ def build_drive(spec: DriveSpec, label: str, where: str, base_dir: Path | None =
                          str(exc)) from None
 
 
-def _nan_first(x: float) -> float:
-    """Sort key putting nan below every number (so min() keeps an unknown)."""
-    return -math.inf if math.isnan(x) else x
-
-
-def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, float], float | None]:
-    """The drive fields a gear chain sets (gears from the motor outwards).
-
-    ``J = sum_k J_k / (i_1···i_{k-1})²`` (kg·m², motor shaft), ``ratio = prod_k
-    direction_k·i_k``, ``efficiency = prod_k η_k`` (nan, unknown, when a gear's
-    source gives none: the sizing then says so rather than assume η = 1), the
-    output torque ratings (rated, repeated peak, average) referred to the joint
-    (gear k's limit times ``prod_{m>k} i_m·η_m``, the tightest over the chain,
-    N·m or N; unknown when a later gear's efficiency is) and the input-speed
-    limits (max, average) referred to the motor shaft (gear k's limit times
-    ``i_1···i_{k-1}``, the tightest, rad/s). A rating
-    that any gear of the chain lacks is left out (unknown).
-
-    Returns:
-        (fields, stiffness): the :class:`Drive` fields, and the chain's
-        torsional stiffness on the joint side (N·m/rad, springs in series,
-        gear k's referred by ``(prod_{m>k} i_m)²``), or None unless every gear
-        gives one.
-
-    Example:
-        >>> f, k = compose_gears([load_gear("harmonic_csf20_100")])
-        >>> f["ratio"], f["gear_rated_torque"]
-        (-100.0, 40.0)
-    """
-    J = 0.0
-    before = 1.0
-    eta = 1.0
-    ratio = 1.0
-    rated, peak, speed = math.inf, math.inf, math.inf
-    average, avg_speed = math.inf, math.inf
-    compliance = 0.0
-    for k, g in enumerate(gears):
-        J += g.J / before**2
-        after = 1.0
-        for m in gears[k + 1:]:
-            after *= m.ratio * (math.nan if m.efficiency is None else m.efficiency)
-        after_i = math.prod(m.ratio for m in gears[k + 1:])
-        # a rating one gear of the chain lacks is unknown for the chain (nan)
-        rated = min(rated, math.nan if g.max_continuous_torque is None
-                    else g.max_continuous_torque * after, key=_nan_first)
-        peak = min(peak, math.nan if g.max_intermittent_torque is None
-                   else g.max_intermittent_torque * after, key=_nan_first)
-        speed = min(speed, math.nan if g.max_input_speed is None
-                    else g.max_input_speed * before, key=_nan_first)
-        average = min(average, math.nan if g.max_average_torque is None
-                      else g.max_average_torque * after, key=_nan_first)
-        avg_speed = min(avg_speed, math.nan if g.max_average_input_speed is None
-                        else g.max_average_input_speed * before, key=_nan_first)
-        if compliance is not None:
-            compliance = (None if g.stiffness is None or g.stiffness <= 0
-                          else compliance + 1.0 / (g.stiffness * after_i**2))
-        eta *= g.efficiency if g.efficiency is not None else math.nan
-        before *= g.ratio
-        ratio *= g.direction * g.ratio
-    out: dict[str, float] = {"J": J, "ratio": ratio, "efficiency": eta}
-    for key, v in (("gear_rated_torque", rated), ("gear_peak_torque", peak),
-                   ("gear_max_input_speed", speed), ("gear_average_torque", average),
-                   ("gear_average_input_speed", avg_speed)):
-        if math.isfinite(v):
-            out[key] = v
-    stiffness = None if not compliance else 1.0 / compliance
-    return out, stiffness
-
-
 def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Rotation Rot_z(yaw)·Rot_y(pitch)·Rot_x(roll) (fixed axes x, y, z; rad), as URDF."""
     cy, sy = math.cos(pitch), math.sin(pitch)
@@ -903,7 +517,7 @@ def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
 __all__ = [
     "load_yaml_robot", "build_robot", "build_drive", "compose_gears", "load_motor",
     "load_gear",
-    "read_yaml", "validate", "evaluate", "catalog_entry", "rpy_to_matrix", "CONSTANTS",
+    "read_yaml", "validate", "evaluate", "rpy_to_matrix", "CONSTANTS",
     "RobotSpec", "JointSpec", "LinkSpec", "DHSpec", "InertiaSpec", "DriveSpec", "ToolSpec",
     "MotorSpec", "GearSpec", "PRISMATIC", "REVOLUTE",
 ]

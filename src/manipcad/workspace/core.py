@@ -967,12 +967,14 @@ def catalog_items(kind: str | None = None) -> ItemList:
         >>> [i.name for i in catalog_items("gear")][:2]
         ['ballscrew_d16_p10_l800', 'belt_at5_z20_omega']
     """
+    from manipcad.catalog.files import PARTS
     from manipcad.model.load import CATALOG
 
     kinds = ("robots", "motors", "gears") if kind is None else (kind_of(kind),)
     out = ItemList()
     for k in kinds:
-        folder = CATALOG / k if k in ("robots", "motors", "gears") else None
+        folder = (CATALOG / k if k == "robots" else PARTS / k
+                  if k in ("motors", "gears") else None)
         if folder is None or not folder.is_dir():
             continue
         for entry in sorted(folder.iterdir(), key=lambda e: e.name):

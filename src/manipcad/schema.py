@@ -9,7 +9,7 @@
 
 Example:
     >>> evaluate("6500*rpm")  # rad/s
-    680.678408277789
+    680.6784082777884
 """
 
 from __future__ import annotations

@@ -186,11 +186,14 @@ def _mgdb_motor(row: dict[str, str], file: str) -> dict[str, Any]:
     if not math.isnan(rated):
         derived["rated_torque"] = "k_t·I_nom (MGDB has no nominal-torque column)"
     m_f, i_nl = _num(row["coulomb_friction"]), _num(row["I_nl"])
+    k_v = _num(row["viscous_friction"])
     if math.isnan(m_f) and not math.isnan(i_nl):
         m_f = k_t * i_nl
         derived["M_f"] = "k_t·I_nl (dry friction from the no-load current)"
+        if math.isnan(k_v):
+            k_v = 0.0
+            derived["k_v"] = "0: the no-load friction k_t·I_nl is all taken as dry friction M_f"
     assumed: dict[str, str] = {}
-    k_v = _num(row["viscous_friction"])
     if math.isnan(m_f):
         m_f = 0.0
         assumed["M_f"] = "not printed; taken as 0"

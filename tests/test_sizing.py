@@ -95,7 +95,8 @@ def test_puma_unknown_ratings(puma):
 def test_no_electrics_gives_nan_and_unknown():
     """The Stanford arm's drives have J and ratio only: currents and voltages are nan."""
     arm = _load("stanford")
-    traj = quintic(np.zeros(6), [0.5, 0.4, 0.1, 0.3, 0.2, 0.1], 1.0)
+    # the prismatic joint 3 within its limits [0.3048, 1.27] m
+    traj = quintic([0.0, 0.0, 0.5, 0.0, 0.0, 0.0], [0.5, 0.4, 0.6, 0.3, 0.2, 0.1], 1.0)
     req = required_drive(arm, traj, t_end=1.0)
     assert np.all(np.isfinite(req.peak_motor_torque))
     assert np.all(np.isnan(req.peak_current)) and np.all(np.isnan(req.peak_voltage))
@@ -219,8 +220,11 @@ def test_margins_and_status(cyl):
     assert np.allclose(c.limit, rated)
     assert np.allclose(c.margin, 1 - req.rms_motor_torque / rated)
     for name, check in req.checks.items():
+        if name == "position":       # judged by the room left, not by a ratio
+            continue
         for j in range(3):
-            unrated = "n/a" if name == "gear_average_speed" else "unknown"  # optional rating
+            unrated = ("n/a" if name in ("gear_average_speed", "velocity", "effort")
+                       else "unknown")   # an optional rating, or no limit given
             expect = (unrated if math.isnan(check.margin[j])
                       else "pass" if check.margin[j] >= 0 else "fail")
             assert check.status[j] == expect, name
@@ -325,7 +329,8 @@ def test_cli_json_parses(runner, tmp_path):
     assert data["joints"][2]["units"]["peak_torque"] == "N"
     assert set(data["joints"][0]["checks"]) == {"continuous", "peak", "speed", "voltage",
                                                 "gear_continuous", "gear_peak", "gear_speed",
-                                                "gear_average", "gear_average_speed"}
+                                                "gear_average", "gear_average_speed",
+                                                "position", "velocity", "effort"}
     req = required_drive(_load("cylindrical"), FIG3)
     assert math.isclose(data["joints"][2]["peak_current"], req.peak_current[2], rel_tol=1e-12)
     assert (tmp_path / "p.png").is_file()

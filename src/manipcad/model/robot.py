@@ -241,6 +241,10 @@ class Robot:
         drives: one :class:`Drive` or None per joint.
         gravity: (3,) gravity in the base frame, m/s².
         limits: (n, 2) lower and upper joint limits, rad or m (±inf if none).
+        velocity_limits: (n,) largest joint speed |q̇| allowed, rad/s or m/s
+            (inf if none; a URDF's ``<limit velocity>``).
+        effort_limits: (n,) largest joint torque |P| allowed, N·m or N (inf if
+            none; a URDF's ``<limit effort>``).
         link_names: one name per moving link (the body of joint i is link i).
         tool_R, tool_p: the tool (gripper) frame in the last link's body frame.
         source: where the model comes from (file, data set).
@@ -270,6 +274,14 @@ class Robot:
     tool_p: np.ndarray = field(default_factory=lambda: np.zeros(3))
     source: str = ""
     frames: tuple = ()
+    velocity_limits: np.ndarray | None = None
+    effort_limits: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        # no speed or torque limit unless given: (n,) inf
+        for key in ("velocity_limits", "effort_limits"):
+            if getattr(self, key) is None:
+                object.__setattr__(self, key, np.full(len(self.joint_types), np.inf))
 
     # ------------------------------------------------------------------ build
     @classmethod
@@ -294,6 +306,8 @@ class Robot:
         tool_p: np.ndarray | None = None,
         source: str = "",
         frames: Sequence = (),
+        velocity_limits: Sequence[float] | None = None,
+        effort_limits: Sequence[float] | None = None,
     ) -> Robot:
         """Build and validate a robot from per-joint arrays (see the class docstring)."""
         n = len(joint_types)
@@ -321,6 +335,10 @@ class Robot:
             source=source,
             frames=tuple((str(nm), int(b), f(R, dtype=float).reshape(3, 3),
                           f(p, dtype=float).reshape(3)) for nm, b, R, p in frames),
+            velocity_limits=(np.full(n, np.inf) if velocity_limits is None
+                             else f(velocity_limits, dtype=float).reshape(-1)),
+            effort_limits=(np.full(n, np.inf) if effort_limits is None
+                           else f(effort_limits, dtype=float).reshape(-1)),
         )
         robot.validate()
         return robot
@@ -334,6 +352,8 @@ class Robot:
             "offset": self.offset.shape, "mass": self.mass.shape, "com": self.com.shape[:1],
             "inertia": self.inertia.shape[:1], "drives": (len(self.drives),),
             "limits": self.limits.shape[:1], "link_names": (len(self.link_names),),
+            "velocity_limits": np.shape(self.velocity_limits),
+            "effort_limits": np.shape(self.effort_limits),
         }
         for key, shape in shapes.items():
             if shape != (n,):
@@ -399,6 +419,10 @@ class Robot:
         state = dict(self.__dict__)
         state.pop("_table", None)
         return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.__post_init__()   # a robot pickled before it had speed and torque limits
 
     def drive(self, joint: int | str) -> Drive:
         """The drive of a joint (index or name); raises if the joint has none."""
@@ -614,6 +638,13 @@ def _check_finite(robot: Robot) -> None:
         i = int(bad[0][0])
         raise ModelError(f"joint {robot.joint_names[i]!r}: limits must be lower <= upper "
                          f"(±inf: none, never nan), got {lim[i].tolist()}", field="limits")
+    for key in ("velocity_limits", "effort_limits"):
+        a = np.asarray(getattr(robot, key), dtype=float)
+        bad = np.flatnonzero(~(a > 0))
+        if len(bad):
+            i = int(bad[0])
+            raise ModelError(f"joint {robot.joint_names[i]!r}: {key[:-7]} limit must be > 0 "
+                             f"(inf: none), got {a[i]}", field=key)
 
 
 @register_jitable

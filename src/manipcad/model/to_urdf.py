@@ -85,12 +85,17 @@ def robot_to_urdf(robot: Robot, path: str | Path | None = None) -> str:
         parent = base if robot.parent[i] < 0 else robot.link_names[robot.parent[i]]
         lo, hi = robot.limits[i]
         kind = robot.joint_types[i]
+        # 0: no limit (the URDF attribute is required; the loader reads 0 as none)
+        given = (("effort", robot.effort_limits[i]), ("velocity", robot.velocity_limits[i]))
+        rates = "".join(f' {k}="{_f(v) if np.isfinite(v) else 0}"' for k, v in given)
         if kind == REVOLUTE and not (np.isfinite(lo) or np.isfinite(hi)):
-            kind, limit = "continuous", ""
+            kind = "continuous"
+            limit = (f'\n    <limit{rates}/>' if any(np.isfinite(v) for _, v in given)
+                     else "")
         else:
             bounds = "".join(f' {k}="{_f(v)}"' for k, v in (("lower", lo), ("upper", hi))
                              if np.isfinite(v))
-            limit = f'\n    <limit{bounds} effort="0" velocity="0"/>'
+            limit = f'\n    <limit{bounds}{rates}/>'
         c, I = robot.com[i], robot.inertia[i]
         link = robot.link_names[i]
         lines += [

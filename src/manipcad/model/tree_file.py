@@ -19,6 +19,7 @@ with Python's shortest round-trip repr. SI units throughout:
         placement: {R: [[...], [...], [...]], p: [0, 0, 0.089159]}  # in the parent body frame; m
         offset: 0.0                       # rad (m)
         limits: [-6.28, 6.28]             # rad (m); -.inf / .inf for none
+        velocity_limit: 3.2               # rad/s (m/s), optional; effort_limit N·m (N)
         link: {name: shoulder_link, mass: 3.7, com: [0, 0, 0], inertia: {ixx: ...}}
         drive: {J: ..., ratio: ..., R: ..., ...}   # the fields of docs/robot-files.md
     frames:                               # named frames (URDF links) in their body
@@ -45,6 +46,7 @@ from manipcad.model.yaml_robot import (
     DriveSpec,
     LinkSpec,
     Num,
+    OptNum,
     OptPair,
     Vec3,
     _check_link,
@@ -87,6 +89,8 @@ class TreeJointSpec(_Spec):
     placement: PoseSpec = PoseSpec()
     offset: Num = 0.0
     limits: OptPair = None
+    velocity_limit: OptNum = None
+    effort_limit: OptNum = None
     link: TreeLinkSpec
     drive: DriveSpec | None = None
 
@@ -164,6 +168,10 @@ def load_tree_robot(path: str | Path) -> Robot:
             link_names=[j.link.name or f"link{i + 1}" for i, j in enumerate(spec.joints)],
             tool_R=np.array(tool.R), tool_p=np.array(tool.p), source=spec.source,
             frames=frames,
+            velocity_limits=[math.inf if j.velocity_limit is None else j.velocity_limit
+                             for j in spec.joints],
+            effort_limits=[math.inf if j.effort_limit is None else j.effort_limit
+                           for j in spec.joints],
         )
     except ModelError as exc:
         raise InputError(label, "", str(exc)) from None
@@ -225,6 +233,9 @@ def robot_to_dict(robot: Robot) -> dict[str, Any]:
             "placement": {"R": _rows(robot.placement_R[i]), "p": _vec(robot.placement_p[i])},
             "offset": float(robot.offset[i]),
             "limits": _vec(robot.limits[i]),
+            **{key: float(v) for key, v in (("velocity_limit", robot.velocity_limits[i]),
+                                            ("effort_limit", robot.effort_limits[i]))
+               if math.isfinite(v)},
             "link": {"name": robot.link_names[i], "mass": float(robot.mass[i]),
                      "com": _vec(robot.com[i]),
                      "inertia": {"ixx": float(I[0, 0]), "iyy": float(I[1, 1]),

@@ -11,7 +11,12 @@ Only the standard library's XML parser is used. What is read:
 - ``<joint>`` of type revolute, continuous, prismatic or fixed: ``<parent
   link>``, ``<child link>``, ``<origin xyz rpy>`` (default identity),
   ``<axis xyz>`` (default (1, 0, 0), normalised), ``<limit lower upper>``
-  (rad or m). Continuous joints are revolute joints without limits (±inf); a
+  (rad or m) and ``<limit velocity effort>`` (rad/s or m/s; N·m or N: the
+  robot's :attr:`~manipcad.model.robot.Robot.velocity_limits` and
+  :attr:`~manipcad.model.robot.Robot.effort_limits`, which the run checks and
+  the sizing enforce; a value of 0 or none given means no limit, as 0 is the
+  placeholder exporters write). Continuous joints are revolute joints without
+  position limits (±inf); a
   missing ``lower`` or ``upper`` attribute means no limit on that side (the URDF
   specification's default of 0 would freeze the joint). ``<mimic>`` is read
   as an independent joint, as Pinocchio does by default, with a loud
@@ -164,6 +169,8 @@ class _Joint:
     axis: np.ndarray  # unit axis in the joint frame
     limits: tuple[float, float]
     index: int  # position in the file
+    velocity: float = np.inf  # |q̇| limit, rad/s or m/s (inf: none)
+    effort: float = np.inf  # |P| limit, N·m or N (inf: none)
 
 
 @dataclass
@@ -326,6 +333,7 @@ def _read_joint(elem: ET.Element, index: int, source: str, links: dict[str, ET.E
     R, p = _origin(elem, source, where)
     axis = np.array([0.0, 0.0, 1.0])
     limits = (-np.inf, np.inf)
+    rates = {"velocity": np.inf, "effort": np.inf}
     if kind in MOVABLE:
         axis_el = elem.find("axis")
         raw = None if axis_el is None else axis_el.get("xyz")
@@ -341,7 +349,13 @@ def _read_joint(elem: ET.Element, index: int, source: str, links: dict[str, ET.E
             if lo > hi:
                 raise InputError(source, f"{where}.limit", f"lower {lo} > upper {hi}")
             limits = (lo, hi)
-    return _Joint(name, kind, ends["parent"], ends["child"], R, p, axis, limits, index)
+        for key in rates if lim is not None else ():
+            v = _limit(lim.get(key), source, f"{where}.limit.{key}", 0.0)
+            if v < 0:
+                raise InputError(source, f"{where}.limit.{key}", f"must be >= 0, got {v}")
+            rates[key] = v if v > 0 else np.inf   # 0: the exporters' placeholder, no limit
+    return _Joint(name, kind, ends["parent"], ends["child"], R, p, axis, limits, index,
+                  **rates)
 
 
 # --------------------------------------------------------------- building
@@ -492,6 +506,8 @@ def _build(root: ET.Element, source: str, default_name: str,
             inertia=inertia,
             joint_names=[j.name for j in ordered],
             limits=np.array([j.limits for j in ordered]).reshape(n, 2),
+            velocity_limits=[j.velocity for j in ordered],
+            effort_limits=[j.effort for j in ordered],
             link_names=[j.child for j in ordered],
             source=source,
             frames=[(link, -1 if link_body[link] < 0 else new_index[link_body[link]],

@@ -15,6 +15,8 @@ The schema is documented in docs/robot-yaml.md. In short (SI units throughout):
         parent: base              # a joint name; default the previous joint
         dh: {a: 0, alpha: 0, d: 0, theta: 0}    # m, rad
         limits: [-pi, pi]         # rad or m
+        velocity_limit: 3.0       # |q̇| allowed, rad/s or m/s (optional)
+        effort_limit: 150         # |P| allowed, N·m or N (optional)
         link:
           mass: 2.0               # kg
           com: [0.2, 0, 0]        # m, in the link frame
@@ -226,6 +228,8 @@ class JointSpec(_Spec):
     parent: str | None = None
     dh: DHSpec = DHSpec()
     limits: OptPair = None
+    velocity_limit: OptNum = None
+    effort_limit: OptNum = None
     link: LinkSpec
     drive: DriveSpec | None = None
 
@@ -358,6 +362,7 @@ def build_robot(spec: RobotSpec, label: str, base_dir: Path | None = None) -> Ro
     com = np.zeros((n, 3))
     inertia = np.zeros((n, 3, 3))
     limits = np.tile([-np.inf, np.inf], (n, 1))
+    rates = {"velocity_limit": np.full(n, np.inf), "effort_limit": np.full(n, np.inf)}
     drives: list[Drive | None] = []
     for i, j in enumerate(joints):
         where = f"joints[{i}]"
@@ -386,6 +391,13 @@ def build_robot(spec: RobotSpec, label: str, base_dir: Path | None = None) -> Ro
                 raise InputError(label, f"{where}.limits",
                                  f"lower limit {lo} is above upper limit {hi}")
             limits[i] = lo, hi
+        for key, values in rates.items():
+            v = getattr(j, key)
+            if v is not None:
+                if not v > 0:
+                    raise InputError(label, f"{where}.{key}", f"must be > 0 (leave it out for "
+                                     f"no limit), got {v} (joint {j.name!r})")
+                values[i] = v
         for key in ("a", "alpha", "d", "theta"):
             if not math.isfinite(getattr(row, key)):
                 raise InputError(label, f"{where}.dh.{key}", f"must be finite, got "
@@ -410,7 +422,8 @@ def build_robot(spec: RobotSpec, label: str, base_dir: Path | None = None) -> Ro
             spec.name, [j.type for j in joints], parents, R_pl, p_pl, mass, com, inertia,
             offset=offset, joint_names=[j.name for j in joints], drives=drives,
             gravity=spec.gravity, limits=limits, tool_R=tool_R, tool_p=tool_p,
-            source=spec.source.strip(),
+            source=spec.source.strip(), velocity_limits=rates["velocity_limit"],
+            effort_limits=rates["effort_limit"],
         )
     except ModelError as exc:
         field = "tool" if exc.field.startswith("tool") else (

@@ -44,6 +44,23 @@ against the rated torque is the plain, conservative reading of a rating
 given at the rated input speed (a harmonic drive's life calculation with the
 cubic mean torque is left to the maker's method).
 
+Three limits of the joint itself (the robot's, e.g. a URDF's ``<limit>``),
+checked by :func:`check_joint_limits`:
+
+- position: the joint position's extremes vs ``Robot.limits``, rad (m): the
+  required value is the extreme nearer its limit (or beyond it), the limit
+  that side's; the margin is the room left over the joint's range;
+- velocity: peak |q̇| vs ``Robot.velocity_limits``, rad/s (m/s);
+- effort: peak gear output torque |P_rigid| (what the actuator passes to the
+  link; the joint torque without a drive) vs ``Robot.effort_limits``, N·m (N).
+
+A joint without such a limit (±inf, the default) gets "n/a".
+
+The functions are vectorized: :func:`judge` and :func:`check_rated` take
+arrays of any length (the joints of one robot, or thousands of catalogue
+candidates for one joint) and :func:`check_limits` is
+``check_rated(required, *rating_table(drives))``.
+
 The margin is ``1 - required / limit``: the fraction of the limit left unused,
 negative when the limit is exceeded (-0.25: 25 % over). Status is "pass"
 (margin >= 0), "fail" (margin < 0), "unknown" (no drive, or the rating or
@@ -79,6 +96,13 @@ GEAR_LIMITS: dict[str, tuple[str, str]] = {
 }
 #: every check of a sizing, motor first
 ALL_LIMITS: dict[str, tuple[str, str]] = {**LIMITS, **GEAR_LIMITS}
+#: the joint's own limits (see the module docstring): name -> (what, unit of a revolute
+#: joint, unit of a prismatic one)
+JOINT_LIMITS: dict[str, tuple[str, str, str]] = {
+    "position": ("joint position extremes vs the joint's limits", "rad", "m"),
+    "velocity": ("peak joint speed |q̇| vs the joint's velocity limit", "rad/s", "m/s"),
+    "effort": ("peak gear output torque |P_rigid| vs the joint's effort limit", "N·m", "N"),
+}
 
 PASS, FAIL, UNKNOWN, NA = "pass", "fail", "unknown", "n/a"
 
@@ -199,6 +223,40 @@ def status_of(m: float) -> str:
     return PASS if m >= 0 else FAIL
 
 
+def verdicts(m) -> np.ndarray:
+    """"pass" (margin >= 0), "fail" (< 0) or "unknown" (nan) for an array of margins.
+
+    Example:
+        >>> verdicts(np.array([0.5, -0.1, np.nan])).tolist()
+        ['pass', 'fail', 'unknown']
+    """
+    m = np.asarray(m, dtype=float)
+    return np.where(np.isnan(m), UNKNOWN, np.where(m >= 0, PASS, FAIL)).astype(object)
+
+
+def judge(required, limit) -> tuple[np.ndarray, np.ndarray]:
+    """The margin ``1 - required/limit`` and the verdict of each (required, limit) pair.
+
+    The one comparison of a value against a rating that every check makes (the sizing,
+    the selection over a catalogue, the run checks). Any shapes that broadcast.
+
+    Args:
+        required: what the motion needs (nan: unknown), in the rating's unit.
+        limit: the rating (nan, or <= 0: unknown).
+
+    Returns:
+        (margin, verdict): float and object arrays; margin nan and verdict "unknown"
+        where either is unknown.
+
+    Example:
+        >>> m, v = judge(np.array([1.0, 3.0]), 2.0)
+        >>> m.tolist(), v.tolist()
+        ([0.5, -0.5], ['pass', 'fail'])
+    """
+    m = margin(required, limit)
+    return m, verdicts(m)
+
+
 def check_limits(required: dict[str, np.ndarray],
                  drives: tuple[Drive | None, ...]) -> dict[str, LimitCheck]:
     """Check each joint's requirement against its motor and gear, limit by limit.
@@ -276,7 +334,7 @@ def check_rated(required: dict[str, np.ndarray], rated: dict[str, np.ndarray],
         lim = np.asarray(rated[name], dtype=float)
         req = np.asarray(required[name], dtype=float)
         m = margin(req, lim)
-        status = np.where(np.isfinite(m), np.where(m >= 0, PASS, FAIL), UNKNOWN).astype(object)
+        status = verdicts(m)
         if name == "gear_average":
             lim, m, status = _average_bounds(name, req, lim, m, status, rated["gear_continuous"])
         elif name == "gear_average_speed":
@@ -347,6 +405,63 @@ def _average_bounds(name: str, required: np.ndarray, limit: np.ndarray, m: np.nd
     limit[hit] = bound[hit]
     m[hit] = 1.0 - required[hit] / bound[hit]
     return limit, m, status
+
+
+def check_joint_limits(q_min, q_max, peak_speed, peak_effort, robot) -> dict[str, LimitCheck]:
+    """The joints' own limits (:data:`JOINT_LIMITS`) against a motion's extremes, per joint.
+
+    One function for a trajectory (``size``) and for a simulated run (the run checks).
+
+    Args:
+        q_min, q_max: (n,) smallest and largest joint position, rad (m).
+        peak_speed: (n,) peak |q̇|, rad/s (m/s).
+        peak_effort: (n,) peak gear output torque |P_rigid|, N·m (N).
+        robot: the robot (its ``limits``, ``velocity_limits``, ``effort_limits``,
+            ``joint_types``).
+
+    Returns:
+        {"position", "velocity", "effort"} -> :class:`LimitCheck` (unit: the revolute
+        one; a prismatic joint's is in :data:`JOINT_LIMITS`). "n/a" where the joint has
+        no such limit. Position: ``required`` is the extreme nearer its limit (or further
+        beyond it), ``limit`` that side's limit, ``margin`` the room left as a fraction
+        of the range (nan for a one-sided range); it passes within 1e-9 of the range
+        (rounding).
+
+    Example:
+        >>> import numpy as np, manipcad
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> lo, hi = arm.limits[:, 0], arm.limits[:, 1]
+        >>> c = check_joint_limits(lo, hi + 0.1, np.zeros(3), np.zeros(3), arm)
+        >>> c["position"].status[2], c["velocity"].status[2]
+        ('fail', 'n/a')
+    """
+    lo = np.asarray(robot.limits, dtype=float)[:, 0]
+    hi = np.asarray(robot.limits, dtype=float)[:, 1]
+    q_min, q_max = np.asarray(q_min, dtype=float), np.asarray(q_max, dtype=float)
+    room_lo, room_hi = q_min - lo, hi - q_max
+    upper = room_hi < room_lo
+    req = np.where(upper, q_max, q_min)
+    lim = np.where(upper, hi, lo)
+    room = np.minimum(room_lo, room_hi)
+    span = hi - lo
+    with np.errstate(invalid="ignore", divide="ignore"):
+        m = np.where(np.isfinite(span) & (span > 0), room / np.where(span > 0, span, 1.0),
+                     np.nan)
+    tol = 1e-9 * np.maximum(1.0, np.abs(np.where(np.isfinite(lim), lim, 0.0)))
+    status = np.where(~np.isfinite(lim), NA,
+                      np.where(~np.isfinite(room), UNKNOWN,
+                               np.where(room >= -tol, PASS, FAIL))).astype(object)
+    out = {"position": LimitCheck("position", JOINT_LIMITS["position"][0], "rad", req, lim, m,
+                                  tuple(str(x) for x in status))}
+    for name, value, limit in (("velocity", peak_speed, robot.velocity_limits),
+                               ("effort", peak_effort, robot.effort_limits)):
+        value = np.asarray(value, dtype=float)
+        limit = np.asarray(limit, dtype=float)
+        m, st = judge(value, np.where(np.isfinite(limit), limit, np.nan))
+        st = np.where(np.isfinite(limit), st, NA)
+        out[name] = LimitCheck(name, JOINT_LIMITS[name][0], JOINT_LIMITS[name][1], value,
+                               limit, m, tuple(str(x) for x in st))
+    return out
 
 
 def overall_status(checks: dict[str, LimitCheck]) -> tuple[str, ...]:

@@ -116,6 +116,49 @@ def efficiency_factor(drive: Drive, tau_rigid: np.ndarray, qd: np.ndarray) -> np
     return np.where(tau_rigid * qd >= 0, 1.0 / eta, eta)
 
 
+def least_over_efficiency(at_one: np.ndarray, at_half: np.ndarray,
+                          motoring: np.ndarray) -> np.ndarray:
+    """Per sample, the least |x| of a motor-side quantity over every gear efficiency η in (0, 1].
+
+    Every motor-side quantity of :func:`motor_series` (torque, current, voltage) is, per
+    sample, affine in the efficiency factor f of :func:`efficiency_factor`:
+    x = A + B·f, with f = 1/η in [1, ∞) while the motor drives the load and f = η in
+    (0, 1] while the load drives it back. From its values at η = 1 (f = 1) and
+    η = 1/2 (f = 2 motoring, 1/2 braking), A and B follow, and the least |A + B·f| over
+    the sample's range of f is:
+
+    - motoring, f >= 1: |A + B| when A + B and B have the same sign (|x| grows with f),
+      else 0 (x crosses zero at some f > 1);
+    - braking, f in (0, 1]: min(|A|, |A + B|) when A and A + B have the same sign, else 0.
+
+    So a peak or an RMS of this bound is a lower bound of the quantity's peak or RMS at
+    any efficiency: a check it fails fails whatever the gear's efficiency
+    (:func:`manipcad.sizing.requirements.efficiency_unknown`).
+
+    Args:
+        at_one: (..., N) the quantity at η = 1 (N·m, A or V).
+        at_half: (..., N) the same at η = 1/2.
+        motoring: (N,) bool, P_rigid·q̇ >= 0 (the motor drives or holds the load).
+
+    Returns:
+        (..., N) the least |x| over η in (0, 1], same unit.
+
+    Example:
+        >>> import numpy as np
+        >>> # motoring: x = 1 + 2·f (η=1: 3, η=1/2: 5) -> 3; braking: x = 1 + 2·f
+        >>> # (η=1: 3, η=1/2: 2) -> 1 (f -> 0); braking x = 1 - 2·f -> 0 (crosses zero)
+        >>> least_over_efficiency(np.array([3.0, 3.0, -1.0]), np.array([5.0, 2.0, 0.0]),
+        ...                       np.array([True, False, False])).tolist()
+        [3.0, 1.0, 0.0]
+    """
+    at_one, at_half = np.asarray(at_one, dtype=float), np.asarray(at_half, dtype=float)
+    b = np.where(motoring, at_half - at_one, (at_half - at_one) / -0.5)  # f(1/2) - f(1)
+    a = at_one - b
+    up = np.where((at_one * b) >= 0, np.abs(at_one), 0.0)
+    down = np.where(a * at_one >= 0, np.minimum(np.abs(a), np.abs(at_one)), 0.0)
+    return np.where(motoring, up, down)
+
+
 def motor_series(drive: Drive, ratio, tau: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                  dtau_rigid: np.ndarray, jerk: np.ndarray,
                  tau_rigid: np.ndarray | None = None) -> MotorSeries:

@@ -42,12 +42,14 @@ from manipcad.sizing.limits import (
     FAIL,
     UNKNOWN,
     LimitCheck,
+    JOINT_LIMITS,
+    check_joint_limits,
     check_limits,
     margin,
     overall_status,
 )
 from manipcad.sizing.motion import SampledMotion, sample_motion
-from manipcad.sizing.motor import motor_series
+from manipcad.sizing.motor import least_over_efficiency, motor_series
 from manipcad.sizing.stats import peak, time_mean, time_rms, weighted_cubic_mean
 from manipcad.trajectories.base import Trajectory
 
@@ -216,7 +218,8 @@ class DriveRequirements:
                 entry[key] = json_safe(getattr(self, key)[j])
             entry["checks"] = {
                 name: {"required": json_safe(c.required[j]), "limit": json_safe(c.limit[j]),
-                       "margin": json_safe(c.margin[j]), "status": c.status[j], "unit": c.unit}
+                       "margin": json_safe(c.margin[j]), "status": c.status[j],
+                       "unit": check_unit(name, c.unit, self.robot.joint_types[j])}
                 for name, c in self.checks.items()
             }
             entry["status"] = self.status[j]
@@ -224,7 +227,8 @@ class DriveRequirements:
         out: dict[str, Any] = {
             "robot": self.robot.name, "t_end": self.t_end, "dt": self.dt,
             "payload_mass": self.payload_mass, "ok": self.ok,
-            "limits": {k: v[0] for k, v in ALL_LIMITS.items()}, "joints": joints,
+            "limits": {k: v[0] for k, v in {**ALL_LIMITS, **JOINT_LIMITS}.items()},
+            "joints": joints,
         }
         if series:
             out["series"] = {key: json_safe(getattr(self, key)) for key in (
@@ -234,6 +238,19 @@ class DriveRequirements:
     def __repr__(self) -> str:
         return (f"DriveRequirements({self.robot.name!r}, n={self.n}, t_end={self.t_end:g} s, "
                 f"status={list(self.status)})")
+
+
+def check_unit(name: str, unit: str, joint_type: str) -> str:
+    """The unit of check ``name`` on a joint of this type: a joint limit's is the
+    prismatic one of :data:`~manipcad.sizing.limits.JOINT_LIMITS` on a prismatic joint.
+
+    Example:
+        >>> check_unit("velocity", "rad/s", "prismatic"), check_unit("peak", "N·m", "prismatic")
+        ('m/s', 'N·m')
+    """
+    if name in JOINT_LIMITS and joint_type == PRISMATIC:
+        return JOINT_LIMITS[name][2]
+    return unit
 
 
 def motor_side(motion: SampledMotion) -> dict[str, np.ndarray]:
@@ -266,17 +283,16 @@ def efficiency_unknown(checks: dict[str, LimitCheck], motion: SampledMotion,
                        t: np.ndarray) -> dict[str, LimitCheck]:
     """The motor checks of the drives whose gear efficiency is unknown (nan), made honest.
 
-    The motor torque T_m = P_rigid·f/i_r + D/i_r (D: the drive's own terms, J, k_v,
-    M_f, referred to the joint) is computed with η = 1, which is not a bound: with
-    the true η in (0, 1], while the motor drives the load (P_rigid·q̇ >= 0)
-    |T_m| >= |P_rigid + D|/|i_r| only where P_rigid and D have the same sign, and
-    while the load drives it back |T_m| may be anywhere down to 0. So the lower
-    bound |T_m| >= |P_rigid + D|/|i_r| where both hold, else 0, is what can be
-    known: the continuous (RMS) and peak checks fail when that bound already
-    exceeds the rating (their ``required`` is then the bound), and are "unknown"
-    otherwise (``required`` stays the value at η = 1, margin nan); the voltage
-    check, which depends on η through the current and its rate, is "unknown".
-    Speed and gear checks do not depend on η and are kept.
+    The motor torque and the armature voltage are computed with η = 1, which is not a
+    bound: a lower η raises them while the motor drives the load and lowers them while
+    the load drives it back. What can be known is the least value over every η in
+    (0, 1], sample by sample (:func:`~manipcad.sizing.motor.least_over_efficiency`):
+    its RMS and peak bound the RMS and peak at any efficiency from below. So the
+    continuous (RMS torque), peak (torque) and voltage (peak voltage) checks fail when
+    that bound already exceeds the rating — a check that fails at every efficiency
+    fails, whatever the gear's data leave out (``required`` is then the bound) — and
+    are "unknown" otherwise (``required`` stays the value at η = 1, margin nan). Speed
+    and gear checks do not depend on η and are kept.
 
     Args:
         checks: the checks of :func:`check_limits` (computed with η = 1 for these drives).
@@ -290,22 +306,26 @@ def efficiency_unknown(checks: dict[str, LimitCheck], motion: SampledMotion,
     unknown = [j for j, d in enumerate(drives) if d is not None and math.isnan(d.efficiency)]
     if not unknown:
         return checks
+    least: dict[int, dict[str, float]] = {}
+    for j in unknown:
+        d = drives[j]
+        cols = (motion.tau[:, j], motion.qd[:, j], motion.qdd[:, j], motion.dtau_rigid[:, j],
+                motion.jerk[:, j], motion.tau_rigid[:, j])
+        one = motor_series(d.replace(efficiency=1.0), d.ratio, *cols)
+        half = motor_series(d.replace(efficiency=0.5), d.ratio, *cols)
+        motoring = motion.tau_rigid[:, j] * motion.qd[:, j] >= 0
+        torque = least_over_efficiency(one.torque, half.torque, motoring)
+        volts = least_over_efficiency(one.voltage, half.voltage, motoring)
+        least[j] = {"continuous": float(time_rms(torque[:, None], t)[0]),
+                    "peak": float(peak(torque[:, None])[0]),
+                    "voltage": float(peak(volts[:, None])[0])}
     out = dict(checks)
     for name in ("continuous", "peak", "voltage"):
         c = checks[name]
         status = list(c.status)
         req = np.array(c.required, dtype=float)
         for j in unknown:
-            d = drives[j]
-            a = motion.tau_rigid[:, j]
-            b = motion.tau[:, j] - a
-            same = (a * b >= 0) & (a * motion.qd[:, j] >= 0)
-            lower = np.where(same, np.abs(a + b), 0.0) / abs(d.ratio)
-            if name == "voltage":
-                status[j] = UNKNOWN
-                continue
-            bound = float(peak(lower[:, None])[0] if name == "peak"
-                          else time_rms(lower[:, None], t)[0])
+            bound = least[j][name]
             if bound > c.limit[j]:
                 status[j], req[j] = FAIL, bound
             else:
@@ -382,6 +402,9 @@ def required_drive(robot: Robot, trajectory: Trajectory, *, t_end: float | None 
         "gear_average_speed": summary["mean_motor_speed"],
     }
     checks = efficiency_unknown(check_limits(required, drives), motion, t)
+    checks.update(check_joint_limits(motion.q.min(axis=0), motion.q.max(axis=0),
+                                     summary["peak_speed"], summary["peak_gear_torque"],
+                                     motion.robot))
     return DriveRequirements(
         robot=motion.robot, drives=drives, t_end=motion.t_end, dt=motion.dt,
         payload_mass=motion.payload_mass, t=t, q=motion.q, qd=motion.qd, qdd=motion.qdd,

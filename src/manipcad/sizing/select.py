@@ -990,7 +990,9 @@ def _verify(robot: Robot, drives: list, masses: dict[int, float], mounts: dict[i
             trajectories: Sequence[Trajectory], payloads: Sequence[float],
             joints: Sequence[int], dt: float, t_end: float | None,
             allow_unknown: bool) -> list[int]:
-    """The selected joints that ``size`` (:func:`required_drive`) does not pass on some case."""
+    """The selected joints that ``size`` (:func:`required_drive`) does not pass on some case,
+    by the drive checks (:data:`ALL_LIMITS`): the joint's own position, speed and torque
+    limits are the trajectory's, which no drive changes."""
     from manipcad.sizing.requirements import required_drive
 
     arm = with_drive_masses(robot, masses, mounts).replace(drives=tuple(drives))
@@ -999,8 +1001,8 @@ def _verify(robot: Robot, drives: list, masses: dict[int, float], mounts: dict[i
         for p in payloads:
             req = required_drive(arm, tr, t_end=t_end, dt=dt, payload=p)
             for j in joints:
-                st = req.status[j]
-                if st == FAIL or (st == UNKNOWN and not allow_unknown):
+                states = {c.status[j] for name, c in req.checks.items() if name in ALL_LIMITS}
+                if FAIL in states or (UNKNOWN in states and not allow_unknown):
                     bad.add(j)
     return sorted(bad)
 

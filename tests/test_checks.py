@@ -1,0 +1,183 @@
+"""Checks against every rating: the shared check functions (sizing and runs), the joint's
+own limits read from URDF/YAML, efficiency-unknown bounds, and the run checks."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import manipcad
+from manipcad.errors import ManipcadWarning
+from manipcad.model.robot import Drive
+from manipcad.sizing import required_drive
+from manipcad.sizing.limits import (
+    ALL_LIMITS,
+    check_joint_limits,
+    check_limits,
+    check_rated,
+    judge,
+    rating_table,
+)
+from manipcad.sizing.motor import least_over_efficiency
+from manipcad.trajectories import cosine, quintic
+
+R_X = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])   # joint axis horizontal
+
+
+def _load(name: str) -> manipcad.Robot:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        return manipcad.load_robot(name)
+
+
+def _pendulum(drive: Drive, **kw) -> manipcad.Robot:
+    """One horizontal-axis joint: 2 kg at 0.3 m."""
+    return manipcad.Robot.from_arrays("one", ["revolute"], [-1], R_X[None], np.zeros((1, 3)),
+                                      [2.0], [[0.3, 0.0, 0.0]], np.eye(3)[None] * 0.01,
+                                      drives=[drive], **kw)
+
+
+# ------------------------------------------------------------ the shared check functions
+def test_judge_and_check_ratings_vectorized():
+    """One comparison for every caller: pass, fail, unknown on constructed arrays, and
+    check_rated over candidate arrays equals check_limits over the drives."""
+    m, v = judge(np.array([1.0, 3.0, np.nan, 1.0]), np.array([2.0, 2.0, 2.0, np.nan]))
+    assert v.tolist() == ["pass", "fail", "unknown", "unknown"]
+    assert np.allclose(m[:2], [0.5, -0.5])
+    drives = (Drive(ratio=50.0, gear="g", rated_torque=0.2, peak_torque=1.0, max_speed=500.0,
+                    gear_rated_torque=40.0, gear_peak_torque=100.0, gear_max_input_speed=600.0),
+              Drive(ratio=50.0, gear="g", rated_torque=0.2, gear_rated_torque=40.0,
+                    gear_average_torque=50.0),
+              Drive(ratio=1.0), None)
+    req = {k: np.array([0.1, 0.3, 0.1, 0.1]) * (200 if k.startswith("gear") else 1)
+           for k in ALL_LIMITS}
+    a = check_limits(req, drives)
+    rated, geared = rating_table(drives)
+    assert geared.tolist() == [True, True, False, False]
+    b = check_rated(req, rated, geared)
+    for name in ALL_LIMITS:
+        assert a[name].status == b[name].status, name
+    assert a["continuous"].status == ("pass", "fail", "unknown", "unknown")
+    assert a["gear_continuous"].status == ("pass", "fail", "n/a", "n/a")
+    # drive 1: 60 N·m against its 50 N·m average limit; drive 0 has none, 20 <= rated 40
+    assert a["gear_average"].status[:2] == ("pass", "fail")
+    assert b["gear_average"].limit[0] == 40.0
+
+
+def test_least_over_efficiency_is_the_minimum_over_eta():
+    """Against brute force: |A + B·f(η)| on a dense η grid in (0, 1]."""
+    rng = np.random.default_rng(3)
+    A, B = rng.normal(size=400), rng.normal(size=400)
+    motoring = rng.random(400) < 0.5
+    eta = np.geomspace(1e-4, 1.0, 20001)[:, None]
+    f = np.where(motoring, 1.0 / eta, eta)
+    brute = np.abs(A + B * f).min(axis=0)
+    at1 = A + B
+    at_half = A + B * np.where(motoring, 2.0, 0.5)
+    least = least_over_efficiency(at1, at_half, motoring)
+    assert np.all(least <= brute + 1e-12)
+    assert np.allclose(least, brute, atol=2e-4 * (np.abs(A) + np.abs(B)).max())
+
+
+def test_unknown_efficiency_fails_what_fails_at_any_efficiency():
+    """A voltage that η = 1 already exceeds fails with the gear's efficiency unknown; one
+    within the limit at η = 1 stays unknown (a lower η could push it over)."""
+    d = Drive(J=1e-4, ratio=100.0, R=1.0, L=1e-3, k_m=0.1, k_w=0.1, u_max=24.0,
+              rated_torque=1.0, peak_torque=3.0, efficiency=math.nan)
+    fast = cosine([1.0], [4.0], 2.0)          # back-EMF alone 0.1·100·4 = 40 V > 24 V
+    req = required_drive(_pendulum(d), fast)
+    ideal = required_drive(_pendulum(d.replace(efficiency=1.0)), fast)
+    assert ideal.checks["voltage"].status == ("fail",)
+    v = req.checks["voltage"]
+    assert v.status == ("fail",)
+    assert 24.0 < v.required[0] <= ideal.peak_voltage[0] + 1e-9
+    slow = cosine([0.1], [1.0], 2.0)
+    assert required_drive(_pendulum(d), slow).checks["voltage"].status == ("unknown",)
+    # the bound is a bound: at every efficiency the peak voltage is at least it
+    for eta in (1.0, 0.8, 0.5, 0.2):
+        at = required_drive(_pendulum(d.replace(efficiency=eta)), fast).peak_voltage[0]
+        assert at >= v.required[0] - 1e-9
+
+
+# ------------------------------------------------------------------ the joint's limits
+URDF = """<?xml version="1.0"?>
+<robot name="two">
+  <link name="base"/>
+  <link name="a"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01"
+    iyz="0" izz="0.01"/></inertial></link>
+  <link name="b"><inertial><origin xyz="0.2 0 0"/><mass value="1"/><inertia ixx="0.01" ixy="0"
+    ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="5" velocity="0.63"/></joint>
+  <joint name="j2" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 1 0"/>
+    <limit effort="0" velocity="0"/></joint>
+</robot>
+"""
+
+
+def test_urdf_velocity_and_effort_limits_read_and_written(tmp_path):
+    """<limit velocity effort> read (0: the exporters' placeholder, no limit); written back."""
+    p = tmp_path / "two.urdf"
+    p.write_text(URDF)
+    arm = manipcad.load_robot(p)
+    assert arm.velocity_limits.tolist() == [0.63, math.inf]
+    assert arm.effort_limits.tolist() == [5.0, math.inf]
+    from manipcad.model.to_urdf import robot_to_urdf
+    q = tmp_path / "back.urdf"
+    q.write_text(robot_to_urdf(arm))
+    back = manipcad.load_robot(q)
+    assert back.velocity_limits.tolist() == [0.63, math.inf]
+    assert back.effort_limits.tolist() == [5.0, math.inf]
+
+
+def test_size_checks_the_joint_limits(tmp_path):
+    """A trajectory beyond a joint's position or velocity limit does not size clean."""
+    p = tmp_path / "two.urdf"
+    p.write_text(URDF)
+    arm = manipcad.load_robot(p)
+    ok = required_drive(arm, quintic([0.0, 0.0], [0.5, 0.5], 2.0))
+    assert ok.checks["position"].status[0] == "pass"
+    assert ok.checks["velocity"].status == ("pass", "n/a")
+    assert ok.checks["effort"].status[0] == "pass"
+    # 2 rad/s peak on joint 1 against its 0.63 rad/s; 1.2 rad beyond its 1 rad
+    bad = required_drive(arm, quintic([0.0, 0.0], [1.2, 0.5], 1.0))
+    assert bad.checks["position"].status[0] == "fail"
+    assert bad.checks["position"].required[0] == pytest.approx(1.2)
+    assert bad.checks["position"].limit[0] == 1.0
+    assert bad.checks["velocity"].status[0] == "fail"
+    assert bad.status[0] == "fail" and not bad.ok
+
+
+def test_joint_limit_checks_pass_and_fail():
+    """Each joint limit can pass and fail; no limit is n/a."""
+    arm = _load("cylindrical").replace(velocity_limits=np.array([1.0, np.inf, 2.0]),
+                                       effort_limits=np.array([10.0, 10.0, np.inf]))
+    lo, hi = arm.limits[:, 0], arm.limits[:, 1]
+    mid = np.where(np.isfinite(lo + hi), 0.5 * (lo + hi), 0.0)
+    c = check_joint_limits(mid, mid, np.array([0.5, 9.0, 3.0]), np.array([11.0, 5.0, 1.0]),
+                           arm)
+    assert c["velocity"].status == ("pass", "n/a", "fail")
+    assert c["effort"].status == ("fail", "pass", "n/a")
+    finite = np.isfinite(hi)
+    assert all(s == "pass" for s, f in zip(c["position"].status, finite, strict=True) if f)
+    c = check_joint_limits(lo - 0.01, hi, np.zeros(3), np.zeros(3), arm)
+    assert all(s == "fail" for s, f in zip(c["position"].status, np.isfinite(lo), strict=True)
+               if f)
+
+
+def test_yaml_joint_velocity_and_effort_limits(tmp_path):
+    p = tmp_path / "one.yaml"
+    p.write_text("name: one\njoints:\n  - name: j\n    type: revolute\n    velocity_limit: 2.5\n"
+                 "    effort_limit: 40\n    link: {mass: 1.0, com: [0.1, 0, 0], inertia: "
+                 "{ixx: 0.01, iyy: 0.01, izz: 0.01}}\n")
+    arm = manipcad.load_robot(p)
+    assert arm.velocity_limits.tolist() == [2.5] and arm.effort_limits.tolist() == [40.0]
+    saved = tmp_path / "saved.yaml"
+    arm.save(saved)
+    assert manipcad.load_robot(saved).velocity_limits.tolist() == [2.5]
+    p.write_text(p.read_text().replace("2.5", "-1"))
+    with pytest.raises(manipcad.errors.InputError, match="velocity_limit"):
+        manipcad.load_robot(p)

@@ -40,9 +40,9 @@ from manipcad.model.robot import PRISMATIC, Drive, Robot
 from manipcad.sizing.limits import (
     ALL_LIMITS,
     FAIL,
+    JOINT_LIMITS,
     UNKNOWN,
     LimitCheck,
-    JOINT_LIMITS,
     check_joint_limits,
     check_limits,
     margin,

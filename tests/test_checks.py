@@ -181,3 +181,118 @@ def test_yaml_joint_velocity_and_effort_limits(tmp_path):
     p.write_text(p.read_text().replace("2.5", "-1"))
     with pytest.raises(manipcad.errors.InputError, match="velocity_limit"):
         manipcad.load_robot(p)
+
+
+# ------------------------------------------------------------------------ run checks
+from manipcad.sim.checks import CHECKS, RunChecks, reversals, run_checks  # noqa: E402
+from manipcad.sim.simulate import SimulationResult  # noqa: E402
+
+RATED = Drive(J=1e-4, ratio=100.0, R=1.0, L=1e-3, k_m=0.1, k_w=0.1, k_u=2.0, u_max=24.0,
+              rated_torque=0.2, peak_torque=0.5, max_speed=400.0, gear="g",
+              gear_rated_torque=10.0, gear_peak_torque=20.0, gear_max_input_speed=500.0)
+
+
+def _run(q, u, i, *, dt=1e-4, q_ref=None, drive=RATED, **robot_kw) -> tuple:
+    """A constructed one-joint run of the pendulum: q (rad), U (V), i (A) per step."""
+    q = np.asarray(q, float)
+    t = np.arange(len(q)) * dt
+    col = lambda x: np.asarray(x, float).reshape(-1, 1)   # noqa: E731
+    qd = np.gradient(q, t)
+    res = SimulationResult(t=t, q=col(q), qd=col(qd), q_ref=col(q if q_ref is None else q_ref),
+                           qd_ref=col(qd), u=col(u), current=col(i), tau=col(np.zeros_like(q)),
+                           joint_names=("q1",), joint_types=("revolute",), robot="one",
+                           settings={"drives": True})
+    return res, _pendulum(drive, **robot_kw)
+
+
+def test_run_check_values_against_closed_forms():
+    """Holding the pendulum level: gear torque m·g·c = 5.886 N·m; currents, saturation and
+    position read off the constructed series."""
+    N = 2001
+    i = np.where(np.arange(N) < N // 2, 1.0, 3.0)       # RMS sqrt(5), peak 3 A
+    u = np.where(np.arange(N) < N // 4, 12.0, 1.0)      # k_u·U = 24 V (the limit) a quarter
+    res, arm = _run(np.zeros(N), u, i)
+    c = run_checks(res, arm, accuracy=1e-3)["q1"]
+    assert c["gear_peak"].value == pytest.approx(2.0 * 9.81 * 0.3, rel=1e-9)
+    assert c["gear_peak"].verdict == "pass" and c["gear_peak"].limit == 20.0
+    assert c["current_rms"].value == pytest.approx(math.sqrt(5.0), rel=1e-3)
+    assert c["current_rms"].limit == pytest.approx(2.0) and c["current_rms"].verdict == "fail"
+    assert c["current_peak"].value == 3.0 and c["current_peak"].limit == pytest.approx(5.0)
+    assert c["current_peak"].verdict == "pass"
+    assert c["saturation"].value == pytest.approx(0.25, abs=1e-3)
+    assert c["saturation"].verdict == "fail"
+    assert c["tracking"].value == 0.0 and c["tracking"].verdict == "pass"
+    assert set(c) == set(CHECKS) - {"voltage"}
+
+
+@pytest.mark.parametrize("kind", ["saturation", "chattering", "current_rms", "current_peak",
+                                  "speed", "gear_continuous", "gear_peak", "gear_speed",
+                                  "position", "velocity", "effort", "tracking"])
+def test_each_run_check_passes_and_fails(kind):
+    """A calm run passes every check; one changed series fails the check named, only it
+    (among the checks of that kind)."""
+    N, dt = 4001, 1e-4
+    t = np.arange(N) * dt
+    q = 0.05 * np.sin(2 * np.pi * t)                     # slow, small
+    u = 2.0 + 0.5 * np.sin(2 * np.pi * t)                # held 1 kHz steps below
+    u = u[(np.arange(N) // 10) * 10]
+    i = 0.5 + 0.0 * t
+    kw = {"limits": [[-1.0, 1.0]], "velocity_limits": [1.0], "effort_limits": [30.0]}
+    res, arm = _run(q, u, i, dt=dt, **kw)
+    calm = run_checks(res, arm, accuracy=1e-3)
+    assert calm.verdict == "pass", calm.summary()
+    q_ref = None
+    if kind == "saturation":
+        u = np.where(t < 0.2, 12.5, u)
+    elif kind == "chattering":                          # sign every 1 ms sample
+        u = np.where((np.arange(N) // 10) % 2 == 0, 2.0, -2.0)
+    elif kind == "current_rms":
+        i = 2.5 + 0.0 * t
+    elif kind == "current_peak":
+        i = np.where(np.abs(t - 0.2) < 2e-3, 6.0, i)
+    elif kind == "speed":                               # 5.4 rad/s -> 540 rad/s motor
+        q = 0.9 * np.sin(6 * t)
+        kw["velocity_limits"] = [10.0]
+        arm_drive = RATED.replace(gear_max_input_speed=1000.0)
+    elif kind == "gear_speed":
+        q = 0.9 * np.sin(6 * t)
+        kw["velocity_limits"] = [10.0]
+        arm_drive = RATED.replace(max_speed=1000.0)
+    elif kind in ("gear_continuous", "gear_peak"):      # 0.19 kg·m² at 200 rad/s² + gravity:
+        q = 0.005 * np.sin(200 * t)                     # RMS 27.4, peak 43.9 N·m
+        arm_drive = RATED.replace(gear_rated_torque=20.0 if kind == "gear_continuous" else 100.0,
+                                  gear_peak_torque=40.0 if kind == "gear_peak" else 100.0)
+        kw["effort_limits"] = [100.0]
+    elif kind == "position":                            # a ramp to 1.1 rad, limit 1 rad
+        q = 1.1 * t / t[-1]
+        kw["velocity_limits"] = [10.0]
+    elif kind == "velocity":
+        q = 0.25 * np.sin(5 * t)                        # 1.25 rad/s > 1
+    elif kind == "effort":
+        kw["effort_limits"] = [5.0]                     # holding needs 5.886 N·m
+    elif kind == "tracking":
+        q_ref = q + 2e-3 * (t > 0.2)
+    drive = locals().get("arm_drive", RATED)
+    res, arm = _run(q, u, i, dt=dt, q_ref=q_ref, drive=drive, **kw)
+    checks = run_checks(res, arm, accuracy=1e-3)
+    failed = {k for _, k, _ in checks.failures()}
+    assert failed == {kind}, checks.summary()
+
+
+def test_reversals_need_the_band():
+    """Rounding around zero is no chattering; a switching law is."""
+    noise = 1e-9 * np.array([1, -1] * 50, float)[:, None]
+    assert reversals(noise, np.array([0.01])).tolist() == [0]
+    switch = np.array([1, -1] * 50, float)[:, None]
+    assert reversals(switch, np.array([0.01])).tolist() == [99]
+
+
+def test_run_checks_round_trip_and_summary():
+    res, arm = _run(np.zeros(101), np.full(101, 12.0), np.full(101, 3.0))
+    c = run_checks(res, arm)
+    back = RunChecks.from_dict(c.to_dict())
+    assert back.to_dict() == c.to_dict() and back.verdict == c.verdict == "fail"
+    assert c.summary().startswith("FAIL") and "saturation" in c.summary()
+    assert "tracking" not in c["q1"]                     # no accuracy asked: not checked
+    with pytest.raises(manipcad.errors.ManipcadError, match="accuracy"):
+        run_checks(res, arm, accuracy={"nope": 1e-3})

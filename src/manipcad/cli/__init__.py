@@ -20,5 +20,6 @@ from manipcad.cli import robustness  # noqa: E402,F401  isort: skip
 from manipcad.cli import design  # noqa: E402,F401  isort: skip
 from manipcad.cli import ui  # noqa: E402,F401  isort: skip
 from manipcad.cli import select  # noqa: E402,F401  isort: skip
+from manipcad.cli import catalog  # noqa: E402,F401  isort: skip
 
 __all__ = ["app", "main"]

@@ -67,6 +67,11 @@ def size(
     allow_unknown: Annotated[bool, typer.Option(
         "--allow-unknown", help="Exit 0 even when a check cannot be made (a rating or the "
         "motor's electrical data unknown); failed checks still exit 1.")] = False,
+    strict: Annotated[bool, typer.Option(
+        "--strict", help="Take assumed values as unknown: a gear efficiency the data sheet "
+        "does not print (the library's stated strain-wave assumption, docs/catalog.md) and "
+        "any other value a part marks assumed; the checks resting on them are then unknown "
+        "(or fail when they fail even through a lossless gear).")] = False,
     ws: Annotated[Path | None, typer.Option(
         "--ws", help="Workspace: the inputs may be its item names.")] = None,
     ratio_sweep: Annotated[str | None, typer.Option(
@@ -82,8 +87,10 @@ def size(
 
     What a trajectory needs of each drive, and each motor (continuous and peak
     torque, speed, voltage) and gear (rated and peak output torque, input speed)
-    checked with margins. Exit 1 when a check fails, or cannot be made unless
-    --allow-unknown; 2 for bad input."""
+    checked with margins. A check that passes on an assumed value (a strain-wave
+    gear's efficiency, docs/catalog.md) says so; --strict takes assumed values as
+    unknown. Exit 1 when a check fails, or cannot be made unless --allow-unknown; 2
+    for bad input."""
     from manipcad.model.load import load_robot
     from manipcad.sizing import required_drive, torque_speed_plot
     from manipcad.trajectories import load_trajectory
@@ -104,7 +111,14 @@ def size(
     from manipcad.cli.warmup import ensure_warm
 
     ensure_warm("dynamics")
+    from manipcad.sizing.assumed import assumed_passes, strict_requirements, strict_robot
+
+    if strict:
+        arm = strict_robot(arm)
     req = required_drive(arm, traj, t_end=t_end, dt=dt, payload=payload)
+    if strict:
+        req = strict_requirements(req)
+    on_assumed = assumed_passes(req)
     written = torque_speed_plot(req, plot) if plot is not None else None
 
     sweeps = _sweeps(arm, traj, ratio_sweep, sweep_joint, t_end, dt, payload)
@@ -123,6 +137,8 @@ def size(
     if as_json:
         out = req.to_dict()
         out["trajectory"] = str(trajectory)
+        out["strict"] = strict
+        out["passed_on_assumed_values"] = on_assumed
         out["plot"] = str(written) if written is not None else None
         if sweeps:
             out["ratio_sweep"] = [{"joint": sw.joint, "present_ratio": sw.ratio,
@@ -132,6 +148,7 @@ def size(
         typer.echo(json.dumps(json_safe(out), indent=2, allow_nan=False))
     else:
         _print_tables(req, str(trajectory))
+        _print_assumed(on_assumed)
         if written is not None:
             console.print(f"torque-speed plot written to {escape(str(written))}")
         for sw in sweeps:
@@ -252,6 +269,24 @@ def _print_tables(req, source: str) -> None:
                           f"{escape(', '.join(eta))}")
     if not fails and not unknown:
         console.print("[green]every motor and gear meets every limit[/]")
+
+
+def _print_assumed(on_assumed: list[dict]) -> None:
+    """Say which passes rest on assumed values, and why (once per reason)."""
+    if not on_assumed:
+        return
+    by_why: dict[str, list[str]] = {}
+    for p in on_assumed:
+        for field, why in p["why"].items():
+            joints = by_why.setdefault(f"{field}: {why}", [])
+            if p["joint"] not in joints:
+                joints.append(p["joint"])
+    for why, joints in by_why.items():
+        field = why.split(":", 1)[0]
+        console.print(f"[yellow]passed with an assumed {escape(field.replace('_', ' '))}[/] "
+                      f"(motor torque and voltage checks of {escape(', '.join(joints))}; "
+                      f"--strict takes it as unknown): {escape(why.split(': ', 1)[1])}",
+                      soft_wrap=True, highlight=False)
 
 
 def _sweeps(arm, traj, spec: str | None, joints: list[str] | None, t_end, dt, payload) -> list:

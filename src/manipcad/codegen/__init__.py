@@ -12,11 +12,12 @@ from manipcad.codegen.generate import (
     GeneratedDynamics,
     c_identifier,
     cache_root,
+    code_text,
     find,
     generate,
     robot_hash,
     simulation_kernels,
 )
 
-__all__ = ["generate", "GeneratedDynamics", "robot_hash", "c_identifier", "cache_root",
+__all__ = ["generate", "GeneratedDynamics", "robot_hash", "c_identifier", "code_text", "cache_root",
            "MAX_JOINTS", "CFUNC_SIGNATURES", "find", "simulation_kernels"]

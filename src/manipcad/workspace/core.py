@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import secrets
 import shutil
 import tempfile
@@ -702,9 +703,13 @@ class Workspace:
                              f"{exc}") from None
         added = []
         # inputs first, results last: provenance then finds the names
+        if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+            raise InputError(str(bundle / BUNDLE_MANIFEST), "items", "not a bundle manifest: "
+                             "expected a list of items")
         order = sorted(entries, key=lambda e: KINDS.index(kind_of(e.get("kind", "?"),
                                                                   str(bundle))))
-        for e in order:
+        paths = []
+        for e in order:  # every item checked before any is added
             rel = Path(str(e.get("path", "")))
             if rel.is_absolute() or ".." in rel.parts:
                 raise InputError(str(bundle / BUNDLE_MANIFEST), "path", f"{rel}: refused "
@@ -712,6 +717,9 @@ class Workspace:
             p = bundle / rel
             if not inside(p, bundle):
                 raise InputError(str(p), "", "points outside the bundle; refused")
+            _check_bundle_hash(bundle, p, e, entries.index(e))
+            paths.append(p)
+        for e, p in zip(order, paths, strict=True):
             existing = self.index.query("SELECT hash FROM items WHERE kind = ? AND name = ?",
                                         (kind_of(e["kind"]), str(e.get("name"))))
             if existing and existing[0]["hash"] == content_hash(p) and not force:
@@ -895,8 +903,9 @@ class Workspace:
                         write_csv(res, dst / "timeseries.csv", joint_types=doc.get("joint_types"))
                 else:
                     shutil.copyfile(src, dst)
+                # the hash of what is exported (with the CSV added), checked on import
                 entries.append({"kind": it.kind, "name": it.name,
-                                "path": f"{it.kind}/{src.name}", "hash": it.hash,
+                                "path": f"{it.kind}/{src.name}", "hash": content_hash(dst),
                                 "created": it.created, "manipcad_version": it.manipcad_version,
                                 "provenance": it.provenance})
             (tmp / BUNDLE_MANIFEST).write_text(json.dumps(json_safe(
@@ -907,6 +916,27 @@ class Workspace:
             raise
         install_folder(tmp, out)
         return out
+
+
+def _check_bundle_hash(bundle: Path, p: Path, entry: Mapping[str, Any], k: int) -> None:
+    """Refuse a bundle item whose content is not what its manifest's SHA-256 says (a file
+    changed, added or removed after the export). A result exported by an earlier
+    manipcad recorded its hash without the ``timeseries.csv`` the export adds."""
+    want = entry.get("hash")
+    where = f"items[{k}].hash"
+    if not isinstance(want, str) or not re.fullmatch(r"[0-9a-f]{64}", want):
+        raise InputError(str(bundle / BUNDLE_MANIFEST), where, f"expected the item's SHA-256 "
+                         f"(64 hex digits), got {want!r}")
+    if not (p.exists() or p.is_symlink()):
+        raise InputError(str(p), "", "listed in the bundle manifest but missing")
+    got = content_hash(p)
+    if got == want:
+        return
+    if p.is_dir() and content_hash(p, skip={"timeseries.csv"}) == want:
+        return
+    raise InputError(str(p), "", f"changed since the bundle was exported: its SHA-256 is "
+                     f"{got[:16]}..., the manifest ({where}) says {want[:16]}...; refused "
+                     "(nothing imported)")
 
 
 def _robot_quiet(robot_file: Path):

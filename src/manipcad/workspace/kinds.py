@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
@@ -33,9 +34,9 @@ def file_hash(path: Path) -> str:
     return h.hexdigest()
 
 
-def content_hash(path: Path) -> str:
+def content_hash(path: Path, skip: Collection[str] = ()) -> str:
     """SHA-256 of an item: a file's bytes, or a folder's files (relative names and
-    bytes, in sorted order; hidden names skipped), hex.
+    bytes, in sorted order; hidden names and the relative names in ``skip`` left out), hex.
 
     Example:
         >>> import tempfile, pathlib
@@ -53,6 +54,8 @@ def content_hash(path: Path) -> str:
             if f.startswith("."):
                 continue
             full = Path(dirpath) / f
+            if str(full.relative_to(path)) in skip:
+                continue
             h.update(str(full.relative_to(path)).encode() + b"\0")
             h.update(file_hash(full).encode() + b"\n")
     return h.hexdigest()

@@ -58,6 +58,14 @@ _RTOL, _ATOL = 1e-10, 1e-12  # resolved-rate integration tolerances (rad or m)
 _PROJ_TOL = 1e-12  # Newton projection target, m (and rad)
 _PROJ_ACCEPT = 1e-9  # the largest residual accepted, m (and rad)
 _SINGULAR = 1e-8  # smallest allowed singular value ratio of the task Jacobian
+#: work budget of following a path: evaluations of the resolved rates (a few ms each); a
+#: path that needs more (a circle of hundreds of turns) is refused instead of taking
+#: minutes or hours (one full turn of a circle takes about 800)
+MAX_RATE_EVALUATIONS = 20_000
+
+
+class _OverBudget(Exception):
+    """Ends the resolved-rate integration of a path over :data:`MAX_RATE_EVALUATIONS`."""
 
 
 def path_profile(kind: str, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -184,7 +192,12 @@ class CartesianTrajectory(Trajectory):
         self.q_start = inverse_kinematics(self.robot, target, self.q0)
         T = self._duration
 
+        calls = [0]
+
         def rates(t: float, q: np.ndarray) -> np.ndarray:
+            calls[0] += 1
+            if calls[0] > MAX_RATE_EVALUATIONS:
+                raise _OverBudget(t)
             J = self._task_jacobian(q[None, :])[0]
             xd = self._task_rate(np.array([t]))[0]
             qd, _, _, s = np.linalg.lstsq(J, xd, rcond=None)  # minimum-norm rates
@@ -196,8 +209,15 @@ class CartesianTrajectory(Trajectory):
 
         from scipy.integrate import solve_ivp  # lazy: 1-3 s of import, rarely needed
 
-        sol = solve_ivp(rates, (0.0, T), self.q_start, method="DOP853", rtol=_RTOL,
-                        atol=_ATOL, dense_output=True, max_step=T / 50.0)
+        try:
+            sol = solve_ivp(rates, (0.0, T), self.q_start, method="DOP853", rtol=_RTOL,
+                            atol=_ATOL, dense_output=True, max_step=T / 50.0)
+        except _OverBudget as exc:
+            raise InputError(self._source, "", f"the {self.kind} path of "
+                             f"{self.robot.name!r} is too long to follow: more than "
+                             f"{MAX_RATE_EVALUATIONS:,} steps of the joint rates by t = "
+                             f"{exc.args[0]:.4g} s of {T:g} s (the limit of the work "
+                             "spent on one path); shorten it (fewer turns)") from None
         if not sol.success:
             raise KinematicsError(f"the {self.kind} path of {self.robot.name!r} cannot be "
                                   f"followed: {sol.message} (at t = {sol.t[-1]:.4g} s)")

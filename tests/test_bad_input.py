@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from manipcad.errors import InputError
+from manipcad.errors import InputError, ManipcadError
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -193,3 +193,94 @@ def test_claims_cleans_leftovers_and_a_failed_run_leaves_no_folder(tmp_path, mon
         run_claims(out, workers=2, progress=False)
     assert not killed.exists()
     assert (out / "notes.txt").read_text() == "mine"  # a folder it did not make stays
+
+
+# --------------------------------------------------------------------------- security
+
+EVIL = ('x""";import os;os.system(chr(116));"""'  # would end the numba module's docstring
+        ' */ int pwned = 1; /* \\\n@PREFIX@ {x}')    # would end the C comment
+
+
+def _strip_c_comments(src: str) -> str:
+    import re
+
+    return re.sub(r"/\*.*?\*/", " ", src, flags=re.S)
+
+
+def test_robot_name_cannot_inject_code(tmp_path):
+    """A robot's name (a URDF's <robot name>) reaches the generated numba module's
+    docstring and the C comments as inert text: the module's code holds no statement of
+    it, the C (compiled) no symbol of it."""
+    import ast
+    import shutil
+    import subprocess
+
+    import manipcad
+    from manipcad.codegen import generate
+    from manipcad.control.c_code import regulators_c
+
+    arm = manipcad.load_robot("cylindrical")
+    evil = arm.replace(name=EVIL, joint_names=("turn", "lift */ int pwned2; /*", "reach"))
+    gen = generate(evil, cache_dir=tmp_path / "cache", attach=False)
+    assert gen.generated, gen.reason
+    tree = ast.parse(gen.python_source())
+    assert ast.get_docstring(tree).startswith("Customized dynamics of 'x___;import os")
+    code = ast.unparse(ast.Module(body=tree.body[1:], type_ignores=[]))
+    assert "system" not in code and "chr(116)" not in code
+    hdr, src = gen.c_code("evil")
+    reg = manipcad.synthesize(evil, "turn", "pid")
+    rh, rc = regulators_c([reg], evil, "evil", source='r */ int pwned3; /*.yaml')
+    for text in (hdr, src, rh, rc):
+        assert "pwned" not in _strip_c_comments(text)
+    (tmp_path / "evil.h").write_text(hdr)
+    (tmp_path / "evil.c").write_text(src)
+    (tmp_path / "evil_regulators.h").write_text(rh)
+    (tmp_path / "evil_regulators.c").write_text(rc)
+    cc = shutil.which("cc") or shutil.which("gcc")
+    assert cc, "no C compiler"
+    for name in ("evil", "evil_regulators"):
+        obj = tmp_path / f"{name}.o"
+        subprocess.run([cc, "-std=c99", "-c", str(tmp_path / f"{name}.c"), "-o", str(obj)],
+                       check=True, cwd=tmp_path, timeout=120)
+        syms = subprocess.run(["nm", str(obj)], capture_output=True, text=True).stdout
+        assert "pwned" not in syms
+    with pytest.raises(ManipcadError, match="C identifier"):
+        regulators_c([reg], evil, "x; int y")
+
+
+def _bundle(tmp_path):
+    import manipcad
+    from manipcad.sim import simulate
+    from manipcad.workspace import Workspace
+
+    ws = Workspace.init(tmp_path / "ws")
+    traj = ws.add(move(tmp_path))
+    arm = manipcad.load_robot("cylindrical")
+    res = simulate(arm, t_end=0.01, dt=1e-3, drives=False, q0=[0.0, 0.3, 0.2])
+    ws.store_result(res, name="r1", robot=arm, trajectory=traj.name, plot=False)
+    return ws.export("r1", tmp_path / "share")
+
+
+def test_bundle_import_checks_the_manifest_hash(tmp_path):
+    import json
+
+    from manipcad.workspace import Workspace
+
+    out = _bundle(tmp_path)
+    other = Workspace.init(tmp_path / "other")
+    (out / "trajectories" / "move.yaml").write_text(
+        (out / "trajectories" / "move.yaml").read_text().replace("0.05", "5.0"))
+    with pytest.raises(InputError, match="changed since the bundle was exported"):
+        other.add(out)
+    assert other.list() == []  # nothing imported
+    res, msg = cli("ws", "add", out, "--ws", other.root)
+    fails_cleanly(res, msg, "move.yaml", "SHA-256")
+    # a changed result file too; an unchanged bundle imports
+    out2 = _bundle(tmp_path / "b")
+    doc = json.loads((out2 / "results" / "r1" / "metrics.json").read_text())
+    doc["metrics"]["turn"]["max_error"] = 0.0
+    (out2 / "results" / "r1" / "metrics.json").write_text(json.dumps(doc))
+    with pytest.raises(InputError, match="r1: changed since"):
+        other.add(out2)
+    out3 = _bundle(tmp_path / "c")
+    assert sorted(i.ref for i in other.add(out3)) == ["results/r1", "trajectories/move"]

@@ -12,6 +12,7 @@ import os
 import stat
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -284,3 +285,71 @@ def test_bundle_import_checks_the_manifest_hash(tmp_path):
         other.add(out2)
     out3 = _bundle(tmp_path / "c")
     assert sorted(i.ref for i in other.add(out3)) == ["results/r1", "trajectories/move"]
+
+
+def test_a_path_too_long_to_follow_is_refused(tmp_path, monkeypatch):
+    """A circle of many turns is refused by the work budget, naming the file, instead of
+    taking minutes (1500 rad) or hours (1e6 rad)."""
+    import manipcad.trajectories.cartesian as cart
+    from manipcad.trajectories import load_trajectory
+
+    import manipcad
+
+    arm = manipcad.load_robot("cylindrical")
+    q0 = np.array([0.0, 0.3, 0.3])
+    k, c = cart.resolve_point(arm, -1, None)
+    R, x = cart.frames(arm, q0[None])
+    tip = x[0, k] + R[0, k] @ c
+    p = tmp_path / "circle.yaml"
+    p.write_text(yaml.safe_dump({
+        "type": "circle", "robot": "cylindrical", "center": (tip - [0.02, 0, 0]).tolist(),
+        "radius": 0.02, "normal": [0, 0, 1], "angle": 1.0e6, "duration": 2.0,
+        "q0": q0.tolist()}))
+    monkeypatch.setattr(cart, "MAX_RATE_EVALUATIONS", 2000)  # the same rule, sooner
+    with pytest.raises(InputError, match="too long to follow") as err:
+        load_trajectory(p)
+    assert err.value.source == str(p)
+
+
+def test_upload_is_validated_off_the_event_loop(tmp_path, monkeypatch):
+    """While an upload is validated the server keeps answering (a tick task runs); an
+    upload the browser refuses (over the size cap) says so."""
+    import asyncio
+    import time
+
+    from nicegui import ui
+
+    from manipcad.ui import logic
+    from test_ui import _open, _simulate_user
+
+    real = logic.add_upload
+
+    def slow(*a, **k):
+        time.sleep(1.0)  # a long validation, holding its thread
+        return real(*a, **k)
+
+    monkeypatch.setattr(logic, "add_upload", slow)
+    ticks: list[float] = []
+    text = move(tmp_path).read_bytes()
+
+    async def script(user):
+        await _open(user, "/trajectories")
+        (up,) = user.find(kind=ui.upload).elements
+
+        async def tick():
+            while True:
+                ticks.append(time.monotonic())
+                await asyncio.sleep(0.05)
+
+        ticker = asyncio.create_task(tick())
+        await up.handle_uploads([ui.upload.SmallFileUpload("move.yaml", "text/yaml", text)])
+        await user.should_see("added trajectories/move", retries=60)
+        ticker.cancel()
+        gaps = np.diff(ticks)
+        assert len(ticks) > 10 and gaps.max() < 0.5, gaps.max()
+        for handler in up._event_listeners.values():
+            if handler.type == "rejected":
+                handler.handler()
+        await user.should_see("refused: larger than")
+
+    _simulate_user(tmp_path / "ws", script)

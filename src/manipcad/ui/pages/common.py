@@ -111,6 +111,23 @@ def error_label():
     return show, clear
 
 
+async def off_loop(fn, *args: Any, **kwargs: Any) -> Any:
+    """``fn(*args, **kwargs)`` in a worker thread: validating an upload, identifying a
+    payload, ... may take seconds, during which the server keeps answering every tab
+    (their bounds are the loaders' own work budgets). Open the workspace inside ``fn``
+    (a workspace's index connection belongs to the thread that opened it)."""
+    from nicegui import run
+
+    return await run.io_bound(fn, *args, **kwargs)
+
+
+def upload_refused(show, accept: str):
+    """The ``on_rejected`` of an upload field: says why the browser refused the file."""
+    return lambda: show(InputError("upload", "", f"refused: larger than the "
+                                   f"{logic.MAX_UPLOAD:,} bytes accepted, or not a {accept} "
+                                   "file"))
+
+
 def numbers(text: str, field: str, source: str) -> list[float]:
     """Comma-separated numbers from a form field (InputError naming it otherwise)."""
     try:

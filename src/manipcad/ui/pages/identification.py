@@ -7,7 +7,15 @@ from nicegui import ui
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import logic
-from manipcad.ui.pages.common import connected, error_label, frame, numbers, robot
+from manipcad.ui.pages.common import (
+    connected,
+    error_label,
+    frame,
+    numbers,
+    off_loop,
+    robot,
+    upload_refused,
+)
 
 
 async def page() -> None:
@@ -28,8 +36,8 @@ async def page() -> None:
                 c = numbers(com.value, "com", "identification form")
                 if len(c) != 3:
                     raise InputError("identification form", "com", "expected x, y, z")
-                est = logic.identify_upload(robot(), e.file.name, await e.file.read(),
-                                            com=c)
+                data, arm = await e.file.read(), robot()
+                est = await off_loop(logic.identify_upload, arm, e.file.name, data, com=c)
             except ManipcadError as exc:
                 show(exc)
                 return
@@ -46,5 +54,6 @@ async def page() -> None:
                     row_key="joint").props("dense flat")
 
         ui.upload(label="Upload measured data (.csv)", auto_upload=True,
-                  max_file_size=logic.MAX_UPLOAD, on_upload=uploaded) \
+                  max_file_size=logic.MAX_UPLOAD, on_upload=uploaded,
+                  on_rejected=upload_refused(show, ".csv")) \
             .props("accept=.csv data-testid=ident-upload")

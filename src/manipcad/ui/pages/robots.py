@@ -7,10 +7,10 @@ import math
 
 from nicegui import ui
 
-from manipcad.errors import InputError, ManipcadError
+from manipcad.errors import ManipcadError
 from manipcad.report.projection import VIEW
 from manipcad.ui import logic
-from manipcad.ui.pages.common import connected, error_label, frame, ws
+from manipcad.ui.pages.common import connected, error_label, frame, off_loop, upload_refused, ws
 
 
 async def page() -> None:
@@ -26,9 +26,9 @@ async def page() -> None:
             async def uploaded(e) -> None:
                 clear()
                 try:
-                    data = await e.file.read()
-                    item = logic.add_upload(ws(), e.file.name, data, kind="robots",
-                                            name=name_in.value or None)
+                    data, name = await e.file.read(), name_in.value or None
+                    item = await off_loop(lambda: logic.add_upload(
+                        ws(), e.file.name, data, kind="robots", name=name))
                 except (ManipcadError, OSError) as exc:
                     show(exc)
                     return
@@ -38,8 +38,7 @@ async def page() -> None:
 
             ui.upload(label="Upload URDF / YAML / MJCF", auto_upload=True,
                       max_file_size=logic.MAX_UPLOAD, on_upload=uploaded,
-                      on_rejected=lambda: show(InputError(
-                          "upload", "", f"larger than {logic.MAX_UPLOAD} bytes"))) \
+                      on_rejected=upload_refused(show, ".urdf, .yaml, .yml, .xml or .mjcf")) \
                 .props("accept=.urdf,.yaml,.yml,.xml,.mjcf data-testid=robot-upload")
         body = ui.column().classes("w-full")
 

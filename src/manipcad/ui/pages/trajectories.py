@@ -10,7 +10,16 @@ from nicegui import ui
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import logic
-from manipcad.ui.pages.common import connected, error_label, frame, numbers, robot, ws
+from manipcad.ui.pages.common import (
+    connected,
+    error_label,
+    frame,
+    numbers,
+    off_loop,
+    robot,
+    upload_refused,
+    ws,
+)
 
 
 async def page() -> None:
@@ -129,8 +138,14 @@ async def page() -> None:
         async def uploaded(e) -> None:
             clear()
             try:
-                item = logic.add_upload(ws(), e.file.name, await e.file.read(),
-                                        kind="trajectories", robot=robot())
+                data, ref = await e.file.read(), S["robot"]
+
+                def add():  # in a worker thread: the robot's loading too
+                    w = ws()
+                    return logic.add_upload(w, e.file.name, data, kind="trajectories",
+                                            robot=logic.load_robot_ref(w, ref)[0])
+
+                item = await off_loop(add)
             except (ManipcadError, OSError) as exc:
                 show(exc)
                 return
@@ -139,7 +154,8 @@ async def page() -> None:
             listing.refresh()
 
         ui.upload(label="Or upload a trajectory file (.yaml)", auto_upload=True,
-                  max_file_size=logic.MAX_UPLOAD, on_upload=uploaded) \
+                  max_file_size=logic.MAX_UPLOAD, on_upload=uploaded,
+                  on_rejected=upload_refused(show, ".yaml or .yml")) \
             .props("accept=.yaml,.yml data-testid=traj-upload")
         law.on_value_change(lambda _: fill())
         fill()

@@ -8,7 +8,7 @@ Two robots: the UR5 arm (6 revolute joints, the URDF of the ``example-robot-data
 package, loaded by :func:`manipcad.load_robot`) and a 100-joint chain of
 revolute joints with random placements and full inertias (built with
 :meth:`manipcad.Robot.from_arrays` and exported with
-:func:`manipcad.interop.pinocchio.to_pinocchio`).
+:func:`manipcad.model.to_pinocchio.to_pinocchio`).
 
 What is timed (``time.perf_counter``, wall clock):
 
@@ -46,7 +46,7 @@ import numpy as np
 import pinocchio as pin
 
 import manipcad
-from manipcad.interop.pinocchio import to_pinocchio
+from manipcad.model.to_pinocchio import to_pinocchio
 
 N_BATCH = 10_000
 

@@ -67,7 +67,7 @@ import manipcad
 from manipcad.codegen import simulation_kernels
 from manipcad.control import pid
 from manipcad.errors import ManipcadWarning
-from manipcad.interop.pinocchio import to_pinocchio
+from manipcad.model.to_pinocchio import to_pinocchio
 from manipcad.sim import simulate
 from manipcad.trajectories import quintic
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 import manipcad
+from manipcad.control import realization_complexity
 from manipcad.trajectories import cosine
 
 CASES = [
@@ -46,7 +47,7 @@ def main() -> None:
         res = manipcad.simulate(arm, t_end=1.6, dt=dt, trajectory=traj,
                                 regulators=[reg, *others])
         e = res.error[:, 0]
-        c = reg.realization_complexity()
+        c = realization_complexity(reg)
         print(f"| {label} | {np.abs(e).max():.3g} | {np.sqrt(np.mean(e * e)):.3g} | "
               f"{np.abs(res.u[:, 0]).max():.3g} | {c['gains_stored']} | "
               f"{c['ops_per_period']} | {len(c['signals'])} |")

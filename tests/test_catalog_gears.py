@@ -131,7 +131,7 @@ def test_unknown_efficiency_composes_to_nan_and_round_trips(tmp_path):
     p.write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
     arm = manipcad.load_robot(p)
     assert math.isnan(arm.drives[0].efficiency)
-    saved = arm.save(tmp_path / "saved.yaml")
+    saved = manipcad.save_robot(arm, tmp_path / "saved.yaml")
     assert "efficiency: unknown" in saved.read_text(encoding="utf-8")
     assert math.isnan(manipcad.load_robot(saved).drives[0].efficiency)
     # a designer who has the efficiency from his own data states it in the drive

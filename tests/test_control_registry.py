@@ -20,7 +20,14 @@ import pytest
 import yaml
 
 import manipcad
-from manipcad.control import METHODS, load_regulators, save_regulators, synthesize
+from manipcad.control import (
+    METHODS,
+    load_regulators,
+    realization_complexity,
+    save_regulators,
+    synthesize,
+    to_control,
+)
 from manipcad.control.files import regulators_document
 from manipcad.errors import InputError, ManipcadError
 from manipcad.trajectories import cosine, quintic
@@ -93,7 +100,7 @@ def test_mixed_methods_in_one_file(arm, tmp_path):
 
 def test_lqr_gs_table_is_in_the_file(arm, tmp_path):
     reg = synthesize(arm, "turn", "lqr_gs", h_range=(-5.0, 5.0), grid=(6, 3))
-    path = reg.save(tmp_path / "gs.yaml")
+    path = save_regulators([reg], tmp_path / "gs.yaml")
     g = yaml.safe_load(path.read_text())["regulators"][0]["table"]
     assert len(g["H_ii_grid_kgm2"]) == 6 and len(g["h_grid_Nms_per_rad"]) == 3
     assert np.array(g["D_e_V_per_rad"]).shape == (6, 3)
@@ -102,7 +109,7 @@ def test_lqr_gs_table_is_in_the_file(arm, tmp_path):
 
 
 def test_a_file_for_another_robot_is_refused(arm, tmp_path):
-    path = synthesize(arm, "turn", "ace_de").save(tmp_path / "r.yaml")
+    path = save_regulators([synthesize(arm, "turn", "ace_de")], tmp_path / "r.yaml")
     heavier = arm.with_payload(2.0)
     with pytest.raises(InputError, match="robot.hash.*allow-other-robot"):
         load_regulators(path, heavier)
@@ -196,13 +203,13 @@ def test_computed_torque_full_spans_joints_and_uses_the_coupling(puma):
 
 
 def test_complexity_is_counted_from_the_code(arm):
-    c_de = synthesize(arm, "turn", "ace_de").realization_complexity()
-    c_none = synthesize(arm, "turn", "none").realization_complexity()
+    c_de = realization_complexity(synthesize(arm, "turn", "ace_de"))
+    c_none = realization_complexity(synthesize(arm, "turn", "none"))
     assert c_none["ops_per_period"] == 2 and c_none["signals"] == ["q_ref", "q"]
     assert c_de["ops_per_period"] > 10 * c_none["ops_per_period"]
     # a gain table counts whole: more grid points, more numbers stored
-    small = synthesize(arm, "turn", "lqr_gs", grid=(4, 1)).realization_complexity()
-    big = synthesize(arm, "turn", "lqr_gs", grid=(12, 1)).realization_complexity()
+    small = realization_complexity(synthesize(arm, "turn", "lqr_gs", grid=(4, 1)))
+    big = realization_complexity(synthesize(arm, "turn", "lqr_gs", grid=(12, 1)))
     assert big["gains_stored"] - small["gains_stored"] == 3 * 8
 
 
@@ -272,7 +279,7 @@ def test_python_control_export_closes_the_same_loop(arm, method):
     A = [[0, 1, 0], [0, -d.k_v * r * r / Jq, r * d.k_m / Jq], [0, -d.k_w * r / d.L, -d.R / d.L]]
     B = [[0], [0], [d.k_u / d.L]]
     plant = ct.c2d(ct.ss(A, B, np.eye(3), 0), T, method="zoh")
-    sysc = reg.to_control()
+    sysc = to_control(reg)
     N = int(round(t_end / T)) + 1
     t = np.arange(N) * T
     qr, qdr, qddr = (a[:, 0] for a in traj.sample(t))
@@ -302,7 +309,7 @@ def test_fixed_lqr_exports_as_a_static_gain(arm):
     from manipcad.control.lqr import LQ_ADAPT
 
     reg = synthesize(arm, "turn", "lqr", period=1e-3)
-    sysc = reg.to_control()
+    sysc = to_control(reg)
     assert isinstance(sysc, ct.StateSpace) and sysc.nstates == 0 and sysc.dt == 1e-3
     D = dict(zip(sysc.input_labels, np.ravel(sysc.D), strict=True))
     De, Dv, Di = reg.design["gains"][:3]
@@ -316,8 +323,8 @@ def test_fixed_lqr_exports_as_a_static_gain(arm):
     p[LQ_ADAPT] = 1.0
     adapt = manipcad.Regulator(method="lqr", joints=reg.joints, period=1e-3, params=p,
                                needs=reg.needs + ("H_ii",))
-    assert not isinstance(adapt.to_control(), ct.StateSpace)
-    gs = synthesize(arm, "turn", "lqr_gs", period=1e-3).to_control()
+    assert not isinstance(to_control(adapt), ct.StateSpace)
+    gs = to_control(synthesize(arm, "turn", "lqr_gs", period=1e-3))
     assert not isinstance(gs, ct.StateSpace)
 
 

@@ -10,7 +10,7 @@ from conftest import random_tree, rel_err
 import manipcad
 from manipcad.dynamics.counts import _plain
 from manipcad.dynamics.rnea import RNEA_WORK, rnea_one
-from manipcad.interop.pinocchio import to_pinocchio
+from manipcad.model.to_pinocchio import to_pinocchio
 
 
 @pytest.mark.parametrize("algorithm", ["rnea", "aba"])

@@ -17,8 +17,8 @@ from manipcad.analysis import coupling_analysis, moment_components
 from manipcad.analysis.realtime import components_one, scratch
 from manipcad.cli import app
 from manipcad.errors import InputError, ManipcadWarning
-from manipcad.interop.pinocchio import to_pinocchio
 from manipcad.model.robot import Robot
+from manipcad.model.to_pinocchio import to_pinocchio
 from manipcad.trajectories import cosine, quintic
 
 ROOT = Path(__file__).resolve().parents[1]

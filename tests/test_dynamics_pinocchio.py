@@ -8,7 +8,7 @@ import pytest
 from conftest import random_tree, rel_err
 
 import manipcad
-from manipcad.interop.pinocchio import to_pinocchio
+from manipcad.model.to_pinocchio import to_pinocchio
 
 TOL = 1e-9
 

@@ -33,8 +33,8 @@ from manipcad.dynamics.identification import (
     payload_regressor,
 )
 from manipcad.errors import InputError, ManipcadWarning
-from manipcad.interop.pinocchio import to_pinocchio
 from manipcad.model.robot import Robot
+from manipcad.model.to_pinocchio import to_pinocchio
 from manipcad.trajectories import cosine
 
 ROOT = Path(__file__).resolve().parents[1]

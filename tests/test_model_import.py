@@ -26,6 +26,7 @@ import manipcad
 from manipcad.dynamics.api import inverse_dynamics, mass_matrix
 from manipcad.errors import InputError, ManipcadWarning
 from manipcad.kinematics.forward import forward_kinematics
+from manipcad.model.to_urdf import robot_to_urdf
 
 rtb = pytest.importorskip("roboticstoolbox")
 pin = pytest.importorskip("pinocchio")
@@ -337,7 +338,7 @@ def _same_rigid_body(a, b, seed: int, tol: float = 1e-12) -> None:
 @pytest.mark.parametrize("name", ["puma560", "stanford", "scara", "cylindrical"])
 def test_to_urdf_round_trip_catalog(name, tmp_path):
     robot = quiet_load(name)
-    text = robot.to_urdf(tmp_path / f"{name}.urdf")
+    text = robot_to_urdf(robot, tmp_path / f"{name}.urdf")
     assert (tmp_path / f"{name}.urdf").read_text() == text
     back = quiet_load(text)
     assert back.joint_names == robot.joint_names and back.joint_types == robot.joint_types
@@ -363,6 +364,6 @@ def _pin_q(model):
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_to_urdf_round_trip_random_trees(seed):
     robot = quiet_load(random_urdf(seed))
-    back = quiet_load(robot.to_urdf())
+    back = quiet_load(robot_to_urdf(robot))
     _same_rigid_body(robot, back, seed)
     assert np.array_equal(back.parent, robot.parent)

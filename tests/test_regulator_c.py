@@ -15,8 +15,9 @@ from typer.testing import CliRunner
 
 import manipcad
 from manipcad.cli.app import app
+from manipcad.control import synthesize
 from manipcad.control.c_code import regulator_name, regulators_c
-from manipcad.control.registry import METHODS, method, synthesize
+from manipcad.control.registry import METHODS, method
 from manipcad.control.signals import NSIG, NSTATE, S_HII, S_I
 from manipcad.errors import ManipcadError
 

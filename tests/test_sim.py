@@ -39,7 +39,7 @@ def puma() -> Robot:
 def pinocchio_passive(robot: Robot, q0, qd0, t_eval):
     """Zero-torque motion by Pinocchio's ABA and SciPy's DOP853 (rtol = atol = 1e-12)."""
     pin = pytest.importorskip("pinocchio")
-    from manipcad.interop.pinocchio import to_pinocchio
+    from manipcad.model.to_pinocchio import to_pinocchio
 
     model, order = to_pinocchio(robot)
     data = model.createData()

@@ -15,6 +15,7 @@ import pytest
 from typer.testing import CliRunner
 
 import manipcad
+from manipcad.control import realization_complexity
 from manipcad.errors import InputError
 from manipcad.sim import simulate
 from manipcad.study import fig3 as fig3_mod
@@ -87,7 +88,7 @@ def test_a_run_reproduces_independently(study):
     from manipcad.control import synthesize
 
     reg = synthesize(arm, "turn", v.method, period=period, **v.options)
-    assert data["complexity"][lab] == json.loads(json.dumps(reg.realization_complexity()))
+    assert data["complexity"][lab] == json.loads(json.dumps(realization_complexity(reg)))
     traj = manipcad.trajectories.cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], 1.6)
     res = simulate(arm, t_end=T_END, dt=DT, trajectory=traj,
                    regulators=[reg, *fig3_mod.support_regulators(arm, period)])

@@ -8,6 +8,7 @@ import yaml
 from typer.testing import CliRunner
 
 from manipcad.cli import app
+from manipcad.model.to_pinocchio import to_pinocchio
 
 runner = CliRunner()
 
@@ -97,7 +98,7 @@ def test_size_runs_the_gear_ratio_sweep(tmp_path):
 
 def test_notebook_views_and_figures():
     """Regulators, results and robots show themselves in a notebook; plots are Figures;
-    the robot exports to Pinocchio as a method."""
+    the robot exports to Pinocchio."""
     from matplotlib.figure import Figure
 
     import manipcad
@@ -108,10 +109,10 @@ def test_notebook_views_and_figures():
     arm = manipcad.load_robot("cylindrical")
     reg = manipcad.synthesize(arm, "turn", "ace_de")
     html = reg._repr_html_()
-    assert "ace_de" in html and "operations per period" in html
+    assert "ace_de" in html and "signals read: q, q_dot, i" in html
     fig = torque_speed_figure(required_drive(arm, cosine([0.5, 0, 0.25], [4, 0, 16], 1.6)))
     assert isinstance(fig, Figure)
-    model, order = arm.to_pinocchio()
+    model, order = to_pinocchio(arm)
     assert model.nq == 3 and list(order) == [0, 1, 2]
     r = run("synthesize", "--list", "--json")
     doc = json.loads(r.output)

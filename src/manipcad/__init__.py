@@ -24,15 +24,15 @@ from manipcad.dynamics import (
 from manipcad.dynamics.identification import PayloadEstimate, identify_payload
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning, ModelError
 from manipcad.expert import Requirements, recommend
-from manipcad.model import Drive, Robot, catalog_names, load_robot
+from manipcad.model import Drive, Robot, catalog_names, load_robot, save_robot
 from manipcad.sim import SimulationResult, simulate
 from manipcad.sizing import DriveRequirements, ratio_sweep, required_drive, torque_speed_plot
 from manipcad.trajectories import load_trajectory, save_trajectory
-
-__version__ = "0.1.0"
+from manipcad.version import __version__
 
 __all__ = [
-    "Robot", "Drive", "load_robot", "catalog_names",
+    "__version__",
+    "Robot", "Drive", "load_robot", "save_robot", "catalog_names",
     "inverse_dynamics", "mass_matrix", "forward_dynamics", "torque_components",
     "operation_counts", "load_trajectory", "save_trajectory",
     "identify_payload", "PayloadEstimate", "PayloadEstimator", "coupling_analysis",

@@ -14,6 +14,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from manipcad.errors import ManipcadError
+from manipcad.version import __version__
 
 app = typer.Typer(
     name="manipcad",
@@ -28,8 +29,6 @@ err_console = Console(stderr=True)
 
 def _version(value: bool) -> None:
     if value:
-        from manipcad import __version__
-
         typer.echo(f"manipcad {__version__}")
         raise typer.Exit()
 

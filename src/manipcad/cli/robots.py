@@ -23,6 +23,7 @@ from rich.table import Table
 from manipcad.cli.app import app, console, guarded
 from manipcad.errors import ManipcadWarning
 from manipcad.fileio import json_safe
+from manipcad.model.tree_file import save_robot
 
 robots_app = typer.Typer(
     help="List the built-in catalog; show a robot's joints, links and drives.",
@@ -244,5 +245,5 @@ def save(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
         robot = load_robot(name_or_file)
-    path = robot.save(out)
+    path = save_robot(robot, out)
     console.print(f"{robot.name}: {robot.n} joints written to {path}", highlight=False)

@@ -34,6 +34,7 @@ from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.model.tree_file import save_robot
 
 
 def _num(x: Any, fmt: str = ".4g") -> str:
@@ -210,7 +211,7 @@ def simulate(
     # the robot as it ran, drives included, in one self-contained file (a robot file that
     # points to a URDF by a relative path would not re-run from the result folder)
     keep = tempfile.TemporaryDirectory()
-    inputs["robot"] = arm.save(Path(keep.name) / "robot.yaml")
+    inputs["robot"] = save_robot(arm, Path(keep.name) / "robot.yaml")
     inputs["trajectory"] = trajectory
     if regulator:
         inputs["regulator"] = list(regulator)

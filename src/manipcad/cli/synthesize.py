@@ -34,6 +34,7 @@ from rich import box
 from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
+from manipcad.control import realization_complexity
 from manipcad.errors import InputError
 
 
@@ -220,7 +221,7 @@ def synthesize(
     for col in ("joint(s)", "law", "ops/period", "stored", "signals"):
         t.add_column(col, overflow="fold")
     for r in regs:
-        c = r.realization_complexity()
+        c = realization_complexity(r)
         t.add_row(", ".join(r.joint_names), r.describe(), str(c["ops_per_period"]),
                   str(c["gains_stored"]), ", ".join(c["signals"]))
     console.print(t)

@@ -4,10 +4,10 @@ One registry (:mod:`manipcad.control.registry`) lists the methods; each is one m
 holding its synthesis, its compiled control-period update, its file layout and its
 python-control export. ``synthesize(robot, joint, method, spec=..., **options)`` returns a
 :class:`Regulator` that :func:`manipcad.simulate` runs, that saves to a file
-(:meth:`Regulator.save`, :func:`load_regulators`), that says its law with numbers
-(``describe()``), the signals it needs (``needs``), its realization complexity counted
-from its code (``realization_complexity()``) and exports to python-control
-(``to_control()``). Methods (see docs/synthesis.md):
+(:func:`save_regulators`, :func:`load_regulators`), that says its law with numbers
+(``describe()``) and the signals it needs (``needs``); its realization complexity is
+counted from its code (:func:`realization_complexity`) and it exports to
+python-control (:func:`to_control`). Methods (see docs/synthesis.md):
 
 - ``none``: a plain P position loop, no adaptation; ``none_sce``: the SCE of ``ace_de``
   without the corrector (:mod:`.baselines`);
@@ -23,10 +23,14 @@ from its code (``realization_complexity()``) and exports to python-control
 
 from __future__ import annotations
 
+from manipcad.control.complexity import realization_complexity
+from manipcad.control.export import to_control
 from manipcad.control.files import load_regulators, save_regulators
+from manipcad.control.method import Method
 from manipcad.control.pid import pid
-from manipcad.control.registry import METHODS, dispatch, kind_of, method, synthesize
-from manipcad.control.regulator import Method, Regulator
+from manipcad.control.registry import METHODS, dispatch, kind_of, method
+from manipcad.control.regulator import Regulator
+from manipcad.control.synthesis import synthesize
 
 __all__ = ["synthesize", "METHODS", "Regulator", "Method", "method", "kind_of", "dispatch",
-           "pid", "load_regulators", "save_regulators"]
+           "pid", "load_regulators", "save_regulators", "realization_complexity", "to_control"]

@@ -39,7 +39,6 @@ from manipcad.control.design import (
     parse_spec,
     pd_bandwidth,
 )
-from manipcad.control.export import nonlinear_system
 from manipcad.control.kernels import (
     R_KD,
     R_KFA,
@@ -50,7 +49,8 @@ from manipcad.control.kernels import (
     sce_output,
     torque_rate,
 )
-from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.method import Method
+from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_I, S_QD, S_QI
 from manipcad.drives.dc import clip, dry_friction
 from manipcad.drives.laws import law3_voltage, nominal_tf
@@ -281,4 +281,4 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
 METHOD = Method(
     name="ace_de", synthesize=synthesize_ace_de, update=ace_de_update, section="3.1 (3)",
     summary="law (3): the drive's differential equation stabilized at the nominal, + SCE",
-    fields=FIELDS, export=nonlinear_system, linear=True)
+    fields=FIELDS, linear=True)

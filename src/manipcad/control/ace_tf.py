@@ -32,7 +32,6 @@ from manipcad.control.design import (
     parse_spec,
     pd_bandwidth,
 )
-from manipcad.control.export import nonlinear_system
 from manipcad.control.kernels import (
     R_KD,
     R_KFA,
@@ -43,7 +42,8 @@ from manipcad.control.kernels import (
     load_rates,
     sce_output,
 )
-from manipcad.control.regulator import Method, Regulator
+from manipcad.control.method import Method
+from manipcad.control.regulator import Regulator
 from manipcad.control.signals import S_HII
 from manipcad.drives.dc import clip
 from manipcad.drives.laws import (
@@ -182,4 +182,4 @@ METHOD = Method(
     name="ace_tf", synthesize=synthesize_ace_tf, update=ace_tf_update, section="3.1 (1)",
     summary="ACE (1): moving zero cancels the load pole (realization observable|controllable)"
             ", + SCE",
-    fields=FIELDS, export=nonlinear_system, linear=True, dynamic_states=(ST_X,))
+    fields=FIELDS, linear=True, dynamic_states=(ST_X,))

@@ -31,9 +31,9 @@ from manipcad.control.design import (
     joint_drive,
     packed,
 )
-from manipcad.control.export import nonlinear_system
 from manipcad.control.kernels import ST_C, ST_S
-from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.method import Method
+from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_Q, S_QD, S_QDDREF, S_QDREF, S_QI, S_QREF
 from manipcad.drives.dc import clip, dry_friction
 from manipcad.drives.laws import asvs_a, asvs_beta, asvs_c_stationary, asvs_gains, asvs_voltage
@@ -199,9 +199,9 @@ def synthesize_vss(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
 ASVS = Method(
     name="asvs", synthesize=synthesize_asvs, update=asvs_update, section="3.2 (4)-(5)",
     summary="adaptive variable structure: sliding slope and gains of (5) at the current load",
-    fields=FIELDS, export=nonlinear_system)
+    fields=FIELDS)
 
 VSS = Method(
     name="vss", synthesize=synthesize_vss, update=asvs_update, section="3.2 (baseline)",
     summary="law (4) with slope and gains fixed for the heaviest load (no adaptation)",
-    fields=FIELDS, export=nonlinear_system)
+    fields=FIELDS)

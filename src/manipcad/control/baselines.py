@@ -21,8 +21,9 @@ from manipcad.control.design import (
     parse_spec,
 )
 from manipcad.control.kernels import R_KD, R_KFA, R_KFV, R_KP, R_ULIM, sce_output
+from manipcad.control.method import Method
 from manipcad.control.pid import PID_KP, PID_ULIM, pid
-from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_Q, S_QREF
 from manipcad.drives.dc import clip
 from manipcad.drives.linear import linearize

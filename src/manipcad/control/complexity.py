@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from manipcad.control.registry import method
 from manipcad.control.regulator import Regulator
 from manipcad.control.signals import NSTATE, SIGNALS
 from manipcad.dynamics.counts import Counted, _plain, _Tally
@@ -47,7 +48,7 @@ def _signals(n: int) -> np.ndarray:
     return sig
 
 
-def count(reg: Regulator) -> dict:
+def realization_complexity(reg: Regulator) -> dict:
     """Operations per period, numbers stored and signals read by a regulator.
 
     Returns:
@@ -58,12 +59,10 @@ def count(reg: Regulator) -> dict:
     Example:
         >>> import manipcad
         >>> reg = manipcad.synthesize(manipcad.load_robot("cylindrical"), "turn", "none")
-        >>> c = reg.realization_complexity()
+        >>> c = realization_complexity(reg)
         >>> c["ops_per_period"], c["signals"]
         (2, ['q_ref', 'q'])
     """
-    from manipcad.control.registry import method
-
     m = method(reg.method)
     law = _plain(m.update)
     n = max(max(reg.joints) + 1, 1) if all(isinstance(j, int) for j in reg.joints) else 1

@@ -19,7 +19,8 @@ from manipcad.control.design import (
     packed,
     parse_spec,
 )
-from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.method import Method
+from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_Q, S_QD, S_QDDREF, S_QDREF, S_QI, S_QREF
 from manipcad.drives.dc import clip, dry_friction, static_input
 from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO

@@ -16,7 +16,8 @@ import numpy as np
 from manipcad._lazy import ct
 from manipcad.control.computed_torque import joint_torque_to_input, outer_gains
 from manipcad.control.design import DEFAULT_PERIOD, check_period, joint_drive
-from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.method import Method
+from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import (
     NPARAM,
     S_CI,

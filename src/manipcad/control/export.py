@@ -1,136 +1,35 @@
-"""Regulators as python-control systems.
+"""Regulators as python-control systems (:func:`to_control`).
 
-Every regulator exports as a discrete-time nonlinear I/O system
-(:func:`nonlinear_system`) whose update and output call the very compiled law the
-simulator runs; its inputs are the signals the regulator reads (``needs``), its output
-the amplifier input U (V), its states the regulator's state vector. Methods that are
-linear time-invariant give a state-space system instead where their module says so
-(``pid``, ``none``, ``none_sce``; ``lqr`` with its fixed gains, :func:`static_gain`).
+Every regulator exports as a discrete-time nonlinear I/O system running the very
+compiled law the simulator runs (:func:`~manipcad.control.systems.nonlinear_system`);
+a method whose law is linear time-invariant gives a state-space system instead where
+its module says so (its registry entry's ``export``).
 """
 
 from __future__ import annotations
 
-import numpy as np
-
-from manipcad._lazy import ct
+from manipcad.control.registry import method
 from manipcad.control.regulator import Regulator
-from manipcad.control.signals import NSIG, NSTATE, SIGNALS
+from manipcad.control.systems import nonlinear_system
 from manipcad.errors import ManipcadError
 
 
 def to_control(reg: Regulator):
-    """The regulator as a python-control system (see the module docstring).
+    """The regulator as a python-control system: inputs the signals it reads (``needs``,
+    SI units as in :data:`~manipcad.control.signals.SIGNALS`), output the amplifier
+    input U (V), discrete time with period ``reg.period`` (s).
 
     Example:
         >>> import manipcad
         >>> arm = manipcad.load_robot("cylindrical")
-        >>> sys = manipcad.synthesize(arm, "turn", "asvs", period=1e-3).to_control()
+        >>> sys = to_control(manipcad.synthesize(arm, "turn", "asvs", period=1e-3))
         >>> sys.dt, sys.output_labels
         (0.001, ['U'])
     """
-    from manipcad.control.registry import method
-
     m = method(reg.method)
-    if m.export is None:
-        return nonlinear_system(reg)
-    return m.export(reg)
-
-
-def _inputs(reg: Regulator) -> list[str]:
-    return [s for s in SIGNALS if s in reg.needs and s not in ("H", "t")]
-
-
-def nonlinear_system(reg: Regulator) -> ct.NonlinearIOSystem:
-    """A discrete-time nonlinear I/O system (period ``reg.period``) running the compiled law.
-
-    Inputs: the signals of ``reg.needs`` in :data:`~manipcad.control.signals.SIGNALS`
-    order (units there); output ``U`` (V); states: the regulator's ``NSTATE`` state
-    entries (zero at t = 0). A regulator spanning several joints is refused (its law
-    needs the whole inertia matrix; export its joints' single-joint laws instead).
-    """
-    from manipcad.control.registry import method
-
-    m = method(reg.method)
+    if m.export is not None:
+        return m.export(reg)
     if m.spans:
-        raise ManipcadError(f"{reg.method}: a regulator spanning joints has no single-joint "
+        raise ManipcadError(f"{reg.method}: a regulator spanning joints has no "
                             "python-control export")
-    names = _inputs(reg)
-    cols = [SIGNALS[s][0] for s in names]
-    p = np.ascontiguousarray(reg.params, dtype=float)
-    Ts = float(reg.period)
-    law = m.update
-
-    def run(t, x, u):
-        sig = np.zeros((1, NSIG))
-        sig[0, cols] = u
-        sig[0, 0] = t
-        s = np.array(x, dtype=float)
-        U = law(p, s, sig, 0, Ts)
-        return U, s
-
-    def update(t, x, u, params):
-        return run(t, x, u)[1]
-
-    def output(t, x, u, params):
-        return np.array([run(t, x, u)[0]])
-
-    return ct.nlsys(update, output, inputs=names, outputs=["U"], states=NSTATE, dt=Ts,
-                    name=f"{reg.method}_{'_'.join(reg.joint_names) or reg.joints[0]}")
-
-
-def static_gain(reg: Regulator, clip: int | None = None):
-    """The regulator as a static gain U = D·u when its compiled law is linear in its
-    signals and keeps no state; else None.
-
-    D is read from the very law the simulator runs: its k-th entry is the output with
-    the k-th input signal 1 and the others 0, the output limit (``params[clip]``) left
-    out as in the other linear exports. The law is then checked linear (no offset,
-    superposition at random signals, to 1e-9 relative) and memoryless (its state
-    untouched), else None: e.g. a gain scheduled on H_ii.
-
-    Args:
-        reg: the regulator (one joint).
-        clip: the index of its output limit (V) in ``reg.params``, or None.
-
-    Returns:
-        A discrete-time :class:`control.StateSpace` with no state (period
-        ``reg.period``), inputs as :func:`nonlinear_system`, output ``U`` (V); or None.
-
-    Example:
-        >>> import manipcad
-        >>> from manipcad.control.lqr import LQ_ULIM
-        >>> arm = manipcad.load_robot("cylindrical")
-        >>> reg = manipcad.synthesize(arm, "turn", "lqr", period=1e-3)
-        >>> static_gain(reg, LQ_ULIM).D.shape
-        (1, 6)
-        >>> static_gain(manipcad.synthesize(arm, "turn", "lqr_gs", period=1e-3)) is None
-        True
-    """
-    from manipcad.control.registry import method
-
-    law = method(reg.method).update
-    names = _inputs(reg)
-    cols = [SIGNALS[s][0] for s in names]
-    p = np.array(reg.params, dtype=float)
-    if clip is not None:
-        p[clip] = np.inf
-    Ts = float(reg.period)
-
-    def out(u):
-        sig = np.zeros((1, NSIG))
-        sig[0, cols] = u
-        s = np.zeros(NSTATE)
-        U = law(p, s, sig, 0, Ts)
-        return U, s
-
-    U0, s0 = out(np.zeros(len(names)))
-    D = np.array([out(e)[0] for e in np.eye(len(names))])
-    u = np.random.default_rng(0).uniform(-1.0, 1.0, (3, len(names)))
-    for v in u:
-        U, s = out(v)
-        if s.any() or abs(U - D @ v) > 1e-9 * max(1.0, np.abs(D * v).sum()):
-            return None
-    if U0 != 0.0 or s0.any():
-        return None
-    return ct.ss([], [], [], D[None, :], Ts, inputs=names, outputs=["U"],
-                 name=f"{reg.method}_{'_'.join(reg.joint_names) or reg.joints[0]}")
+    return nonlinear_system(reg, m.update)

@@ -43,6 +43,9 @@ from typing import Any
 import numpy as np
 import yaml
 
+from manipcad.control.complexity import realization_complexity
+from manipcad.control.pid_file import short_pid_groups
+from manipcad.control.registry import METHODS, method
 from manipcad.control.regulator import Regulator
 from manipcad.control.signals import NPARAM
 from manipcad.drives.params import (
@@ -66,7 +69,9 @@ from manipcad.drives.params import (
 )
 from manipcad.errors import InputError, ManipcadError
 from manipcad.fileio import atomic_write_text, file_number, json_safe, read_yaml
+from manipcad.model.hashing import robot_hash
 from manipcad.model.robot import Robot
+from manipcad.version import __version__
 
 #: the packed drive in files: key (with unit) -> index
 DRIVE_FIELDS = {
@@ -81,17 +86,9 @@ _GROUP_KEYS = {"method", "joints", "period_s", "law", "spec", "options", "drive_
                "drives_assumed", "gains", "table", "design"}
 
 
-def _version() -> str:
-    from manipcad import __version__
-
-    return __version__
-
-
 # ---------------------------------------------------------------- writing
 def regulator_to_dict(reg: Regulator) -> dict[str, Any]:
     """One regulator as a file group (plain, YAML/JSON-safe values; floats exact)."""
-    from manipcad.control.registry import method
-
     m = method(reg.method)
     p = np.asarray(reg.params, dtype=float)
     names = list(reg.joint_names) or [str(j) for j in reg.joints]
@@ -131,7 +128,7 @@ def save_regulators(regs: Sequence[Regulator], path: str | Path, *,
         >>> arm = manipcad.load_robot("cylindrical")
         >>> reg = manipcad.synthesize(arm, "turn", "ace_de")
         >>> path = os.path.join(tempfile.mkdtemp(), "reg.yaml")
-        >>> _ = reg.save(path)
+        >>> _ = save_regulators([reg], path)
         >>> back = manipcad.load_regulators(path, arm)
         >>> bool((back[0].params == reg.params).all())
         True
@@ -146,12 +143,10 @@ def regulators_document(regs: Sequence[Regulator], *, robot: Robot | None = None
     if not regs:
         raise ManipcadError("no regulator to save")
     if robot is not None:
-        from manipcad.model.hashing import robot_hash
-
         rob = {"name": robot.name, "hash": robot_hash(robot)}
     else:
         rob = {"name": regs[0].robot, "hash": regs[0].robot_hash}
-    return {"manipcad_version": _version(), "robot": rob,
+    return {"manipcad_version": __version__, "robot": rob,
             "regulators": [regulator_to_dict(r) for r in regs]}
 
 
@@ -200,8 +195,6 @@ def regulators_from_dict(data: Any, robot: Robot, source: str = "<dict>", *,
         >>> [r.joints for r in regs]
         [(1,), (2,)]
     """
-    from manipcad.control.pid_file import short_pid_groups
-
     if not isinstance(data, dict):
         raise InputError(source, "", "expected a mapping with 'regulators' (or a 'type'), got "
                          f"{type(data).__name__}")
@@ -246,8 +239,6 @@ def _owned(regs: list[Regulator], at: list[str], robot: Robot,
 
 
 def _check_robot(rob: Any, robot: Robot, source: str, allow: bool) -> None:
-    from manipcad.model.hashing import robot_hash
-
     if rob is None:
         return
     if not isinstance(rob, dict) or set(rob) - {"name", "hash"}:
@@ -279,8 +270,6 @@ _INF_OK = ("u_limit_V", "u_max_V", "H_ii_feedforward_kgm2")
 
 def _group(group: Any, robot: Robot, source: str, where: str,
            dt: float | None) -> Regulator:
-    from manipcad.control.registry import METHODS
-
     if not isinstance(group, dict):
         raise InputError(source, where, f"expected a mapping with a 'method', got "
                          f"{type(group).__name__}")
@@ -336,8 +325,6 @@ def _group(group: Any, robot: Robot, source: str, where: str,
     law = group.get("law", "")
     if not isinstance(law, str):
         raise InputError(source, f"{where}.law", "expected a string")
-    from manipcad.model.hashing import robot_hash
-
     return Regulator(
         method=name, joints=tuple(joints), period=period, params=p,
         needs=_needs_of(name, p, joints), law=law, spec=dict(group.get("spec") or {}),
@@ -348,10 +335,8 @@ def _group(group: Any, robot: Robot, source: str, where: str,
 
 def _needs_of(name: str, p: np.ndarray, joints: list[int]) -> tuple[str, ...]:
     """The signals a loaded regulator reads, counted from its law (see :mod:`.complexity`)."""
-    from manipcad.control.complexity import count
-
     probe = Regulator(method=name, joints=tuple(joints), period=1e-3, params=p)
-    return tuple(count(probe)["signals"])
+    return tuple(realization_complexity(probe)["signals"])
 
 
 def _joints(v: Any, robot: Robot, source: str, where: str, spans: bool) -> list[int]:

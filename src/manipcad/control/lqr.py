@@ -50,9 +50,9 @@ from manipcad.control.design import (
     joint_drive,
     packed,
 )
-from manipcad.control.export import nonlinear_system, static_gain
 from manipcad.control.kernels import load_rates, table_lookup
-from manipcad.control.regulator import Method, Regulator, TableLayout, current_limit, u_limit
+from manipcad.control.method import Method, TableLayout
+from manipcad.control.regulator import Regulator, current_limit, u_limit
 from manipcad.control.signals import (
     NPARAM,
     S_CI,
@@ -67,6 +67,7 @@ from manipcad.control.signals import (
     S_THM,
     S_WM,
 )
+from manipcad.control.systems import nonlinear_system, static_gain
 from manipcad.drives.dc import clip, static_input
 from manipcad.drives.linear import linearize
 from manipcad.drives.params import (
@@ -678,14 +679,14 @@ def export_lqr(reg: Regulator):
     Example:
         >>> import manipcad
         >>> arm = manipcad.load_robot("cylindrical")
-        >>> sys_ = manipcad.synthesize(arm, "turn", "lqr", period=1e-3).to_control()
+        >>> sys_ = export_lqr(manipcad.synthesize(arm, "turn", "lqr", period=1e-3))
         >>> sys_.nstates, sys_.input_labels
         (0, ['q_ref', 'q_dot_ref', 'q_ddot_ref', 'q', 'q_dot', 'i'])
     """
     p = reg.params
     fixed = int(p[LQ_NH]) == 1 and int(p[LQ_NV]) == 1 and p[LQ_ADAPT] == 0.0
-    gain_sys = static_gain(reg, LQ_ULIM) if fixed else None
-    return nonlinear_system(reg) if gain_sys is None else gain_sys
+    gain_sys = static_gain(reg, lqr_update, LQ_ULIM) if fixed else None
+    return nonlinear_system(reg, lqr_update) if gain_sys is None else gain_sys
 
 
 #: the LQR gain table's place in the regulator file and in the parameters
@@ -702,5 +703,5 @@ LQR = Method(
 LQR_GS = Method(
     name="lqr_gs", synthesize=synthesize_lqr_gs, update=lqr_update, section="3.3 (6)-(7)",
     summary="LQR gains scheduled on H_ii (and Ḣ_ii) from a table computed ahead",
-    fields=FIELDS, table=GAIN_TABLE, export=nonlinear_system,
+    fields=FIELDS, table=GAIN_TABLE,
     linear=True)

@@ -24,7 +24,8 @@ from manipcad.control.design import (
     parse_spec,
     pd_bandwidth,
 )
-from manipcad.control.regulator import Method, Regulator, u_limit
+from manipcad.control.method import Method
+from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import NPARAM, S_Q, S_QD, S_QDREF, S_QREF
 from manipcad.drives.linear import linearize
 from manipcad.model.robot import Robot

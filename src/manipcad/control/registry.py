@@ -1,7 +1,7 @@
 """The regulator registry: every synthesis method, and the compiled dispatch the simulator runs.
 
 One module per method holds its synthesis, its compiled update, its file layout and its
-python-control export (a :class:`~manipcad.control.regulator.Method`); this file lists
+python-control export (a :class:`~manipcad.control.method.Method`); this file lists
 them. Adding a method is one new module and one line in :data:`_ENTRIES`.
 
 The simulator calls :func:`regulator_update` (``dispatch()``) with the regulator's kind
@@ -19,7 +19,7 @@ import os
 import sys
 from pathlib import Path
 
-from manipcad.control.regulator import Method
+from manipcad.control.method import Method
 from manipcad.errors import ManipcadError
 
 #: (module, attribute) of each method, in kind-code order (never reorder: files name
@@ -47,7 +47,7 @@ def _load() -> dict[str, Method]:
     return out
 
 
-#: method name -> :class:`~manipcad.control.regulator.Method`, in kind-code order
+#: method name -> :class:`~manipcad.control.method.Method`, in kind-code order
 METHODS: dict[str, Method] = _load()
 _KIND = {name: k for k, name in enumerate(METHODS)}
 
@@ -130,75 +130,3 @@ def dispatch():
         sys.modules[name] = mod
     _DISPATCH = mod.regulator_update
     return _DISPATCH
-
-
-def synthesize(robot, joint, method_name: str, *, spec=None, **options):
-    """Synthesize the regulator(s) of one joint, of several, or of all.
-
-    Args:
-        robot: a :class:`~manipcad.model.robot.Robot` with drives.
-        joint: a joint index or name; a list of them; or ``"all"``. A method that spans
-            joints (``computed_torque_full``) gives ONE regulator of those joints; the
-            others give one regulator per joint (a list when several were asked).
-        method_name: a name of :data:`METHODS`.
-        spec: the closed-loop spec of the method (see each method; e.g.
-            ``{"bandwidth": 30.0, "damping": 1.0}`` rad/s and ζ).
-        **options: method options (``period`` s, ``load_range`` (H_min, H_max) kg·m²,
-            ``order`` 2|3, ...).
-
-    Returns:
-        A :class:`~manipcad.control.regulator.Regulator`, or a list of them.
-
-    Raises:
-        ManipcadError: unknown method or option, missing drive parameters, an
-            unreachable spec.
-
-    Example:
-        >>> import manipcad
-        >>> arm = manipcad.load_robot("cylindrical")
-        >>> reg = manipcad.synthesize(arm, "turn", "none")
-        >>> reg.needs
-        ('q', 'q_ref')
-        >>> [r.method for r in manipcad.synthesize(arm, "all", "pid")]
-        ['pid', 'pid', 'pid']
-    """
-    m = method(method_name)
-    several = isinstance(joint, list | tuple) or joint == "all"
-    if m.spans:
-        regs = [_call(m, robot, joint if several else [joint], spec, options)]
-        return regs[0]
-    if several:
-        joints = range(robot.n) if joint == "all" else joint
-        return [_call(m, robot, j, spec, options) for j in joints]
-    return _call(m, robot, joint, spec, options)
-
-
-def _call(m: Method, robot, joint, spec, options):
-    try:
-        reg = m.synthesize(robot, joint, spec=spec, **options)
-    except TypeError as exc:
-        if "unexpected keyword" in str(exc):
-            raise ManipcadError(f"{m.name}: {exc}") from None
-        raise
-    from manipcad.model.hashing import robot_hash
-
-    idx = []
-    for j in reg.joints:
-        idx.append(robot.joint_index(j))
-    reg.joints = tuple(idx)
-    reg.joint_names = tuple(robot.joint_names[j] for j in idx)
-    reg.robot = robot.name
-    reg.robot_hash = robot_hash(robot)
-    reg.spec = dict(spec or {})
-    opts = {k: v for k, v in options.items()
-            if k not in ("progress", "n_jobs", "scheduler", "reference")}
-    reg.options = {**opts, **reg.options}
-    if not m.spans and robot.drives is not None and robot.drives[idx[0]] is not None:
-        from manipcad.control.design import inertia_range
-        from manipcad.control.sampled import check_sampled
-
-        lo, hi = reg.design.get("load_range") or inertia_range(robot, idx[0])
-        drive = robot.drives[idx[0]]
-        if drive.has_electrics and drive.L > 0:
-            reg.design["sampled_loop"] = check_sampled(reg, drive, (float(lo), float(hi)))
-    return reg

@@ -1,89 +1,24 @@
-"""A sampled regulator and the description of a synthesis method.
+"""A sampled regulator: plain data.
 
-A :class:`Regulator` is data: which method (a name in the registry), which joints,
-its period, its packed parameter vector and what its design was. It declares the
-signals it reads (``needs``) and gives the amplifier input(s) U of its joints; the
-simulator runs it through the registry's compiled dispatch and knows no method by
-name (:mod:`manipcad.control.registry`).
-
-A :class:`Method` is one registry entry: the synthesis function, the compiled update,
-the file layout of its parameters and its paper section.
+A :class:`Regulator` is which method (a name in the registry), which joints, its
+period, its packed parameter vector and what its design was. It declares the signals
+it reads (``needs``); the simulator runs it through the registry's compiled dispatch
+and knows no method by name (:mod:`manipcad.control.registry`). What is done with a
+regulator is a function of the module that owns it: its file
+(:func:`~manipcad.control.files.save_regulators`), its realization complexity
+(:func:`~manipcad.control.complexity.realization_complexity`), its python-control
+system (:func:`~manipcad.control.export.to_control`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
+from html import escape
 
 import numpy as np
 
 from manipcad.control.signals import NPARAM, NSTATE
-
-
-@dataclass(frozen=True)
-class TableLayout:
-    """A gain table held in a method's parameter vector (e.g. the LQR-GS table).
-
-    Attributes:
-        to_file: ``f(p) -> dict``: the table's regulator-file mapping.
-        from_file: ``f(t, p, robot, joint, source, where) -> None``: check a file's
-            mapping ``t`` (one InputError naming ``source``, field and reason) and
-            write it into ``p``.
-        entries: ``f(p) -> range``: the parameter indices the table occupies (stored
-            whole, whatever one period reads).
-    """
-
-    to_file: Callable
-    from_file: Callable
-    entries: Callable
-
-
-@dataclass(frozen=True)
-class Method:
-    """One synthesis method of the registry.
-
-    Attributes:
-        name: the method's name (``manipcad synthesize --method NAME``).
-        synthesize: ``f(robot, joint, *, spec=None, **options) -> Regulator`` (or, for a
-            method that ``spans`` joints, ``f(robot, joints, ...)`` with a list).
-        update: the compiled control-period update. Single-joint methods:
-            ``law(p, s, sig, j, Ts) -> U``; spanning methods:
-            ``law(p, s, sig, H, joints, nj, Ts, U) -> None`` writing ``U[joints[k]]``.
-        section: the paper's section (or "baseline").
-        summary: one line for ``--list``.
-        fields: file layout of the method's own parameters: key (with its unit) -> index
-            in the parameter vector.
-        spans: one regulator controls several joints (needs the whole H(q)).
-        table: the parameters hold a gain table: its :class:`TableLayout` (the file
-            mapping and the parameter entries it occupies), or None.
-        export: ``f(reg, robot=None) -> python-control system`` (see :meth:`Regulator.to_control`).
-        drive_blocks: packed drives the parameters hold: 1 at index 0 (single-joint
-            methods), or ``"per_joint"`` (spanning methods, see the method), or 0.
-        joint_fields: per-joint entries of a spanning method: key -> index of its first
-            joint (joint k at index + k).
-        drive_base: index of the first packed drive (joint k's at drive_base + k·NPAR).
-        linear: the law is linear in its signals at a frozen load, so its sampled loop
-            can be checked by eigenvalues (:mod:`manipcad.control.sampled`).
-        dynamic_states: the state entries that are the law's own dynamics (integrators,
-            filters), as opposed to histories of measured signals.
-    """
-
-    name: str
-    synthesize: Callable
-    update: Callable
-    section: str
-    summary: str
-    fields: dict[str, int]
-    spans: bool = False
-    table: TableLayout | None = None
-    export: Callable | None = None
-    drive_blocks: int | str = 1
-    joint_fields: dict[str, int] = field(default_factory=dict)
-    drive_base: int = 0
-    linear: bool = False
-    dynamic_states: tuple[int, ...] = ()
 
 
 @dataclass
@@ -125,23 +60,10 @@ class Regulator:
     robot: str = ""
     robot_hash: str = ""
 
-    # ---- what the simulator and the old single-joint interface read
     @property
     def joint(self):
         """The (first) joint, index or name."""
         return self.joints[0]
-
-    @property
-    def name(self) -> str:
-        """The method's name (alias of ``method``)."""
-        return self.method
-
-    @property
-    def kind(self) -> int:
-        """The method's code in the registry's compiled dispatch."""
-        from manipcad.control.registry import kind_of
-
-        return kind_of(self.method)
 
     def describe(self) -> str:
         """The law with its numbers filled in."""
@@ -151,48 +73,12 @@ class Regulator:
         """The regulator's state at t = 0 (length ``NSTATE``)."""
         return np.zeros(NSTATE)
 
-    def realization_complexity(self) -> dict:
-        """Operations per control period, numbers stored and signals read, counted by
-        running the compiled update's own source (:mod:`manipcad.control.complexity`)."""
-        from manipcad.control.complexity import count
-
-        return count(self)
-
-    @property
-    def complexity(self) -> dict:
-        """Alias of :meth:`realization_complexity`."""
-        return self.realization_complexity()
-
-    # ---- files and exports
-    def to_dict(self) -> dict:
-        """The regulator as a file group (see :mod:`manipcad.control.files`)."""
-        from manipcad.control.files import regulator_to_dict
-
-        return regulator_to_dict(self)
-
-    def save(self, path: str | Path) -> Path:
-        """Write this regulator to a YAML regulator file (atomically). Returns the path."""
-        from manipcad.control.files import save_regulators
-
-        return save_regulators([self], path)
-
-    def to_control(self):
-        """This regulator as a python-control system (input: the signals it reads,
-        output U in V); see :mod:`manipcad.control.export`."""
-        from manipcad.control.export import to_control
-
-        return to_control(self)
-
     def _repr_html_(self) -> str:
-        """The regulator in a notebook: method, joints, period, law, counted complexity."""
-        from html import escape
-
-        c = self.realization_complexity()
+        """The regulator in a notebook: method, joints, period, law."""
         names = ", ".join(self.joint_names) or ", ".join(str(j) for j in self.joints)
         return (f"<p><b>{escape(self.method)}</b> on {escape(names)}, period "
                 f"{self.period:g} s</p><p>{escape(self.describe())}</p>"
-                f"<p>{c['ops_per_period']} operations per period, {c['gains_stored']} numbers "
-                f"stored; signals: {escape(', '.join(c['signals']))}</p>")
+                f"<p>signals read: {escape(', '.join(self.needs))}</p>")
 
     def __repr__(self) -> str:
         names = ", ".join(self.joint_names) or ", ".join(str(j) for j in self.joints)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from manipcad.control.registry import method
 from manipcad.control.regulator import Regulator
 from manipcad.control.signals import (
     NSIG,
@@ -50,8 +51,6 @@ def _discrete(drive, H: float, T: float) -> tuple[np.ndarray, np.ndarray]:
 def spectral_radius(reg: Regulator, drive, H: float, period: float | None = None) -> float:
     """|λ|max of one period of the sampled loop (the regulator's law around the drive at
     joint-side inertia H, kg·m²), at ``period`` s (default the regulator's)."""
-    from manipcad.control.registry import method
-
     m = method(reg.method)
     law = m.update
     T = float(reg.period if period is None else period)
@@ -105,8 +104,6 @@ def check_sampled(reg: Regulator, drive, loads: tuple[float, ...]) -> dict:
     Raises:
         ManipcadError: unstable, naming |λ|, the load and the stable period range.
     """
-    from manipcad.control.registry import method
-
     if not method(reg.method).linear:
         return {}
     rho = {H: spectral_radius(reg, drive, H) for H in loads}

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from manipcad.control import realization_complexity
 from manipcad.errors import InputError, ManipcadError
 from manipcad.expert.requirements import (
     FIELDS,
@@ -368,7 +369,7 @@ def _counted_complexity(method: str, robot) -> dict:
         except ManipcadError:
             continue
         regs = reg if isinstance(reg, list) else [reg]
-        c = regs[0].realization_complexity()
+        c = realization_complexity(regs[0])
         _COUNTED[key] = {"gains_stored": c["gains_stored"], "ops_per_period": c["ops_per_period"],
                          "signals": list(c["signals"]),
                          "source": f"counted: {method} on {arm.name} joint "
@@ -734,7 +735,7 @@ def _verify(out: Recommendations, rb: RuleBase, robot, trajectory, *, top: int,
         rec.max_error = float(err.max()) if np.isfinite(err).all() else math.inf
         rec.meets_accuracy = rec.max_error <= req.accuracy
         met = met or rec.meets_accuracy
-        cx = regs[0].realization_complexity()
+        cx = realization_complexity(regs[0])
         cx = {"gains_stored": int(cx.get("gains_stored", 0)),
               "ops_per_period": int(cx.get("ops_per_period", 0)),
               "signals": list(cx.get("signals", [])), "source": "synthesis"}

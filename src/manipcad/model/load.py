@@ -31,7 +31,7 @@ def load_robot(source: str | Path | Robot) -> Robot:
         source: a catalog name (see ``manipcad robots list``), a path ending in
             .urdf, or a .yaml/.yml robot file of any of the three forms of
             docs/robot-files.md: a DH table (``joints:`` with ``dh:``), a URDF
-            with drives (``urdf:``), or the tree form :meth:`Robot.save` writes
+            with drives (``urdf:``), or the tree form :func:`save_robot` writes
             (``convention: tree``); an MJCF file (.xml/.mjcf, MuJoCo's parser);
             URDF or MJCF text; a Robotics Toolbox ``DHRobot``/``ERobot``, a
             Pinocchio ``Model`` or a ``mujoco.MjModel`` (:mod:`manipcad.model.foreign`);

@@ -22,12 +22,12 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from numba.extending import register_jitable
 
 from manipcad.errors import ModelError
+from manipcad.model.html import robot_html
 
 REVOLUTE = "revolute"
 PRISMATIC = "prismatic"
@@ -554,59 +554,8 @@ class Robot:
         mass_new[i], com_new[i], in_new[i] = m, c, Ic
         return self.replace(mass=mass_new, com=com_new, inertia=in_new)
 
-    def save(self, path) -> Path:
-        """Write this robot, drives included, to a robot file that loads back to an
-        identical model (the tree form of :mod:`manipcad.model.tree_file`).
-
-        Args:
-            path: the .yaml file to write, str or Path.
-
-        Returns:
-            The path written.
-
-        Example:
-            >>> import manipcad, tempfile, os
-            >>> puma = manipcad.load_robot("puma560")
-            >>> f = puma.save(os.path.join(tempfile.mkdtemp(), "puma.yaml"))
-            >>> bool((manipcad.load_robot(f).table == puma.table).all())
-            True
-        """
-        from manipcad.model.tree_file import save_robot
-
-        return save_robot(self, path)
-
     def _repr_html_(self) -> str:
-        from manipcad.model.html import robot_html
-
         return robot_html(self)
-
-    def to_urdf(self, path=None) -> str:
-        """The rigid-body model as URDF text (:mod:`manipcad.model.to_urdf`: no gravity,
-        no drives); also written to ``path`` (str or Path) if given.
-
-        Example:
-            >>> import manipcad
-            >>> manipcad.load_robot(manipcad.load_robot("scara").to_urdf()).n
-            4
-        """
-        from manipcad.model.to_urdf import robot_to_urdf
-
-        return robot_to_urdf(self, path)
-
-    def to_pinocchio(self, *, armature: bool = False):
-        """(Pinocchio ``Model``, joint order) of this robot (``pip install pin``;
-        :func:`manipcad.model.to_pinocchio.to_pinocchio`): Pinocchio's joint k is ours
-        ``order[k]``; pass ``(q + robot.offset)[order]``; ``armature`` sets J·i_r².
-
-        Example:
-            >>> import manipcad
-            >>> model, order = manipcad.load_robot("puma560").to_pinocchio()
-            >>> model.nq
-            6
-        """
-        from manipcad.model.to_pinocchio import to_pinocchio
-
-        return to_pinocchio(self, armature=armature)
 
     def without_drives(self) -> Robot:
         """The same robot with no drives (pure rigid body)."""

@@ -1,4 +1,4 @@
-"""``Robot.to_urdf()``: the rigid-body model as URDF text.
+"""``robot_to_urdf(robot)``: the rigid-body model as URDF text.
 
 Each joint becomes a URDF ``revolute`` (``continuous`` when it has no
 limits) or ``prismatic`` joint with axis z, its origin the joint placement
@@ -6,7 +6,7 @@ with the joint offset folded in (URDF has no offset), so URDF q = manipcad q.
 Each link carries its mass (kg), centre of mass (m) and inertia about it
 (kg·m², link axes). A tool frame other than the identity is a fixed joint to
 a massless link ``tool``. Not in URDF: gravity and the drives (motor,
-gearbox, friction) — :meth:`Robot.save` writes everything. Reading the text
+gearbox, friction) — :func:`save_robot` writes everything. Reading the text
 back with ``load_robot`` gives the same kinematics and rigid-body dynamics to
 1e-12 (tests/test_model_import.py).
 """
@@ -74,7 +74,7 @@ def robot_to_urdf(robot: Robot, path: str | Path | None = None) -> str:
     lines = ['<?xml version="1.0"?>',
              f"<!-- written by manipcad from {robot.name!r}; gravity "
              f"{np.asarray(robot.gravity).tolist()} m/s² and the drives are not part of URDF "
-             "(Robot.save keeps them) -->",
+             "(save_robot keeps them) -->",
              f"<robot name={quoteattr(robot.name)}>", f"  <link name={quoteattr(base)}/>"]
     for i in range(robot.n):
         R, p = robot.placement_R[i].copy(), robot.placement_p[i].copy()

@@ -1,4 +1,4 @@
-"""Robot files in the internal tree form: what :meth:`Robot.save` writes.
+"""Robot files in the internal tree form: what :func:`save_robot` writes.
 
 Any robot (from a DH file, a URDF + drives file, a catalog name, built in
 Python) is written as its kinematic tree with every joint placement, link
@@ -26,7 +26,7 @@ with Python's shortest round-trip repr. SI units throughout:
       - {name: tool0, body: wrist_3_joint, R: [[...]], p: [...]}
 
 The joint moves about (along) the local z axis of its placement frame, as in
-:mod:`manipcad.model.robot`. ``Robot.save`` writes this; ``load_robot`` reads
+:mod:`manipcad.model.robot`. ``save_robot`` writes this; ``load_robot`` reads
 it (``convention: tree``).
 """
 
@@ -121,7 +121,7 @@ def is_tree_file(data: object) -> bool:
 
 
 def load_tree_robot(path: str | Path) -> Robot:
-    """Load a tree-form robot file (the form :meth:`Robot.save` writes).
+    """Load a tree-form robot file (the form :func:`save_robot` writes).
 
     Args:
         path: the .yaml file.
@@ -258,17 +258,25 @@ def robot_to_dict(robot: Robot) -> dict[str, Any]:
 
 
 def save_robot(robot: Robot, path: str | Path) -> Path:
-    """Write a robot with its drives as a tree-form robot file (see :meth:`Robot.save`).
+    """Write a robot with its drives as a tree-form robot file that loads back to an
+    identical model.
 
     Args:
         robot: the robot.
-        path: the .yaml file to write (its folder must exist).
+        path: the .yaml file to write (its folder must exist), str or Path.
 
     Returns:
         The path written.
 
     Raises:
         InputError: the file cannot be written.
+
+    Example:
+        >>> import manipcad, tempfile, os
+        >>> puma = manipcad.load_robot("puma560")
+        >>> f = save_robot(puma, os.path.join(tempfile.mkdtemp(), "puma.yaml"))
+        >>> bool((manipcad.load_robot(f).table == puma.table).all())
+        True
     """
     path = Path(path)
     text = ("# manipcad robot, tree form (docs/robot-files.md); SI units: m, rad, kg, kg·m²,\n"

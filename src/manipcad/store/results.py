@@ -63,6 +63,7 @@ import yaml
 from manipcad.errors import InputError
 from manipcad.fileio import json_safe
 from manipcad.sim.series import SERIES, result_arrays, series_columns, series_units  # noqa: F401
+from manipcad.version import __version__
 
 #: file names inside a result folder
 TIMESERIES_CSV = "timeseries.csv"
@@ -121,8 +122,6 @@ def result_document(result, *, joint_types: Sequence[str] | None = None,
     drives = bool(result.settings.get("drives", True))
     names = list(result.joint_names)
     types = list(joint_types) if joint_types is not None else [None] * len(names)
-    from manipcad import __version__
-
     doc: dict[str, Any] = {
         "status": status,
         "robot": result.robot,

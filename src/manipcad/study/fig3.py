@@ -54,9 +54,11 @@ from typing import Any
 
 import numpy as np
 
+from manipcad.control import realization_complexity
 from manipcad.errors import InputError, ManipcadError
 from manipcad.fileio import json_safe, writable_folder
 from manipcad.model.robot import Robot
+from manipcad.version import __version__
 
 #: the robot of the study (catalog name)
 ROBOT = "cylindrical"
@@ -487,7 +489,7 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
         "paper": "System of Automated Design of Control Mechanism for Manipulators Having High "
                  "Dynamic Accuracy, sections 3.1-3.3, Fig. 3, laws (2)",
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-        "manipcad_version": getattr(manipcad, "__version__", ""),
+        "manipcad_version": __version__,
         "units": {"max_error": "rad", "rms_error": "rad", "rise_time": "s",
                   "settling_time": "s", "overshoot": "fraction of the step",
                   "step": "rad", "t_end": "s", "dt": "s", "period": "s",
@@ -519,7 +521,7 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
             reg = synthesize(arm, TURN, v.method, period=period, **v.options)
         except SKIP_ERRORS as exc:
             return f"synthesize(robot, {TURN!r}, {v.method!r}) raised {type(exc).__name__}: {exc}"
-        return reg, reg.describe(), reg.realization_complexity()
+        return reg, reg.describe(), realization_complexity(reg)
 
     total = len(tracking_v) + len(step_v) * len(STEP_CASES)
     with _progress(progress) as bar:

@@ -44,6 +44,7 @@ import numpy as np
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.fileio import json_safe, writable_folder
 from manipcad.model.robot import Robot
+from manipcad.version import __version__
 
 #: the adaptive methods of the study (they read H_ii, c_i, Q_i or look up a table over H_ii)
 METHODS = ("ace_tf", "ace_de", "asvs", "lqr_gs")
@@ -217,7 +218,7 @@ def run_pickup(out_dir: str | Path, *, robot: Robot | str | None = None, mass: f
         "paper": "conclusion: the dynamics algorithms ensure identification of parameter "
                  "variables of drives loaded at real time (the adaptive regulators need it)",
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-        "manipcad_version": getattr(manipcad, "__version__", ""),
+        "manipcad_version": __version__,
     }
     runs: dict[str, dict] = {}
     for meth in methods:

@@ -26,6 +26,7 @@ import numpy as np
 
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.kinematics.forward import stick_points, tool_pose
+from manipcad.model.tree_file import save_robot
 from manipcad.report.projection import VIEW, project
 from manipcad.workspace import Workspace, check_name
 
@@ -823,7 +824,7 @@ def add_part(ws: Workspace, kind: str, name: str, form: Mapping[str, Any], *,
 def attach_drive(ws: Workspace, robot, joint: int | str, motor: str, gears: Sequence[str], *,
                  name: str, force: bool = False):
     """Give a joint of a robot the drive of a motor and a gear chain, and save the robot
-    into the workspace as ``robots/NAME`` (its tree form, :meth:`Robot.save`).
+    into the workspace as ``robots/NAME`` (its tree form, :func:`save_robot`).
 
     The drive is composed by the robot files' own rule
     (:func:`manipcad.model.yaml_robot.build_drive`, as ``drive: {motor: M, gear: [G]}``):
@@ -871,7 +872,7 @@ def attach_drive(ws: Workspace, robot, joint: int | str, motor: str, gears: Sequ
     drives[j] = drive
     new = robot.replace(drives=tuple(drives))
     with tempfile.TemporaryDirectory() as tmp:
-        path = new.save(Path(tmp) / f"{name}.yaml")
+        path = save_robot(new, Path(tmp) / f"{name}.yaml")
         item = ws.add(path, kind="robots", name=name, force=force)
     return new, item
 

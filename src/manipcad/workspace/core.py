@@ -35,6 +35,8 @@ from typing import Any
 
 from manipcad.errors import InputError
 from manipcad.fileio import atomic_write_text, json_safe
+from manipcad.model.tree_file import save_robot
+from manipcad.version import __version__
 from manipcad.workspace.index import Index
 from manipcad.workspace.kinds import (
     BUNDLE_MANIFEST,
@@ -76,12 +78,6 @@ def default_root(ws: str | Path | None = None) -> Path:
 
 def _now() -> str:
     return datetime.now(UTC).isoformat(timespec="seconds")
-
-
-def _version() -> str:
-    from manipcad import __version__
-
-    return __version__
 
 
 @dataclass
@@ -235,7 +231,7 @@ class Workspace:
         if not (root / MARKER).is_file():
             atomic_write_text(root / MARKER, f"# a manipcad workspace (docs/workspace.md)\n"
                               f"format: {FORMAT}\ncreated: '{_now()}'\n"
-                              f"manipcad_version: '{_version()}'\n")
+                              f"manipcad_version: '{__version__}'\n")
         return cls(root)
 
     def close(self) -> None:
@@ -439,9 +435,9 @@ class Workspace:
             copy_from = src
             if kind == "robots" and _references_files(src):
                 # a URDF + drives file or one naming motor/gear files by path: store it
-                # self-contained, in the tree form Robot.save writes (loads back identical)
+                # self-contained, in the tree form save_robot writes (loads back identical)
                 copy_from = Path(tempfile.mkdtemp(prefix="manipcad-ws-")) / f"{name}.yaml"
-                _robot_quiet(src).save(copy_from)
+                save_robot(_robot_quiet(src), copy_from)
                 stored_as = " (stored in the tree form: its file referenced other files)"
             try:
                 tmp = self._copy_file(copy_from, folder, name)
@@ -457,7 +453,7 @@ class Workspace:
             shutil.copytree(src, tmp, symlinks=False,
                             ignore=shutil.ignore_patterns(".*"))
             target = folder / name
-        meta = {"created": _now(), "manipcad_version": _version(),
+        meta = {"created": _now(), "manipcad_version": __version__,
                 "source": str(src.resolve()) + stored_as}
         if kind == "results":
             meta["provenance"] = self._result_provenance(tmp)
@@ -661,7 +657,7 @@ class Workspace:
             if robot is not None:
                 if hasattr(robot, "joint_types"):
                     tmpdir = Path(tempfile.mkdtemp(prefix="manipcad-ws-"))
-                    inputs["robot"] = robot.save(tmpdir / "robot.yaml")
+                    inputs["robot"] = save_robot(robot, tmpdir / "robot.yaml")
                     if joint_types is None:
                         joint_types = robot.joint_types
                 else:
@@ -690,7 +686,7 @@ class Workspace:
         except BaseException:
             shutil.rmtree(staging, ignore_errors=True)
             raise
-        meta = {"created": _now(), "manipcad_version": _version(),
+        meta = {"created": _now(), "manipcad_version": __version__,
                 "source": "store_result", "provenance": prov}
         return self._commit("results", name, staging, folder / name, meta, facts, force)
 
@@ -909,7 +905,7 @@ class Workspace:
                                 "created": it.created, "manipcad_version": it.manipcad_version,
                                 "provenance": it.provenance})
             (tmp / BUNDLE_MANIFEST).write_text(json.dumps(json_safe(
-                {"format": FORMAT, "exported": _now(), "manipcad_version": _version(),
+                {"format": FORMAT, "exported": _now(), "manipcad_version": __version__,
                  "root": item.ref, "items": entries}), indent=2) + "\n", encoding="utf-8")
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
@@ -1015,7 +1011,7 @@ def catalog_items(kind: str | None = None) -> ItemList:
             digest = hashlib.sha256(entry.read_bytes()).hexdigest()
             out.append(Item(kind=k, name=entry.name.rsplit(".", 1)[0],
                             path=f"catalog/{k}/{entry.name}", hash=digest, created="",
-                            manipcad_version=_version(), source="catalog (read-only)"))
+                            manipcad_version=__version__, source="catalog (read-only)"))
     return out
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 from nicegui import ui
 from nicegui.run import io_bound as run_io
 
+from manipcad.control import realization_complexity
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import logic
 from manipcad.ui.pages.common import SERVER, connected, error_label, frame, numbers, robot, ws
@@ -61,7 +62,7 @@ async def page() -> None:
             with out:
                 ui.label(f"saved regulators/{item.name}").props("data-testid=syn-saved")
                 for reg in regs:
-                    c = reg.realization_complexity()
+                    c = realization_complexity(reg)
                     with ui.card().classes("w-full"):
                         ui.label(reg.describe()).classes("font-mono text-body2")
                         ui.label(f"complexity: {c['ops_per_period']} operations per period "

@@ -1,1 +1,0 @@
-"""Bridges to other robotics libraries (optional dependencies, imported on use)."""

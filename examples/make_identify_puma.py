@@ -27,9 +27,9 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from manipcad.interop.pinocchio import to_pinocchio
 
 import manipcad
-from manipcad.interop.pinocchio import to_pinocchio
 from manipcad.trajectories import cosine
 
 PAYLOAD_KG = 2.5

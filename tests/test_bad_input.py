@@ -124,7 +124,7 @@ def test_cli_and_api_refuse_a_fifo_target(tmp_path, fifo):
     with pytest.raises(InputError, match="FIFO"):
         save_trajectory(load_trajectory(traj), fifo)
     with pytest.raises(InputError, match="FIFO"):
-        manipcad.load_robot("cylindrical").save(fifo)
+        manipcad.save_robot(manipcad.load_robot("cylindrical"), fifo)
     assert _still_fifo(fifo)
     folder = tmp_path / "code"
     folder.mkdir()

@@ -176,7 +176,7 @@ def test_yaml_joint_velocity_and_effort_limits(tmp_path):
     arm = manipcad.load_robot(p)
     assert arm.velocity_limits.tolist() == [2.5] and arm.effort_limits.tolist() == [40.0]
     saved = tmp_path / "saved.yaml"
-    arm.save(saved)
+    manipcad.save_robot(arm, saved)
     assert manipcad.load_robot(saved).velocity_limits.tolist() == [2.5]
     p.write_text(p.read_text().replace("2.5", "-1"))
     with pytest.raises(manipcad.errors.InputError, match="velocity_limit"):

@@ -71,7 +71,7 @@ def test_counterweight_round_trips_through_robot_yaml(tmp_path):
     arm = manipcad.load_robot("examples/two_link.yaml")
     q = quintic([0.0, 0.0], [0.6, -0.8], 2.0).sample(np.linspace(0, 2, 21))[0]
     new = fit_counterweight(arm, q, 0, arm=0.1).apply(arm)
-    back = manipcad.load_robot(new.save(tmp_path / "robot.yaml"))
+    back = manipcad.load_robot(manipcad.save_robot(new, tmp_path / "robot.yaml"))
     assert np.array_equal(back.table, new.table)
     assert back.mass[0] > arm.mass[0]
 

@@ -181,7 +181,7 @@ def test_infeasible_names_joint_candidate_and_check(monkeypatch, tmp_path):
     from manipcad.trajectories import save_trajectory
     save_trajectory(_traj(6), traj)
     robot = tmp_path / "arm.yaml"
-    arm.save(robot)
+    manipcad.save_robot(arm, robot)
     out = tmp_path / "out.yaml"
     from manipcad.cli import app
     res = CliRunner().invoke(app, ["select", str(robot), "-t", str(traj), "--payload", "2",

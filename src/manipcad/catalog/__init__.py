@@ -62,15 +62,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from manipcad.catalog.files import (
-    GearSpec,
-    MotorSpec,
-    compose_gears,
+from manipcad.catalog.files import GearSpec, MotorSpec, compose_gears, part_names
+from manipcad.catalog.library import (
+    GEAR_UNITS,
+    MOTOR_UNITS,
     load_gear,
     load_motor,
-    part_names,
+    spec_row,
+    tables,
 )
-from manipcad.catalog.library import GEAR_UNITS, MOTOR_UNITS, spec_row, tables
 from manipcad.errors import InputError
 
 #: the documented rule for gears without a maker's compatibility table (docs/catalog.md)

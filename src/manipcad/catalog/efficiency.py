@@ -22,12 +22,12 @@ Example:
 from __future__ import annotations
 
 from functools import lru_cache
+from importlib import resources
 
 from manipcad import fileio
-from manipcad.catalog.files import PARTS
 
-#: the data file holding the efficiency data point
-GEARS_YAML = PARTS.parent / "gears.yaml"
+#: the data file holding the efficiency data point (beside the part files, catalog.files.PARTS)
+GEARS_YAML = resources.files("manipcad") / "catalog" / "data" / "gears.yaml"
 
 
 @lru_cache(maxsize=1)

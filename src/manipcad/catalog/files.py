@@ -7,6 +7,7 @@ files are in ``manipcad/catalog/data/parts/{motors,gears}``; a name that is no
 file there is looked up in the imported data sheets (:mod:`manipcad.catalog.library`).
 
 Example:
+    >>> from manipcad.catalog.library import load_gear
     >>> load_gear("harmonic_csg20_100").max_continuous_torque   # N·m
     52.0
 """
@@ -281,47 +282,6 @@ def _unknown(kind: str, name: str) -> InputError:
                       f"{kind[:-1]}'")
 
 
-def load_motor(name: str, base_dir: Path | None = None) -> MotorSpec:
-    """A motor by name (a built-in file, ``manipcad robots list``, or any motor of
-    ``manipcad catalog list``) or by a .yaml path (relative to ``base_dir``).
-    Raises :class:`InputError`.
-
-    Example:
-        >>> load_motor("MM_597974").k_m   # N·m/A, maxon 597974 from the MGDB
-        0.136
-    """
-    path = _resolve("motors", name, base_dir)
-    if path is None:
-        from manipcad.catalog.library import library_part
-
-        spec = None if name.endswith((".yaml", ".yml")) else library_part(name)
-        if not isinstance(spec, MotorSpec):
-            raise _unknown("motors", name)
-        return spec
-    spec = _load_spec("motors", str(path))
-    assert isinstance(spec, MotorSpec)
-    return spec
-
-
-def load_gear(name: str, base_dir: Path | None = None) -> GearSpec:
-    """A gear (transmission) by name (built-in file or any gear of ``manipcad
-    catalog list``) or .yaml path. Raises :class:`InputError`."""
-    path = _resolve("gears", name, base_dir)
-    if path is None:
-        from manipcad.catalog.library import library_part
-
-        spec = None if name.endswith((".yaml", ".yml")) else library_part(name)
-        if not isinstance(spec, GearSpec):
-            raise _unknown("gears", name)
-        return spec
-    spec = _load_spec("gears", str(path))
-    assert isinstance(spec, GearSpec)
-    return spec
-
-
-# --------------------------------------------------------------------------- gear chains
-
-
 def _nan_first(x: float) -> float:
     """Sort key putting nan below every number (so min() keeps an unknown)."""
     return -math.inf if math.isnan(x) else x
@@ -349,6 +309,7 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, Any], float | None]:
         gives one.
 
     Example:
+        >>> from manipcad.catalog.library import load_gear
         >>> f, k = compose_gears([load_gear("harmonic_csf20_100")])
         >>> f["ratio"], f["gear_rated_torque"]
         (-100.0, 40.0)
@@ -396,5 +357,4 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, Any], float | None]:
     return out, stiffness
 
 
-__all__ = ["MotorSpec", "GearSpec", "load_motor", "load_gear", "compose_gears", "part_names",
-           "part_file", "with_assumptions", "PARTS", "MGDB_PREFIXES"]
+__all__ = ["MotorSpec", "GearSpec", "compose_gears", "part_names", "part_file", "with_assumptions", "PARTS", "MGDB_PREFIXES"]

@@ -60,8 +60,9 @@ from manipcad.catalog.files import (
     PARTS,
     GearSpec,
     MotorSpec,
-    load_gear,
-    load_motor,
+    _load_spec,
+    _resolve,
+    _unknown,
     part_names,
 )
 from manipcad.errors import InputError
@@ -583,6 +584,43 @@ def library_part(name: str) -> MotorSpec | GearSpec | None:
     return None
 
 
-__all__ = ["tables", "build", "Tables", "library_part", "row_spec", "spec_row", "MOTOR_UNITS",
+def load_motor(name: str, base_dir: Path | None = None) -> MotorSpec:
+    """A motor by name (a built-in file, ``manipcad robots list``, or any motor of
+    ``manipcad catalog list``) or by a .yaml path (relative to ``base_dir``).
+    Raises :class:`InputError`.
+
+    Example:
+        >>> load_motor("MM_597974").k_m   # N·m/A, maxon 597974 from the MGDB
+        0.136
+    """
+    path = _resolve("motors", name, base_dir)
+    if path is None:
+        spec = None if name.endswith((".yaml", ".yml")) else library_part(name)
+        if not isinstance(spec, MotorSpec):
+            raise _unknown("motors", name)
+        return spec
+    spec = _load_spec("motors", str(path))
+    assert isinstance(spec, MotorSpec)
+    return spec
+
+
+def load_gear(name: str, base_dir: Path | None = None) -> GearSpec:
+    """A gear (transmission) by name (built-in file or any gear of ``manipcad
+    catalog list``) or .yaml path. Raises :class:`InputError`."""
+    path = _resolve("gears", name, base_dir)
+    if path is None:
+        spec = None if name.endswith((".yaml", ".yml")) else library_part(name)
+        if not isinstance(spec, GearSpec):
+            raise _unknown("gears", name)
+        return spec
+    spec = _load_spec("gears", str(path))
+    assert isinstance(spec, GearSpec)
+    return spec
+
+
+# --------------------------------------------------------------------------- gear chains
+
+
+__all__ = ["tables", "build", "Tables", "library_part", "load_motor", "load_gear", "row_spec", "spec_row", "MOTOR_UNITS",
            "GEAR_UNITS", "MGDB_COMMIT", "MGDB_FILES", "read_csv", "mgdb_source", "slug",
            "data_hash"]

@@ -22,6 +22,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from manipcad.control.complexity import realization_complexity
 from manipcad.errors import ManipcadError
 
 #: methods with a knob that tightens the synthesis (see the module docstring)
@@ -164,7 +165,7 @@ def synthesize_method(robot, method: str, joints, *, period: float, accuracy: fl
         except (ValueError, ArithmeticError, TypeError) as exc:
             out.errors[j] = f"{type(exc).__name__}: {exc}"
             continue
-        cx = reg.realization_complexity()
+        cx = realization_complexity(reg)
         cx = {"gains_stored": int(cx.get("gains_stored", 0)),
               "ops_per_period": int(cx.get("ops_per_period", 0)),
               "signals": list(cx.get("signals", []))}

@@ -28,6 +28,7 @@ import yaml
 
 from manipcad.design.judge import margin, verdict
 from manipcad.fileio import atomic_write_text, json_safe
+from manipcad.model.tree_file import save_robot
 
 #: the design.json format's version
 FORMAT = 1
@@ -84,7 +85,7 @@ def _store_runs(folder: Path, runs: list[dict], results: dict, arm) -> None:
             plant = task["plant"]
             f = seen.get(id(plant))
             if f is None:
-                f = plant.save(keep / f"plant-{len(seen)}.yaml")
+                f = save_robot(plant, keep / f"plant-{len(seen)}.yaml")
                 seen[id(plant)] = f
             save_result(res, tmp / r["id"], inputs={"robot": f,
                                                     "trajectory": task["trajectory"],
@@ -156,7 +157,7 @@ def write_outputs(out: Path, *, req, arm, nominal, trajectories, outcome, runs, 
 
     out.mkdir(exist_ok=True)
     names = list(arm.joint_names)
-    nominal.save(out / "robot.yaml")
+    save_robot(nominal, out / "robot.yaml")
     atomic_write_text(out / "regulators.yaml", regulators_yaml(outcome["mix_regs"],
                                                                robot=nominal))
     tdir = out / "trajectories"

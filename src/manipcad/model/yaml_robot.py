@@ -74,13 +74,8 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 
 from manipcad import fileio
 from manipcad.catalog import compose_drive
-from manipcad.catalog.files import (
-    GearSpec,
-    MotorSpec,
-    compose_gears,
-    load_gear,
-    load_motor,
-)
+from manipcad.catalog.files import GearSpec, MotorSpec, compose_gears
+from manipcad.catalog.library import load_gear, load_motor
 from manipcad.errors import InputError, ManipcadWarning, ModelError
 from manipcad.model import dh
 from manipcad.model.robot import PRISMATIC, REVOLUTE, Drive, Robot

@@ -15,7 +15,7 @@ The drive torques are
           + k_v·i_r²·q̇ + |i_r|·M_f±·sign(q̇)       (the drives' friction, written out here)
           + Gaussian noise of 0.5 % of each drive's torque RMS (seed 0),
 
-where the Pinocchio model is the PUMA exported by manipcad.interop.pinocchio
+where the Pinocchio model is the PUMA exported by manipcad.model.to_pinocchio
 (joint order and offsets mapped as documented there) with the payload appended
 to the last joint as its own body, so the loaded dynamics are Pinocchio's alone.
 """
@@ -27,9 +27,9 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-from manipcad.interop.pinocchio import to_pinocchio
 
 import manipcad
+from manipcad.model.to_pinocchio import to_pinocchio
 from manipcad.trajectories import cosine
 
 PAYLOAD_KG = 2.5

@@ -228,7 +228,7 @@ def test_library_parts_build_drives_and_load_in_robot_files(tmp_path):
     g = catalog.part(doc["joints"][0]["drive"]["gear"])
     assert arm.drives[0].ratio == g.direction * g.ratio
     assert arm.drives[0].efficiency == g.efficiency
-    saved = arm.save(tmp_path / "saved.yaml")            # the written robot keeps it all
+    saved = manipcad.save_robot(arm, tmp_path / "saved.yaml")  # the written robot keeps it all
     assert manipcad.load_robot(saved).drives[0] == arm.drives[0]
     with pytest.raises(InputError, match="unknown motor"):
         doc["joints"][0]["drive"]["motor"] = "MM_0"

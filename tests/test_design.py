@@ -297,3 +297,116 @@ def test_drives_selected_from_the_catalogue_when_the_robot_file_has_none(tmp_pat
     assert all(d is not None for d in new.drives)
     assert set(info["source"].values()) == {"catalogue selection"}
     assert [j["joint"] for j in info["selection"]["joints"]] == ["shoulder", "elbow"]
+
+
+# ------------------------------------------------------------------ the web application
+
+
+def _ui_workspace(tmp_path):
+    from manipcad.ui import logic
+
+    w = logic.open_workspace(tmp_path / "ws")
+    arm = manipcad.load_robot("cylindrical")
+    logic.save_trajectory_to(w, logic.make_trajectory(
+        {"type": "quintic", "q_start": [0.0, 0.0, 0.0], "q_end": [0.3, 0.0, 0.1],
+         "duration": 0.3}, arm), "move")
+    return w
+
+
+def test_design_spec_runs_the_design_into_the_workspace(tmp_path):
+    from manipcad.errors import InputError
+    from manipcad.ui import logic
+    from manipcad.ui.worker import DesignSpec
+
+    w = _ui_workspace(tmp_path)
+    req = {"accuracy": 1e-3, "overshoot_allowed": True, "fast_action": False,
+           "transmission": {"backlash": False, "elasticity": False}, "joint": "turn"}
+    seen = []
+    name, info = DesignSpec(str(w.root), "cylindrical", ["move"], req, "d1",
+                            max_methods=2).run(seen.append)
+    assert name == "d1" and info["status"] == "met" and seen[-1] == 1.0
+    assert info["worst_case_error"]["turn"] <= 1e-3
+    assert {"report.html", "design.json"} <= set(logic.study_files(w, "d1"))
+    with pytest.raises(InputError, match="name taken"):
+        DesignSpec(str(w.root), "cylindrical", ["move"], req, "d1").run()
+
+
+def test_design_page_in_the_simulated_user(tmp_path, monkeypatch):
+    """The form's errors name the field; a finished design shows its table and links."""
+    import asyncio
+
+    from nicegui import ui
+    from nicegui.testing.user_simulation import user_simulation
+
+    from manipcad.ui import pages, worker
+    from manipcad.ui.pages import design as page
+
+    _ui_workspace(tmp_path)
+    ran = []
+
+    class Done:                        # what SimulationJob reports after a design
+        fraction, finished, wall, result = 1.0, True, 2.0, "d1"
+        metrics = {"status": "met", "methods": {"turn": "ace_de"},
+                   "worst_case_error": {"turn": 3.1e-5}, "accuracy": 1e-4,
+                   "failure": None, "files": ["report.html"]}
+
+        def __init__(self, spec):
+            self.spec = spec
+            ran.append(spec)
+
+        def poll(self):
+            return "done"
+
+    monkeypatch.setattr(page, "SimulationJob", Done)
+    monkeypatch.setattr(worker, "prestart", lambda: None)
+
+    async def script(user):
+        await user.open("/design")
+        await user.should_see(marker="page-title")
+        user.find(marker="design-uncertainty").clear().type("abc")
+        user.find(marker="design-run").click()
+        await user.should_see(marker="error")
+        (lab,) = user.find(marker="error").elements
+        assert lab.text.startswith("design form: uncertainty: expected numbers")
+        user.find(marker="design-uncertainty").clear().type("5")
+        user.find(marker="design-run").click()
+        await user.should_see("design met", retries=50)
+        (table,) = user.find(kind=ui.table).elements
+        assert table.rows == [{"joint": "turn", "method": "ace_de", "worst": "3.1e-05"}]
+
+    async def main():
+        pages.SERVER["ws"] = str(tmp_path / "ws")
+        async with user_simulation(root=lambda: None) as user:
+            pages.register()
+            await script(user)
+
+    loop = asyncio.new_event_loop()
+    try:
+        loop.run_until_complete(main())
+    finally:
+        pending = asyncio.all_tasks(loop)
+        for task in pending:
+            task.cancel()
+        if pending:
+            loop.run_until_complete(asyncio.wait(pending, timeout=10))
+        loop.close()
+    (spec,) = ran
+    assert spec.trajectories == ["move"] and spec.uncertainty == 0.05
+
+
+def test_cli_design_into_a_workspace(tmp_path):
+    """--ws: the trajectory by its workspace name, the design stored as studies/NAME."""
+    from manipcad.ui import logic
+
+    w = _ui_workspace(tmp_path)
+    req = tmp_path / "req.yaml"
+    req.write_text(yaml.safe_dump({"accuracy": 1e-3, "overshoot_allowed": True,
+                                   "fast_action": False, "joint": "turn",
+                                   "transmission": {"backlash": False,
+                                                    "elasticity": False}}))
+    r = runner.invoke(app, ["design", str(req), "--robot", "cylindrical", "-t", "move",
+                            "--max-methods", "1", "--workers", "1", "--no-progress",
+                            "--ws", str(w.root), "--out", "d2"])
+    assert r.exit_code == 0, r.output
+    assert "report.html" in logic.study_files(w, "d2")
+    assert not (w.root / "studies" / "d2" / "cache").exists()

@@ -6,16 +6,21 @@
         [--payload-range LO,HI] [--uncertainty PCT] [--samples N] [--makers a,b]
         [--counterbalance auto|none] [--period S] [--dt S] [--max-methods N]
         [--max-iterations N] [--strict] [--workers N | --scheduler ADDR] --out DESIGN
+        [--ws WORKSPACE]
 
 Writes DESIGN/robot.yaml, regulators.yaml, trajectories/, design.json, report.html, c/
 and runs/ (:mod:`manipcad.design`; docs/design.md). Exit 0: the design meets the
 requirements in every case; 1: no design does (the closest one is written, and the
-case it fails and why are printed); 2: bad input.
+case it fails and why are printed); 2: bad input. With ``--ws`` the robot and
+trajectories may be workspace names and the design is stored as ``studies/DESIGN``.
 """
 
 from __future__ import annotations
 
 import math
+import shutil
+import tempfile
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Annotated
 
@@ -92,16 +97,54 @@ def design(
         "--scheduler", help="Address of a running Dask scheduler, tcp://HOST:PORT.")] = None,
     progress: Annotated[bool, typer.Option(
         "--progress/--no-progress", help="Show a progress bar of the runs.")] = True,
+    ws: Annotated[Path | None, typer.Option(
+        "--ws", help="Workspace: the robot and trajectories may be its item names, and the "
+        "design is stored there as studies/OUT (without the run cache).")] = None,
 ) -> None:
     """The automated design: drives, decoupling, method, regulators, verification, C code."""
-    from manipcad.design import DesignNotMet, run_design
-
     if not (math.isfinite(uncertainty) and 0 <= uncertainty < 100):
         raise InputError("--uncertainty", "", f"must be a percentage in [0, 100), got "
                          f"{uncertainty!r}")
     mk = None if makers is None else [m.strip() for m in makers.split(",") if m.strip()]
     lo, hi = parse_range(payload_range)
     sources = {"requirements": requirements, "robot": robot, "trajectories": list(trajectory)}
+    space = None
+    folder = Path(out)
+    with ExitStack() as stack:
+        if ws is not None:
+            from manipcad.workspace import Workspace, check_name, resolve_input
+
+            space = Workspace(ws)
+            check_name(out, "design name")
+            space.check_free("studies", out)                 # before the run, not after
+            robot = str(resolve_input("robot", robot, space))
+            trajectory = [str(resolve_input("trajectory", t, space)) for t in trajectory]
+            folder = Path(stack.enter_context(tempfile.TemporaryDirectory())) / "design"
+        doc, met = _run(requirements, robot, trajectory, folder, lo, hi, uncertainty, samples,
+                        seed, mk, counterbalance, period, dt, max_methods, max_iterations,
+                        strict, workers, scheduler, progress, sources)
+        if space is not None:
+            shutil.rmtree(folder / "cache", ignore_errors=True)
+            space.add(folder, kind="study", name=out)
+            folder = space.root / "studies" / out
+    console.print(summary_table(doc))
+    ex = doc["executor"]
+    console.print(f"{len(doc['cases'])} runs ({ex['runs_computed']} computed, "
+                  f"{ex['runs_cached']} from the cache) in {ex['wall_time_s']:.1f} s; wrote "
+                  f"{folder}/ (robot.yaml, regulators.yaml, design.json, report.html, c/, "
+                  "runs/)", highlight=False, soft_wrap=True)
+    if not met:
+        err_console.print(f"[bold red]not met:[/] {doc['failure']['text']}", highlight=False,
+                          soft_wrap=True)
+        raise typer.Exit(1)
+
+
+def _run(requirements, robot, trajectory, out, lo, hi, uncertainty, samples, seed, mk,
+         counterbalance, period, dt, max_methods, max_iterations, strict, workers, scheduler,
+         progress, sources) -> tuple[dict, bool]:
+    """run_design with the command's arguments: (design.json, met)."""
+    from manipcad.design import DesignNotMet, run_design
+
     met = True
     try:
         doc = run_design(requirements, robot, list(trajectory), out=out, payload_range=(lo, hi),
@@ -112,16 +155,7 @@ def design(
                          progress=progress, sources=sources)
     except DesignNotMet as exc:
         doc, met = exc.doc, False
-    console.print(summary_table(doc))
-    ex = doc["executor"]
-    console.print(f"{len(doc['cases'])} runs ({ex['runs_computed']} computed, "
-                  f"{ex['runs_cached']} from the cache) in {ex['wall_time_s']:.1f} s; wrote "
-                  f"{Path(out)}/ (robot.yaml, regulators.yaml, design.json, report.html, c/, "
-                  "runs/)", highlight=False, soft_wrap=True)
-    if not met:
-        err_console.print(f"[bold red]not met:[/] {doc['failure']['text']}", highlight=False,
-                          soft_wrap=True)
-        raise typer.Exit(1)
+    return doc, met
 
 
 def summary_table(doc: dict) -> Table:

@@ -154,6 +154,86 @@ class VerifySpec:
         return "verified", recommend_for(self.form, arm, traj, verify=True).to_dict()
 
 
+@dataclass
+class DesignSpec:
+    """The automated design (``manipcad design``), stored as ``studies/NAME``.
+
+    Attributes:
+        workspace: the workspace folder.
+        robot: a catalog robot name or ``robots/NAME``.
+        trajectories: workspace trajectory names (>= 1).
+        requirements: the requirement fields (:class:`manipcad.expert.Requirements`).
+        name: the design's name in the workspace (``studies/NAME``).
+        payload_range: (low, high) gripped mass at the tool point, kg.
+        uncertainty: relative parameter uncertainty, fraction in [0, 1).
+        samples: uncertainty samples.
+        counterbalance: "auto" or "none".
+        period: control period, s; dt: integration step, s.
+        max_methods: how many of the rules' methods are verified.
+    """
+
+    workspace: str
+    robot: str
+    trajectories: list[str]
+    requirements: dict[str, Any]
+    name: str
+    payload_range: tuple[float, float] = (0.0, 0.0)
+    uncertainty: float = 0.0
+    samples: int = 5
+    counterbalance: str = "none"
+    period: float = 1e-3
+    dt: float = 1e-4
+    max_methods: int = 4
+
+    def run(self, progress=None) -> tuple[str, dict[str, Any]]:
+        """Design (serially, in this worker) into a temporary folder, then add it to the
+        workspace; returns ``(name, {"status", "methods", "worst_case_error", "accuracy",
+        "failure", "files"})``. A design that does not meet the requirements is stored
+        too (its report says why).
+
+        Raises:
+            InputError: a bad name, reference or form field (the API's own checks).
+        """
+        import shutil
+        import tempfile
+        from pathlib import Path
+
+        from manipcad.design import DesignNotMet, run_design
+        from manipcad.ui.logic import load_robot_ref, load_trajectory_ref, open_workspace
+        from manipcad.workspace import check_name
+
+        check_name(self.name, "design name")
+        ws = open_workspace(self.workspace)
+        ws.check_free("studies", self.name)                          # before the run
+        arm, _ = load_robot_ref(ws, self.robot)
+        trajs = [load_trajectory_ref(ws, t, arm) for t in self.trajectories]
+
+        def stage(text: str, frac: float) -> None:
+            if progress is not None:
+                progress(frac)
+
+        with tempfile.TemporaryDirectory() as tmp:
+            folder = Path(tmp) / "design"
+            try:
+                doc = run_design(self.requirements, arm, trajs, out=folder,
+                                 payload_range=tuple(self.payload_range),
+                                 uncertainty=self.uncertainty, samples=self.samples,
+                                 counterbalance=self.counterbalance, period=self.period,
+                                 dt=self.dt, max_methods=self.max_methods, workers=1,
+                                 progress=stage,
+                                 sources={"robot": self.robot,
+                                          "trajectories": list(self.trajectories)})
+            except DesignNotMet as exc:
+                doc = exc.doc
+            shutil.rmtree(folder / "cache", ignore_errors=True)
+            ws.add(folder, kind="study", name=self.name)
+        return self.name, {"status": doc["status"], "methods": doc["methods"],
+                           "worst_case_error": doc["worst_case_error"],
+                           "accuracy": doc["accuracy"], "failure": doc.get("failure"),
+                           "files": ["report.html", "design.json", "robot.yaml",
+                                     "regulators.yaml"]}
+
+
 def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
     """Run one simulation and store it in the workspace (what the worker does).
 
@@ -357,8 +437,8 @@ def _take(number: int) -> _Worker:
 
 
 class SimulationJob:
-    """A simulation (:class:`SimSpec`), a study (:class:`StudySpec`) or a verification
-    (:class:`VerifySpec`) running in a worker process; once done, ``result`` and
+    """A simulation (:class:`SimSpec`), a study (:class:`StudySpec`), a verification
+    (:class:`VerifySpec`) or a design (:class:`DesignSpec`) running in a worker process; once done, ``result`` and
     ``metrics`` are what the spec's ``run`` returned.
 
     Example (not run here: it starts a process)::
@@ -369,7 +449,7 @@ class SimulationJob:
         job.state, job.result
     """
 
-    def __init__(self, spec: SimSpec | StudySpec | VerifySpec) -> None:
+    def __init__(self, spec: SimSpec | StudySpec | VerifySpec | DesignSpec) -> None:
         self.number = next(_NUMBER)
         self._worker = w = _take(self.number)
         self.spec = spec

@@ -1,8 +1,8 @@
 """The pages of ``manipcad ui`` (NiceGUI), following the designer's path (paper Fig. 1).
 
 Main menu → Robots → Drives → Trajectories → Requirements → method → Synthesis →
-Simulation → Results → Identification: one module per page, each an ``async def
-page()`` that lays out calls of :mod:`manipcad.ui.logic` (the same Python API as the
+Simulation → Results → Identification, and the automated Design: one module per page,
+each an ``async def page()`` that lays out calls of :mod:`manipcad.ui.logic` (the same Python API as the
 CLI) and shows a bad value or file as one line naming the file or form, the field
 and the reason, never a traceback. What the pages share (the frame with the main
 menu, the tab's selection, the error line, number fields) is in
@@ -17,6 +17,7 @@ from __future__ import annotations
 from nicegui import app, ui
 
 from manipcad.ui.pages import (
+    design,
     drives,
     files,
     identification,
@@ -36,7 +37,8 @@ __all__ = ["PAGES", "SERVER", "register", "state"]
 PAGES = {"/": main_menu.page, "/robots": robots.page, "/drives": drives.page,
          "/trajectories": trajectories.page, "/requirements": requirements.page,
          "/synthesis": synthesis.page, "/simulation": simulation.page,
-         "/results": results.page, "/identification": identification.page}
+         "/results": results.page, "/identification": identification.page,
+         "/design": design.page}
 
 
 def register() -> None:

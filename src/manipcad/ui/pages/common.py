@@ -34,7 +34,8 @@ _JOBS: dict[str, list] = {}
 MENU = (("/", "Main menu"), ("/robots", "Robots"), ("/drives", "Drives"),
         ("/trajectories", "Trajectories"), ("/requirements", "Requirements → method"),
         ("/synthesis", "Synthesis"), ("/simulation", "Simulation"),
-        ("/results", "Results and studies"), ("/identification", "Identification"))
+        ("/results", "Results and studies"), ("/identification", "Identification"),
+        ("/design", "Design"))
 
 
 def state() -> dict[str, Any]:
@@ -93,6 +94,21 @@ def frame(title: str):
             ui.label("· trajectory")
             ui.label().bind_text_from(S, "trajectory", lambda v: v or "-")
     return col
+
+
+def poll_job(job, bar, status, what: str, shown: dict) -> str | None:
+    """Poll a worker job for a page's timer: the progress bar and "WHAT STATE: N %" while
+    it runs; its final state (done, error, cancelled) once, the first time it is seen
+    (``shown`` remembers it), else None."""
+    state = job.poll()
+    bar.value = job.fraction
+    if state in ("starting", "running"):
+        status.text = f"{what}{state}: {100 * job.fraction:.0f} %"
+        return None
+    if shown.get("job") is job and shown.get("state") == state:
+        return None
+    shown["job"], shown["state"] = job, state
+    return state
 
 
 def error_label():

@@ -17,6 +17,7 @@ from manipcad.ui.pages.common import (
     frame,
     jobs,
     numbers,
+    poll_job,
     ws,
 )
 from manipcad.ui.worker import SimSpec, SimulationJob
@@ -80,14 +81,9 @@ async def page() -> None:
             if not jobs():
                 return
             job = jobs()[-1]
-            state = job.poll()
-            bar.value = job.fraction
-            if state in ("starting", "running"):
-                status.text = f"{state}: {100 * job.fraction:.0f} %"
+            state = poll_job(job, bar, status, "", shown)
+            if state is None:
                 return
-            if shown["job"] is job and shown["state"] == state:
-                return
-            shown["job"], shown["state"] = job, state
             if state == "done":
                 status.text = (f"done: stored results/{job.result} in {job.wall:.3g} s; "
                                f"max |e| = {job.metrics.get('max_error', float('nan')):.3g}")

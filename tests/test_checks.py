@@ -3,8 +3,10 @@ own limits read from URDF/YAML, efficiency-unknown bounds, and the run checks.""
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -296,3 +298,66 @@ def test_run_checks_round_trip_and_summary():
     assert "tracking" not in c["q1"]                     # no accuracy asked: not checked
     with pytest.raises(manipcad.errors.ManipcadError, match="accuracy"):
         run_checks(res, arm, accuracy={"nope": 1e-3})
+
+
+# ------------------------------------------------- the undersized elbow, end to end
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+POSE = [0.0, 0.0, -1.5, 0.0, 0.3, 0.0]        # the elbow holds 8.8 N·m against gravity
+
+
+@pytest.fixture(scope="module")
+def undersized(tmp_path_factory) -> dict:
+    """The PUMA 560 with an RE 25 + CSG-14-50 on the elbow (its own drive: 53.7:1 on a
+    0.228 N·m/A motor), holding a pose under gravity with examples/pid_puma.yaml: 8.8 N·m
+    need 10 A through the gear, the amplifier gives 12 V / 2.18 Ω = 5.5 A at stall."""
+    d = tmp_path_factory.mktemp("undersized")
+    src = Path(manipcad.model.load.CATALOG) / "robots" / "puma560.yaml"
+    text = src.read_text()
+    old = text[text.index("    drive: {J: 200e-6, ratio: -53.7063"):]
+    old = old[:old.index("}") + 1]
+    text = text.replace(old, "    drive: {motor: maxon_re25_118743, gear: harmonic_csg14_50, "
+                             "ratio: -50}")
+    robot = d / "puma_small_elbow.yaml"
+    robot.write_text(text)
+    traj = d / "hold.yaml"
+    traj.write_text(f"type: quintic\nq_start: {POSE}\nq_end: {POSE}\nduration: 0.15\n")
+    return {"robot": robot, "traj": traj, "dir": d}
+
+
+def _cli(*args):
+    from typer.testing import CliRunner
+
+    from manipcad.cli import app
+    return CliRunner().invoke(app, [str(a) for a in args], env={"COLUMNS": "200"})
+
+
+def test_simulate_reports_the_undersized_elbow(undersized):
+    """simulate: the check table marks the elbow's failures and the one-line verdict says
+    FAIL; exit 0, and 1 with --strict; metrics.json keeps the checks and ws --where finds
+    them."""
+    u = undersized
+    args = ["simulate", u["robot"], "-t", u["traj"], "-r", EXAMPLES / "pid_puma.yaml",
+            "--t-end", "0.15", "--accuracy", "1e-3"]
+    res = _cli(*args, "--out", u["dir"] / "run1")
+    assert res.exit_code == 0, res.output
+    assert "✗ fail" in res.output and "FAIL:" in res.output
+    doc = json.loads((u["dir"] / "run1" / "metrics.json").read_text())
+    elbow = doc["checks"]["elbow"]
+    for name in ("tracking", "saturation", "current_rms"):
+        assert elbow[name]["verdict"] == "fail", (name, elbow[name])
+    assert elbow["saturation"]["value"] > 0.5          # at ±12 V from ~40 ms on (72 %)
+    assert elbow["current_rms"]["value"] > 2 * elbow["current_rms"]["limit"]
+    assert doc["checks"]["waist"]["saturation"]["verdict"] == "pass"
+    strict = _cli(*args, "--out", u["dir"] / "run2", "--strict")
+    assert strict.exit_code == 1, strict.output
+    # the workspace indexes the checks: --where filters on them
+    ws = u["dir"] / "ws"
+    assert _cli("ws", "init", ws).exit_code == 0
+    assert _cli(*args, "--ws", ws, "--out", "small").exit_code == 0
+    found = _cli("ws", "list", "--ws", ws, "--where", "verdict=fail", "--json")
+    assert found.exit_code == 0, found.output
+    assert [i["name"] for i in json.loads(found.output)] == ["small"]
+    none = _cli("ws", "list", "--ws", ws, "--where", "verdict=pass", "--json")
+    assert json.loads(none.output) == []
+    sat = _cli("ws", "list", "--ws", ws, "--where", "check_saturation[elbow]>0.5", "--json")
+    assert [i["name"] for i in json.loads(sat.output)] == ["small"]

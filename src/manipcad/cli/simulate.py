@@ -5,6 +5,7 @@
     manipcad simulate ROBOT --trajectory FILE --regulator FILE --out DIR
                       [--t-end S] [--dt S] [--every N] [--json] [--no-drives]
                       [--payload KG] [--force] [--save-diverged] [--allow-other-robot]
+                      [--accuracy RAD] [--max-saturation F] [--max-chatter F] [--strict]
 
 ROBOT is a catalog name or a robot file; the trajectory and regulator files
 are the YAML schemas of :mod:`manipcad.trajectories.io` and
@@ -16,6 +17,11 @@ when the run is complete: an interrupted run (Ctrl-C), bad input or a
 divergent simulation leaves DIR as it was. A divergent run exits with status
 2 and names the time and the joint; ``--save-diverged`` keeps its partial
 time series in DIR, marked ``"status": "diverged"`` in metrics.json.
+
+Every run is checked against every rating (:mod:`manipcad.sim.checks`, docs/checks.md):
+the check table is printed with the failures marked, then a one-line verdict, and the
+checks are kept in metrics.json (``checks``). Exit status 0 whatever the checks say;
+with ``--strict`` 1 when a check fails.
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ from typing import Annotated, Any
 
 import typer
 from rich import box
+from rich.markup import escape
 from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
@@ -58,6 +65,28 @@ def _robot_file(arg: str) -> Path | None:
         if entry.is_file():
             return Path(str(entry))
     return None
+
+
+_VERDICT_STYLE = {"fail": "bold red", "unknown": "yellow", "pass": "green", "n/a": "dim"}
+
+
+def checks_table(checks) -> Table:
+    """A rich table of a run's checks (:class:`manipcad.sim.checks.RunChecks`): one row per
+    joint and check, value, limit, unit and verdict; failures marked ``✗ fail``."""
+    t = Table(title="checks against every rating (docs/checks.md)", box=box.SIMPLE_HEAD)
+    for col in ("joint", "check", "value", "limit", "unit", "verdict"):
+        t.add_column(col, justify="right" if col in ("value", "limit") else "left")
+    for j, cs in checks.checks.items():
+        names = list(cs)
+        for k, name in enumerate(names):
+            c = cs[name]
+            mark = "✗ fail" if c.verdict == "fail" else c.verdict
+            style = _VERDICT_STYLE.get(c.verdict, "")
+            t.add_row(j if k == 0 else "", name, _num(c.value, ".3g"),
+                      "none" if c.limit == math.inf else _num(c.limit, ".3g"), c.unit,
+                      f"[{style}]{mark}[/]" if style else mark,
+                      end_section=k == len(names) - 1)
+    return t
 
 
 def metrics_table(doc: dict[str, Any]) -> Table:
@@ -159,6 +188,18 @@ def simulate(
     atol: Annotated[float | None, typer.Option(
         "--atol", help="Adaptive integrator: absolute tolerance, rad, m, rad/s, m/s "
         "(default 1e-8).")] = None,
+    accuracy: Annotated[float | None, typer.Option(
+        "--accuracy", help="The tracking accuracy asked, rad (m for prismatic joints), "
+        "every joint: adds the tracking check.")] = None,
+    max_saturation: Annotated[float, typer.Option(
+        "--max-saturation", help="Largest fraction of the run an amplifier may spend at "
+        "its output limit (0..1].")] = 0.02,
+    max_chatter: Annotated[float, typer.Option(
+        "--max-chatter", help="Largest amplifier-input reversals per regulator period "
+        "(0..1].")] = 0.1,
+    strict: Annotated[bool, typer.Option(
+        "--strict", help="Exit 1 when a check fails (default: exit 0 whatever the "
+        "checks say).")] = False,
 ) -> None:
     """Simulate the closed loop (multibody + DC drives + sampled regulators) and save it."""
     from manipcad.model.load import load_robot
@@ -169,6 +210,11 @@ def simulate(
     from manipcad.trajectories import load_trajectory
 
     check_numbers(dt, t_end, every, OPTION_NAMES)  # before anything is loaded
+    if accuracy is not None and not (math.isfinite(accuracy) and accuracy > 0):
+        raise InputError("--accuracy", "", f"must be > 0 rad (m), got {accuracy}")
+    for opt, v in (("--max-saturation", max_saturation), ("--max-chatter", max_chatter)):
+        if not (math.isfinite(v) and 0 < v <= 1):
+            raise InputError(opt, "", f"must be in (0, 1], got {v}")
     if payload is not None and not (math.isfinite(payload) and payload >= 0):
         raise InputError("--payload", "", f"must be >= 0 kg, got {payload}")
     from manipcad.workspace import Workspace, resolve_input
@@ -248,20 +294,35 @@ def simulate(
             err_console.print(f"[yellow]warning:[/] {w.message}", highlight=False,
                               soft_wrap=True)
     run["wall_time_s"] = wall
+    from manipcad.sim.checks import run_checks
+
+    checks = run_checks(res, arm, accuracy=accuracy, payload=payload,
+                        max_saturation=max_saturation, max_chatter=max_chatter)
+    res.checks = checks.to_dict()
+    run["checks"] = {"accuracy": accuracy, "max_saturation": max_saturation,
+                     "max_chatter": max_chatter, "verdict": checks.verdict}
     with err_console.status("writing the result..."):
         out = _store(space, res, out, inputs, arm, trajectory, regulator, run, force, csv=csv)
     doc = result_document(res, joint_types=arm.joint_types, inputs=inputs, run=run)
     doc["out"] = str(out)
+    failed = strict and checks.verdict == "fail"
     if as_json:
         typer.echo(json.dumps(doc, indent=2))
+        if failed:
+            raise typer.Exit(1)
         return
     console.print(metrics_table(doc))
+    console.print(checks_table(checks))
+    style = _VERDICT_STYLE[checks.verdict]
+    console.print(f"[{style}]{escape(checks.summary())}[/]", soft_wrap=True)
     console.print(f"simulated {t_end:g} s ({int(round(t_end / dt))} steps of {dt:g} s) in "
                   f"{wall:.3g} s wall (the first run compiles); wrote {out}/ (inputs/, "
                   + ("timeseries.csv, " if csv else "")
                   + f"timeseries.npz with every {every}. step, metrics.json, errors.png)"
                   + (f", indexed in the workspace {space.root}" if space is not None else ""),
                   highlight=False, soft_wrap=True)
+    if failed:
+        raise typer.Exit(1)
 
 
 def _store(space, res, out, inputs, arm, trajectory, regulators, run, force, *,

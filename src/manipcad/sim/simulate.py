@@ -76,6 +76,10 @@ class SimulationResult:
             estimator and the model's payload when given).
         payload_estimate: with ``estimator=``: (M, 2), the time (s) and the online payload
             estimate (kg) after each of the estimator's samples; else None.
+        checks: the run's checks against every rating, ``{joint: {check: {value, limit,
+            unit, verdict}}}`` (:meth:`manipcad.sim.checks.RunChecks.to_dict`), once a
+            caller has made them (``manipcad simulate``, ``verify``); else None. Saved in
+            metrics.json.
     """
 
     t: np.ndarray
@@ -92,6 +96,7 @@ class SimulationResult:
     metrics: dict = field(default_factory=dict)
     joint_types: tuple[str, ...] = ()
     payload_estimate: np.ndarray | None = None
+    checks: dict | None = None
 
     @property
     def units(self) -> dict[str, str]:

@@ -10,7 +10,9 @@
     DIR/timeseries.csv    the same as text with units in the header
                           ("waist.q [rad]"); only with ``csv=True`` (the
                           workspace writes it on export, :func:`write_csv`)
-    DIR/metrics.json      status, robot, settings, per-joint metrics and their units
+    DIR/metrics.json      status, robot, settings, per-joint metrics and their units, and the
+                          run checks {joint: {check: {value, limit, unit, verdict}}} when
+                          made (docs/checks.md)
     DIR/errors.png        the tracking errors over time, one panel per joint
 
 How much is stored is set by the run's ``record_every`` (see
@@ -135,6 +137,8 @@ def result_document(result, *, joint_types: Sequence[str] | None = None,
     }
     if message:
         doc["message"] = message
+    if getattr(result, "checks", None):
+        doc["checks"] = result.checks
     if run:
         doc["run"] = dict(run)
     if inputs:
@@ -662,7 +666,8 @@ def load_result(out_dir: str | Path):
         t=arrays["t"], q=arrays["q"], qd=arrays["qd"], q_ref=arrays["q_ref"],
         qd_ref=arrays["qd_ref"], u=arrays["u"], current=arrays["current"], tau=arrays["tau"],
         joint_names=tuple(str(s) for s in arrays["joint_names"]), robot=doc.get("robot", ""),
-        settings=doc.get("settings", {}), metrics=doc.get("metrics", {}))
+        settings=doc.get("settings", {}), metrics=doc.get("metrics", {}),
+        checks=doc.get("checks") if isinstance(doc.get("checks"), dict) else None)
     return res, doc
 
 

@@ -239,6 +239,33 @@ def _quiet(fn, *args):
         return fn(*args)
 
 
+def check_metrics(checks) -> dict[tuple[str, str], float]:
+    """The indexed figures of a result's run checks (metrics.json ``checks``): per joint,
+    ``fails`` and ``unknowns`` (how many of its checks fail or are unknown) and
+    ``check_NAME``, each check's value (its unit in docs/checks.md); nothing for a
+    result without checks.
+
+    Example:
+        >>> check_metrics({"elbow": {"saturation": {"value": 1.0, "limit": 0.02, "unit": "-",
+        ...                                         "verdict": "fail"}}})
+        {('elbow', 'fails'): 1.0, ('elbow', 'unknowns'): 0.0, ('elbow', 'check_saturation'): 1.0}
+    """
+    out: dict[tuple[str, str], float] = {}
+    if not isinstance(checks, dict):
+        return out
+    for joint, per in checks.items():
+        if not isinstance(per, dict):
+            continue
+        verdicts = [c.get("verdict") for c in per.values() if isinstance(c, dict)]
+        out[(joint, "fails")] = float(verdicts.count("fail"))
+        out[(joint, "unknowns")] = float(verdicts.count("unknown"))
+        for name, c in per.items():
+            v = c.get("value") if isinstance(c, dict) else None
+            if isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v):
+                out[(joint, f"check_{name}")] = float(v)
+    return out
+
+
 def result_metrics(doc: dict[str, Any], res) -> dict[tuple[str, str], float]:
     """The indexed metrics of a result: (joint, metric) -> value, and (``*``, metric)
     the largest over the joints (SI units: :data:`manipcad.workspace.where.METRICS`).
@@ -267,6 +294,7 @@ def result_metrics(doc: dict[str, Any], res) -> dict[tuple[str, str], float]:
         for metric, arr in extra.items():
             if arr is not None and math.isfinite(float(arr[j])):
                 out[(name, metric)] = float(arr[j])
+    out.update(check_metrics(doc.get("checks")))
     metrics = {m for (_, m) in out}
     for m in metrics:
         vals = [v for (j, mm), v in out.items() if mm == m]

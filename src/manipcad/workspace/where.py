@@ -4,7 +4,13 @@ Grammar (case-insensitive ``and``; no ``or``, no parentheses)::
 
     FILTER  := CLAUSE ("and" CLAUSE)*
     CLAUSE  := METRIC ["[" JOINT "]"] OP NUMBER  |  "status" ("=" | "!=") WORD
+             | "verdict" ["[" JOINT "]"] ("=" | "!=") ("pass" | "fail" | "unknown")
     OP      := "<" | "<=" | ">" | ">=" | "=" | "==" | "!="
+
+``verdict`` is the run checks' verdict (docs/checks.md): ``fail`` when a check fails,
+``unknown`` when none fails and one is unknown, ``pass`` otherwise; a result stored
+without checks has none and matches neither. ``fails``/``unknowns`` count a joint's
+failed/unknown checks, ``check_NAME`` is a check's value (``check_saturation>0.05``).
 
 ``max_error<1e-3`` tests the largest value over the joints (the ``*`` row of
 the index); ``max_error[elbow]<1e-3`` one joint. Metric names come from a
@@ -19,6 +25,7 @@ import re
 from dataclasses import dataclass
 
 from manipcad.errors import InputError
+from manipcad.sim.checks import CHECKS
 
 #: metric name -> (unit, meaning); per joint and, as the largest over the joints, "*"
 METRICS: dict[str, tuple[str, str]] = {
@@ -36,7 +43,13 @@ METRICS: dict[str, tuple[str, str]] = {
     "peak_power": ("W", "largest |tau · qd| (mechanical power at the joint)"),
     "samples": ("1", "stored samples (all joints)"),
     "t_final": ("s", "last stored time (all joints)"),
+    "fails": ("1", "how many run checks fail"),
+    "unknowns": ("1", "how many run checks are unknown"),
+    **{f"check_{k}": (v[1] if v[1] == v[2] else f"{v[1]}|{v[2]}", f"run check: {v[0]}")
+       for k, v in CHECKS.items()},
 }
+#: the run checks' verdicts a ``verdict`` clause takes
+VERDICTS = ("pass", "fail", "unknown")
 
 #: operator text -> SQL (the only SQL text derived from the user's filter)
 OPERATORS = {"<": "<", "<=": "<=", ">": ">", ">=": ">=", "=": "=", "==": "=", "!=": "!="}
@@ -82,6 +95,13 @@ def parse_where(text: str, source: str = "--where") -> list[Clause]:
                 raise InputError(source, "", f"{part!r}: status takes = or != and a word")
             out.append(Clause("status", "*", OPERATORS[op], value.strip("'\"")))
             continue
+        if field == "verdict":
+            word = value.strip("'\"").lower()
+            if op not in ("=", "==", "!=") or word not in VERDICTS:
+                raise InputError(source, "", f"{part!r}: verdict takes = or != and one of "
+                                 f"{', '.join(VERDICTS)}")
+            out.append(Clause("verdict", joint, OPERATORS[op], word))
+            continue
         if field not in METRICS:
             raise InputError(source, "", f"{part!r}: unknown metric {field!r}; metrics: "
                              + ", ".join(METRICS) + ", status")
@@ -109,6 +129,21 @@ def where_sql(clauses: list[Clause]) -> tuple[str, list[object]]:
         if c.field == "status":
             parts.append(f"items.status {op} ?")
             params.append(c.value)
+            continue
+        if c.field == "verdict":
+            # from the indexed counts: fail = some check fails; unknown = none fails and
+            # one is unknown; pass = none fails or is unknown (a result with checks only)
+            cond = {"fail": [("fails", ">", 0.0)],
+                    "unknown": [("fails", "=", 0.0), ("unknowns", ">", 0.0)],
+                    "pass": [("fails", "=", 0.0), ("unknowns", "=", 0.0)]}[c.value]
+            sub = " AND ".join(
+                f"EXISTS (SELECT 1 FROM metrics m WHERE m.item_id = items.id AND "
+                f"m.joint = ? AND m.metric = ? AND m.value {o} ?)" for _, o, _ in cond)
+            parts.append(f"({sub})" if op == "=" else
+                         f"(EXISTS (SELECT 1 FROM metrics m WHERE m.item_id = items.id AND "
+                         f"m.metric = 'fails') AND NOT ({sub}))")
+            for metric, _, v in cond:
+                params += [c.joint, metric, v]
             continue
         parts.append("EXISTS (SELECT 1 FROM metrics m WHERE m.item_id = items.id AND "
                      f"m.joint = ? AND m.metric = ? AND m.value {op} ?)")

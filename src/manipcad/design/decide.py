@@ -4,7 +4,8 @@ Each run of the sweep has per joint a set of checks (:mod:`manipcad.design.judge
 :func:`evaluate` summarizes one method on one joint over its runs: passed everywhere or
 not, the worst tracking error and the case it happens in, every failing case with the
 checks it fails. :func:`choose` takes, per joint, the passing method of least realization
-complexity; :func:`closest` the method that comes nearest (the smallest worst ratio of
+complexity; :func:`closest` the method that comes nearest (:func:`badness`: one that
+fails no check but tracking before one that does; then the smallest worst ratio of
 tracking error to accuracy, a diverged run counting as infinite; then the fewest failed
 cases; then the least complexity) for a design that cannot meet the requirements.
 """
@@ -118,8 +119,20 @@ def choose(evaluations: Mapping[str, Mapping[str, Evaluation]],
 
 
 def badness(e: Evaluation, accuracy: float) -> tuple:
-    """The sort key of :func:`closest` (smaller is nearer to meeting the requirements)."""
-    return (e.worst_error / accuracy if accuracy > 0 else e.worst_error, len(e.failing))
+    """The sort key of :func:`closest` (smaller is nearer to meeting the requirements):
+    first whether a check other than tracking fails in some case (a rating the drive
+    cannot keep, which no tuning of the tracking cures), then the worst ratio of
+    tracking error to accuracy, then the number of failing cases.
+
+    Example:
+        >>> over = Evaluation(False, 1, 2e-3, "a", [("a", ["current_rms 5 > 3 A"])])
+        >>> slow = Evaluation(False, 1, 5e-3, "a", [("a", ["tracking 0.005 > 0.001 rad"])])
+        >>> badness(slow, 1e-3) < badness(over, 1e-3)
+        True
+    """
+    rating = any(not w.startswith("tracking") for _, whys in e.failing for w in whys)
+    ratio = e.worst_error / accuracy if accuracy > 0 else e.worst_error
+    return (rating, ratio, len(e.failing))
 
 
 def closest(evaluations: Mapping[str, Evaluation], costs: Mapping[str, float],
@@ -127,8 +140,8 @@ def closest(evaluations: Mapping[str, Evaluation], costs: Mapping[str, float],
     """The method of one joint that comes nearest to passing (see the module docstring).
 
     Example:
-        >>> a = Evaluation(False, 2, 3e-3, "x", [("x", ["t"])])
-        >>> b = Evaluation(False, 2, 2e-3, "y", [("y", ["t"]), ("z", ["t"])])
+        >>> a = Evaluation(False, 2, 3e-3, "x", [("x", ["tracking"])])
+        >>> b = Evaluation(False, 2, 2e-3, "y", [("y", ["tracking"]), ("z", ["tracking"])])
         >>> closest({"lqr": a, "vss": b}, {"lqr": 1.0, "vss": 2.0}, 1e-3)
         'vss'
     """

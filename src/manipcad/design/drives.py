@@ -121,6 +121,8 @@ def next_drive_up(robot: Robot, joint: int, trajectories, payloads, *, makers=No
                                 joints=[joint], verify=False)
     except (ManipcadError, InputError) as exc:
         return None, f"the catalogue has no feasible drive: {exc}"
+    except ImportError as exc:            # the selection's catalogue could not be loaded
+        return None, f"the catalogue selection could not run: {exc}"
     ch = res.joints[0]
     for cand in (ch.chosen, *ch.alternatives):
         cap = peak_joint_torque(cand.part.drive)

@@ -1,10 +1,12 @@
-"""Every run of the design sweep judged by the run checks, per joint.
+"""Every run of the design sweep judged by every run check, per joint.
 
-:func:`judge` is the one place the design reads a run's verdicts: a mapping
-``{joint: {check: {"value", "limit", "unit", "verdict"}}}`` with the verdict "pass",
-"fail" or "unknown". The tracking check compares the largest tracking error of a
-designed joint, max |q* − q| over the run's kept samples (the same number
-``manipcad simulate`` reports as ``max_error``), with the accuracy asked.
+:func:`judge` is the one place the design reads a run's verdicts: the run checks of
+:func:`manipcad.sim.checks.run_checks` (tracking against the accuracy asked on the
+designed joints; amplifier saturation, chattering, RMS and peak current, motor speed,
+the gear's torques and speeds, the joint's position, velocity and effort limits on
+every joint; docs/checks.md) as a mapping ``{joint: {check: {"value", "limit", "unit",
+"verdict"}}}`` with the verdict "pass", "fail", "unknown" or "n/a" (no such limit,
+counted as passed).
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-PASS, FAIL, UNKNOWN = "pass", "fail", "unknown"
+from manipcad.sizing.limits import FAIL, PASS, UNKNOWN
 
 
 def tracking_check(max_error: float, accuracy: float, unit: str) -> dict:
@@ -33,39 +35,36 @@ def judge(result, robot, *, accuracy: float, judged: Sequence[int]) -> dict[str,
 
     Args:
         result: the :class:`~manipcad.sim.SimulationResult`.
-        robot: the simulated robot (its drives' ratings).
+        robot: the simulated robot (payload included; its drives' ratings).
         accuracy: the largest tracking error asked, rad or m.
-        judged: the indices of the joints whose tracking is designed (the others are
-            judged by the rating checks only).
+        judged: the indices of the joints whose tracking is designed (the others get
+            every check but tracking).
 
     Returns:
-        {joint name: {check: {"value", "limit", "unit", "verdict"}}}.
+        {joint name: {check: {"value", "limit", "unit", "verdict"}}} (value and limit
+        None where not finite).
     """
-    out: dict[str, dict] = {}
-    metrics = result.metrics
-    for j, name in enumerate(robot.joint_names):
-        checks: dict[str, dict] = {}
-        if j in judged:
-            unit = "m" if robot.joint_types[j] == "prismatic" else "rad"
-            checks["tracking"] = tracking_check(metrics[name]["max_error"], accuracy, unit)
-        out[name] = checks
-    return out
+    from manipcad.sim.checks import run_checks
+
+    acc = {robot.joint_names[j]: float(accuracy) for j in judged}
+    return run_checks(result, robot, accuracy=acc).to_dict()
 
 
 def verdict(checks: dict[str, dict], *, strict: bool = False) -> str:
-    """One joint's verdict over its checks: fail if any fails, else unknown if any is
-    unknown, else pass (``strict``: unknown counts as fail).
+    """One joint's verdict over its checks (:func:`manipcad.sim.checks.worst`: fail if
+    any fails, else unknown if any is unknown, else pass; "n/a" passes); ``strict``:
+    unknown counts as fail.
 
     Example:
         >>> verdict({"a": {"verdict": "pass"}, "b": {"verdict": "unknown"}})
         'unknown'
+        >>> verdict({"a": {"verdict": "n/a"}, "b": {"verdict": "unknown"}}, strict=True)
+        'fail'
     """
-    vs = [c.get("verdict") for c in checks.values()]
-    if FAIL in vs or (strict and UNKNOWN in vs):
-        return FAIL
-    if UNKNOWN in vs:
-        return UNKNOWN
-    return PASS
+    from manipcad.sim.checks import worst
+
+    v = worst(c.get("verdict") for c in checks.values())
+    return FAIL if strict and v == UNKNOWN else v
 
 
 def failed_checks(checks: dict[str, dict]) -> list[str]:
@@ -83,7 +82,8 @@ def failed_checks(checks: dict[str, dict]) -> list[str]:
         if v is None:
             out.append(f"{name} (no value: the run diverged or could not run)")
         else:
-            out.append(f"{name} {v:.3g} > {lim:.3g} {c.get('unit', '')}".rstrip())
+            limit = "-" if lim is None else f"{lim:.3g}"
+            out.append(f"{name} {v:.3g} > {limit} {c.get('unit', '')}".rstrip())
     return out
 
 

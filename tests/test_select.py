@@ -31,18 +31,41 @@ def _traj(n: int, scale: float = 1.0):
 
 
 def _use(monkeypatch, motors: set[str]):
-    """Select from the built-in parts of these motors only (direct and with every gear)."""
-    parts = tuple(p for p in S.builtin_parts(False) if p.motor in motors)
-    table = S.CandidateTable.from_parts(parts)
-    monkeypatch.setattr(S, "TABLE_SOURCE", lambda prismatic=False: table)
-    return parts
+    """Select from the catalogue's candidates of these motors only; returns their parts."""
+    table = S.candidate_table(False).take(np.isin(S.candidate_table(False).motor,
+                                                  sorted(motors)))
+    monkeypatch.setattr(S, "TABLE_SOURCE", lambda prismatic=False, ws=None: table)
+    return [table.part(i) for i in range(len(table))]
 
 
 @pytest.fixture
 def small_catalogue(monkeypatch):
-    """Three motors, each direct and with every built-in rotary gear."""
-    return _use(monkeypatch, {"maxon_ec45flat_411812", "maxon_re40_148867",
-                              "maxon_re65_353297"})
+    """Two maxon brushless motors of the MGDB (MM_614949: 24 V, 0.36 kg; MM_402687: 48 V,
+    0.14 kg), each direct and with every gear the catalogue pairs with it."""
+    return _use(monkeypatch, {"MM_614949", "MM_402687"})
+
+
+def test_arrays_are_the_library_drives():
+    """The candidate arrays hold the numbers of the Drive the parts library composes
+    for each pair (manipcad.catalog.drive_fields), and rating_table's ratings."""
+    from manipcad.sizing.limits import rating_table
+
+    t = S.candidate_table(False)
+    rng = np.random.default_rng(1)
+    rows = np.concatenate([rng.choice(len(t), 150, replace=False),
+                           np.flatnonzero(t.gear_type == "harmonic")[:25],
+                           np.flatnonzero(t.gear_type == "direct")[:25]])
+    for i in rows:
+        d = t.drive_of(i)
+        rated, geared = rating_table((d,))
+        assert geared[0] == t.geared[i]
+        for k, v in rated.items():
+            assert t.rated[k][i] == pytest.approx(v[0], rel=1e-12, nan_ok=True), (t.label(i), k)
+        for k in ("J", "ratio", "k_v", "R", "L", "k_m", "k_w", "efficiency"):
+            assert getattr(t.arrays, k)[i, 0] == pytest.approx(float(getattr(d, k)), rel=1e-12,
+                                                             nan_ok=True), (t.label(i), k)
+        assert (t.arrays.M_f[0][i, 0], t.arrays.M_f[1][i, 0]) == d.M_f
+    assert len(S.candidate_table(True)) >= 1 and not (S.candidate_table(True).gear == "").any()
 
 
 def _feasible_by_size(robot, j, drive, masses, trajs, payloads, need):
@@ -214,7 +237,7 @@ def test_examples_select_then_size_passes(which, tmp_path):
     pick = EXAMPLES / which / "pick.yaml"
     res = runner.invoke(app, ["select", str(EXAMPLES / which / f"{which}_bare.yaml"), "-t",
                               str(pick), "--payload-range", "0,0.5", "--out", str(out),
-                              "--json"])
+                              "--dt", "2e-3", "--json"])
     assert res.exit_code == 0, res.output
     doc = json.loads(res.output)
     assert doc["ok"] and doc["verified"] and doc["iterations"] >= 2

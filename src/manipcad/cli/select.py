@@ -89,11 +89,15 @@ def select(
     allow_unknown: Annotated[bool, typer.Option(
         "--allow-unknown", help="Accept a candidate with a check that cannot be made "
         "(a rating or the gear efficiency unknown).")] = False,
+    count_all: Annotated[bool, typer.Option(
+        "--count-all", help="Evaluate every candidate, so that the feasible counts are "
+        "complete (else the search stops after the winner and five alternatives).")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
     force: Annotated[bool, typer.Option("--force", help="Replace an existing --out file.")]
     = False,
     ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Workspace: the robot and trajectories may be its item names.")] = None,
+        "--ws", help="Workspace: the robot and trajectories may be its item names, and its "
+        "motor and gear files join the catalogue.")] = None,
 ) -> None:
     """Choose each joint's motor and gear from the catalogue: the lightest (or least
     inertia, or least power) drive that passes every size check on every trajectory at
@@ -148,7 +152,8 @@ def select(
             sel = select_drives(arm, trajs, payload=payload, payload_range=prange,
                                 objective=objective, margin=margin, makers=_split(makers),
                                 gear_types=_split(gear_types), joints=picked, mounts=mounts,
-                                allow_unknown=allow_unknown, dt=dt)
+                                allow_unknown=allow_unknown, dt=dt, count_all=count_all,
+                                ws=None if space is None else space.root)
     except NoFeasibleDrive as exc:
         if as_json:
             typer.echo(json.dumps({"ok": False, "joint": exc.joint, "check": exc.check,
@@ -179,19 +184,27 @@ def print_selection(sel, trajectories: list[str]) -> None:
     t = Table(box=box.SIMPLE_HEAD, title=(
         f"{escape(sel.robot.name)}: drives by least {sel.objective} ({unit}), margin "
         f"{sel.margin:g}, payloads {payloads} kg, along {escape(', '.join(trajectories))}"),
-        caption=(f"fixed point of the drive masses in {sel.iterations} sweeps; "
+        caption=("binding: the check with the least margin (1 - required/rating); "
+                 "candidates: feasible / evaluated on the motor checks / considered; "
+                 f"drive masses on the link before each joint, fixed point in "
+                 f"{sel.iterations} sweeps; "
                  + ("verified by size's checks on every case" if sel.verified
                     else "not verified")))
-    for col, just in (("joint", "left"), ("chosen", "left"), ("ratio", "right"),
-                      ("mass kg", "right"), (sel.objective, "right"), ("binding", "left"),
-                      ("margin", "right"), ("feasible", "right"), ("mounted on", "left")):
+    cols = [("joint", "left"), ("chosen", "left"), ("i_r", "right"), ("kg", "right")]
+    if sel.objective != "mass":
+        cols.append((unit, "right"))
+    cols += [("binding", "left"), ("margin", "right"), ("candidates", "right")]
+    for col, just in cols:
         t.add_column(col, justify=just, overflow="fold")
     for c in sel.joints:
         ch = c.chosen
-        t.add_row(escape(c.joint), escape(ch.label), f"{ch.part.drive.ratio:.4g}",
-                  f"{ch.part.mass:.3g}", f"{ch.objective:.4g}", ch.binding or "-",
-                  _pct(ch.binding_margin), f"{c.feasible}/{c.considered}",
-                  escape(c.mount_link or "base"))
+        row = [escape(c.joint), escape(ch.label), f"{ch.part.drive.ratio:.4g}",
+               f"{ch.part.mass:.3g}"]
+        if sel.objective != "mass":
+            row.append(f"{ch.objective:.3g}")
+        row += [ch.binding or "-", _pct(ch.binding_margin),
+                f"{c.feasible}/{c.evaluated}/{c.considered}"]
+        t.add_row(*row)
     console.print(t)
     for c in sel.joints:
         alt = Table(box=box.SIMPLE, title=f"{escape(c.joint)}: next alternatives and the "

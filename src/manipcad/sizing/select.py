@@ -65,7 +65,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -114,6 +113,8 @@ _SERIES = ("continuous", "peak", "voltage")
 _BLOCK = 200_000
 #: samples of the lower-bound pass (every m-th sample of the grid, and the peaks)
 _SCREEN_SAMPLES = 256
+#: candidates per step of the evaluation in objective order
+_CHUNK = 256
 #: how many alternatives and rejected candidates a report lists per joint
 N_ALTERNATIVES = 5
 #: most sweeps of the fixed point before giving up
@@ -245,6 +246,24 @@ class CandidateTable:
                                   str(self.gear_type[i]), float(self.mass[i]), self.drive_of(i))
         return self._parts[i]
 
+    def take(self, rows) -> CandidateTable:
+        """The candidates at ``rows`` (indices or a boolean mask) as a table of their own.
+
+        Example:
+            >>> t = candidate_table()
+            >>> sub = t.take(t.motor == "MM_597974")
+            >>> set(sub.motor), len(sub) > 1
+            ({'MM_597974'}, True)
+        """
+        rows = np.flatnonzero(rows) if np.asarray(rows).dtype == bool else np.asarray(rows)
+        parent = self.drive_of
+        return CandidateTable(
+            motor=self.motor[rows], gear=self.gear[rows], maker=self.maker[rows],
+            gear_type=self.gear_type[rows], mass=self.mass[rows], ratio=self.ratio[rows],
+            J=self.J[rows], arrays=self.arrays.take(rows),
+            rated={k: v[rows] for k, v in self.rated.items()}, geared=self.geared[rows],
+            drive_of=lambda i: parent(int(rows[i])))
+
     def label(self, i: int) -> str:
         m, g = str(self.motor[i]), str(self.gear[i])
         return f"{m} + {g}" if g else f"{m} (direct)"
@@ -267,73 +286,111 @@ class CandidateTable:
                    geared=geared, drive_of=lambda i: parts[i].drive)
 
 
-def _builtin_maker(name: str) -> str:
-    return name.split("_", 1)[0].lower()
+def _column(df, name: str, rows: np.ndarray) -> np.ndarray:
+    return df[name].to_numpy(dtype=float)[rows]
 
 
-@lru_cache(maxsize=8)
-def builtin_parts(prismatic: bool = False) -> tuple[Part, ...]:
-    """Every candidate drive of the built-in parts (``src/manipcad/model/catalog``).
+def _finite_or_nan(x: np.ndarray) -> np.ndarray:
+    """A rating the data sheet does not bound (inf) is not known as a number: nan,
+    as the parts library's composition leaves it out (:func:`manipcad.catalog.compose_gears`)."""
+    return np.where(np.isfinite(x), x, np.nan)
 
-    Pairs: every motor with every gear whose output suits the joint (rotary
-    gears for a revolute joint, screws, racks and belts for a prismatic one;
-    the built-in parts carry no compatibility table, so the checks decide),
-    and every motor alone as a direct drive on a revolute joint. Built as a
-    robot file's ``drive: {motor: M, gear: G}`` is (:func:`~manipcad.model.yaml_robot.build_drive`).
+
+def catalogue_table(prismatic: bool = False, ws: Any = None) -> CandidateTable:
+    """Every candidate drive of the parts library (:mod:`manipcad.catalog`) for a
+    revolute (or prismatic) joint, as arrays.
+
+    The candidates: each compatible (motor, gear) pair of
+    :func:`manipcad.catalog.compatible_pairs` (the makers' tables, and the
+    library's adapter rule for gears without one) whose gear suits the joint
+    (rotary gears for a revolute joint; screws, racks and belts for a prismatic
+    one), and each motor alone as a direct drive on a revolute joint. The
+    numbers are those of the Drive a robot file naming the pair gets
+    (:func:`manipcad.catalog.drive_fields`) for a single gear: J = J_motor +
+    J_gear (kg·m², motor shaft), i_r = direction·ratio, the gear's efficiency,
+    its output ratings (N·m) and input-speed limits (rad/s) as printed, the
+    motor's ratings; the voltage limit is the rated voltage. Each reported
+    candidate's Drive is built by ``drive_fields`` itself (and the tests hold
+    the arrays to it).
 
     Args:
         prismatic: candidates for a prismatic joint.
+        ws: a workspace folder whose motor and gear files join the library.
 
     Returns:
-        The parts, in name order.
+        :class:`CandidateTable`.
 
     Example:
-        >>> parts = builtin_parts()
-        >>> any(p.gear == "" for p in parts), all(p.drive.ratio != 0 for p in parts)
+        >>> t = catalogue_table()
+        >>> len(t) > 10000, t.part(0).drive.ratio == t.ratio[0]
         (True, True)
     """
-    from manipcad.model.yaml_robot import (
-        DriveSpec,
-        _catalog_names,
-        build_drive,
-        load_gear,
-        load_motor,
-    )
+    from manipcad.catalog import compatible_pairs, drive_fields, gears, motors
 
-    out = []
-    gears = [(g, load_gear(g)) for g in _catalog_names("gears")]
-    for m in _catalog_names("motors"):
-        spec = load_motor(m)
-        m_mass = math.nan if spec.mass is None else float(spec.mass)
-        if not prismatic:
-            d = build_drive(DriveSpec(motor=m), "catalog", "drive")
-            out.append(Part(m, "", _builtin_maker(m), DIRECT, m_mass, d))
-        for g, gs in gears:
-            if gs.linear != prismatic:
-                continue
-            d = build_drive(DriveSpec(motor=m, gear=[g]), "catalog", "drive")
-            g_mass = math.nan if gs.mass is None else float(gs.mass)
-            out.append(Part(m, g, _builtin_maker(m), gs.type, m_mass + g_mass, d))
-    return tuple(out)
+    m = motors(ws=ws)
+    # a part without the numbers a Drive needs (rotor or gear inertia, a positive
+    # resistance) cannot be modelled: left out
+    J_m, R_m = m["J"].to_numpy(float), m["R"].to_numpy(float)
+    m = m[np.isfinite(J_m) & (J_m >= 0) & (np.isnan(R_m) | (R_m > 0))]
+    g = gears(ws=ws)
+    J_g = g["J"].to_numpy(float)
+    g = g[(g["linear"] == bool(prismatic)).to_numpy() & np.isfinite(J_g) & (J_g >= 0)]
+    pairs = compatible_pairs(m, g)
+    mi = m.index.get_indexer(pairs["motor"])
+    gi = g.index.get_indexer(pairs["gear"])
+    direct = np.arange(len(m)) if not prismatic else np.zeros(0, dtype=int)
+    M = np.concatenate([mi, direct])
+    P, D = len(mi), len(direct)
+    nan_d = np.full(D, np.nan)
+
+    def gear_col(name: str) -> np.ndarray:
+        return np.concatenate([_column(g, name, gi), nan_d])
+
+    ratio = np.concatenate([g["direction"].to_numpy(float)[gi] * g["ratio"].to_numpy(float)[gi],
+                            np.ones(D)])
+    J = _column(m, "J", M) + np.concatenate([_column(g, "J", gi), np.zeros(D)])
+    cols = {"J": J, "ratio": ratio, "k_v": _column(m, "k_v", M), "R": _column(m, "R", M),
+            "L": _column(m, "L", M), "k_m": _column(m, "k_m", M), "k_w": _column(m, "k_w", M),
+            "efficiency": np.concatenate([_column(g, "efficiency", gi), np.ones(D)]),
+            "M_f+": _column(m, "M_f", M), "M_f-": _column(m, "M_f", M)}
+    rated = {"continuous": _column(m, "rated_torque", M), "peak": _column(m, "peak_torque", M),
+             "speed": _column(m, "max_speed", M), "voltage": _column(m, "rated_voltage", M),
+             "gear_continuous": _finite_or_nan(gear_col("max_continuous_torque")),
+             "gear_peak": _finite_or_nan(gear_col("max_intermittent_torque")),
+             "gear_speed": _finite_or_nan(gear_col("max_input_speed")),
+             "gear_average": _finite_or_nan(gear_col("max_average_torque")),
+             "gear_average_speed": _finite_or_nan(gear_col("max_average_input_speed"))}
+    motor_names = m.index.to_numpy(dtype=object)[M]
+    gear_names = np.concatenate([g.index.to_numpy(dtype=object)[gi],
+                                 np.full(D, "", dtype=object)])
+    mass = _column(m, "mass", M) + np.concatenate([_column(g, "mass", gi), np.zeros(D)])
+
+    def drive_of(i: int) -> Drive:
+        gear = str(gear_names[i])
+        return Drive(**drive_fields(str(motor_names[i]), gear if gear else ()))
+
+    return CandidateTable(
+        motor=motor_names, gear=gear_names,
+        maker=np.array([str(x).lower() for x in m["maker"].to_numpy()[M]], dtype=object),
+        gear_type=np.concatenate([g["type"].to_numpy(dtype=object)[gi],
+                                  np.full(D, DIRECT, dtype=object)]),
+        mass=mass, ratio=ratio, J=J, arrays=_Arrays(cols), rated=rated,
+        geared=np.concatenate([np.ones(P, dtype=bool), np.zeros(D, dtype=bool)]),
+        drive_of=drive_of)
 
 
-def builtin_table(prismatic: bool = False) -> CandidateTable:
-    """The candidate table of :func:`builtin_parts`."""
-    return CandidateTable.from_parts(builtin_parts(prismatic))
+#: where the candidates come from: a function (prismatic, ws) -> CandidateTable
+TABLE_SOURCE: Callable[..., CandidateTable] = catalogue_table
+
+_TABLES: dict[tuple, CandidateTable] = {}
 
 
-#: where the candidates come from: a function (prismatic) -> CandidateTable
-TABLE_SOURCE: Callable[[bool], CandidateTable] = builtin_table
-
-_TABLES: dict[tuple[int, bool], CandidateTable] = {}
-
-
-def candidate_table(prismatic: bool = False) -> CandidateTable:
+def candidate_table(prismatic: bool = False, ws: Any = None) -> CandidateTable:
     """The candidate drives of the parts library for a revolute (or prismatic) joint,
-    built once per source."""
-    key = (id(TABLE_SOURCE), prismatic)
+    built once per source and workspace (:func:`catalogue_table`)."""
+    key = (id(TABLE_SOURCE), prismatic, None if ws is None else str(ws))
     if key not in _TABLES:
-        _TABLES[key] = TABLE_SOURCE(prismatic)
+        _TABLES[key] = TABLE_SOURCE(prismatic, ws)
     return _TABLES[key]
 
 
@@ -406,9 +463,15 @@ class JointChoice:
         alternatives: the next feasible candidates by objective (up to 5).
         rejected: the candidates with a smaller objective than the winner that
             fail, least objective first (up to 5), each with its reason.
-        considered: how many candidates were checked; feasible: how many pass.
+        considered: how many candidates were checked; feasible: how many pass
+            (among those evaluated: all unless ``skipped``).
         mount: "before" or "base"; mount_link: the link carrying the drive's
             mass ("" for the base); drive_mass: the winner's mass, kg.
+        evaluated: candidates whose motor torque and voltage checks were made
+            (the others failed a gear or speed check first, or were skipped).
+        skipped: candidates that pass the gear and speed checks but were not
+            evaluated further, being heavier (larger objective) than the winner
+            and its alternatives (``count_all`` evaluates them).
     """
 
     joint: str
@@ -420,12 +483,15 @@ class JointChoice:
     feasible: int
     mount: str
     mount_link: str
+    evaluated: int = 0
+    skipped: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         return {"joint": self.joint, "chosen": self.chosen.to_dict(),
                 "alternatives": [c.to_dict() for c in self.alternatives],
                 "rejected": [c.to_dict() for c in self.rejected],
                 "considered": self.considered, "feasible": self.feasible,
+                "evaluated": self.evaluated, "skipped": self.skipped,
                 "mount": self.mount, "mount_link": self.mount_link or None,
                 "drive_mass": self.chosen.part.mass}
 
@@ -542,7 +608,8 @@ def _columns(motion: SampledMotion, j: int) -> tuple[np.ndarray, ...]:
 
 
 def _series_requirements(arr: _Arrays, motion: SampledMotion, j: int,
-                         rows: np.ndarray | None = None) -> dict[str, np.ndarray]:
+                         rows: np.ndarray | None = None, *, power: bool = True
+                         ) -> dict[str, np.ndarray]:
     """RMS and peak motor torque (N·m), peak armature voltage (V) and mean
     electrical power (W) of each candidate on one motion: ``size``'s motor model
     (:func:`joint_torque`, :func:`motor_series`) broadcast over the candidates.
@@ -568,7 +635,8 @@ def _series_requirements(arr: _Arrays, motion: SampledMotion, j: int,
         out["voltage"][sl] = peak(s.voltage, axis=1)
         if rows is None:
             out["continuous"][sl] = time_rms(s.torque, t, axis=1)
-            out["power"][sl] = time_mean(s.voltage * s.current, t, axis=1)
+            out["power"][sl] = (time_mean(s.voltage * s.current, t, axis=1) if power
+                                else np.nan)
         else:
             out["continuous"][sl] = np.sqrt(np.square(s.torque) @ w)
             out["power"][sl] = np.nan
@@ -596,16 +664,21 @@ class _JointEval:
     objective: np.ndarray
     worst: np.ndarray               # least finite margin over the checks (nan: none)
     unknown_objective: np.ndarray
+    skipped: np.ndarray             # could be feasible, not evaluated: heavier than needed
 
 
 def _evaluate_joint(table: CandidateTable, idx: np.ndarray, motions: Sequence[SampledMotion],
-                    j: int, need: float, allow_unknown: bool, objective: str) -> _JointEval:
+                    j: int, need: float, allow_unknown: bool, objective: str,
+                    want: int | None = None) -> _JointEval:
     """Check the candidates ``idx`` on joint ``j`` over the motions (module docstring).
 
     Three passes, each on fewer candidates: the gear and speed checks from the
     joint's statistics (exact, O(C)); lower bounds of the motor torque and
     voltage requirements on a few hundred samples (a candidate that fails with
-    its lower bound fails); the full motor series of the rest."""
+    its lower bound fails); the full motor series of the rest. With ``want``
+    (and an objective known before the series: mass, rotor inertia) the last
+    two passes go through the candidates in objective order and stop once
+    ``want`` feasible ones are found (ties included): the rest are "skipped"."""
     r = np.abs(table.ratio[idx])
     C = idx.size
     rated = {k: v[idx] for k, v in table.rated.items()}
@@ -633,8 +706,11 @@ def _evaluate_joint(table: CandidateTable, idx: np.ndarray, motions: Sequence[Sa
         req[k] = np.full(C, np.nan)
     power = np.full(C, np.nan)
     bounded = np.zeros(C, dtype=bool)
-    sel = np.flatnonzero(series_ok)
-    if sel.size:
+    done = np.zeros(C, dtype=bool)
+
+    def run(sel: np.ndarray) -> None:
+        """Screen, then fully evaluate, the candidates at positions ``sel``."""
+        done[sel] = True
         arr = table.arrays.take(idx[sel])
         lower = {k: np.full(sel.size, -np.inf) for k in _SERIES}
         for mo in motions:
@@ -651,28 +727,53 @@ def _evaluate_joint(table: CandidateTable, idx: np.ndarray, motions: Sequence[Sa
         bounded[sel[out]] = True
         full = sel[~out]
         if full.size:
-            arr = table.arrays.take(idx[full])
+            arr = arr.take(~out)
             worst = {k: np.full(full.size, -np.inf) for k in (*_SERIES, "power")}
             for mo in motions:
-                s = _series_requirements(arr, mo, j)
+                s = _series_requirements(arr, mo, j, power=objective == "power")
                 for k in worst:
                     worst[k] = np.maximum(worst[k], s[k])
             for k in _SERIES:
                 req[k][full] = worst[k]
             power[full] = worst["power"]
+
+    eligible = np.flatnonzero(series_ok)
+    if objective == "power" or want is None:
+        run(eligible)
+    else:
+        value = (table.mass[idx] if objective == "mass"
+                 else table.J[idx] * table.ratio[idx] ** 2)[eligible]
+        order = eligible[np.argsort(value, kind="stable")]
+        value = np.sort(value, kind="stable")
+        pos, found, limit = 0, 0, math.inf
+        while pos < order.size and value[pos] <= limit:
+            stop = pos + _CHUNK
+            chunk = order[pos:stop]
+            chunk = chunk[value[pos:stop] <= limit]
+            run(chunk)
+            chk = check_rated({k: req[k][chunk] for k in _SERIES},
+                              {k: rated[k][chunk] for k in _SERIES}, geared[chunk])
+            good = ~bounded[chunk]
+            for k in _SERIES:
+                good &= _ok(chk[k], need, allow_unknown) | (allow_unknown & eta_unknown[chunk])
+            hits = np.flatnonzero(good)
+            if found < want <= found + hits.size:
+                limit = float(value[pos + hits[want - found - 1]])
+            found += hits.size
+            pos = stop
     series = check_rated({k: req[k] for k in _SERIES}, rated, geared)
     checks: dict[str, LimitCheck] = {}
     for name in ALL_LIMITS:
         c = series[name] if name in _SERIES else cheap[name]
         if name in _SERIES:
             st = np.array(c.status, dtype=object)
-            st[~series_ok] = "not evaluated"
+            st[~done] = "not evaluated"
             st[passing & eta_unknown] = UNKNOWN
             m = np.where(passing & eta_unknown, np.nan, c.margin)
             c = LimitCheck(c.name, c.description, c.unit, c.required, c.limit, m,
                            tuple(st.tolist()))
         checks[name] = c
-    ok = series_ok & ~bounded
+    ok = done & ~bounded
     for k in _SERIES:
         ok &= _ok(checks[k], need, allow_unknown)
     value = {"mass": table.mass[idx], "rotor_inertia": table.J[idx] * table.ratio[idx] ** 2,
@@ -682,15 +783,15 @@ def _evaluate_joint(table: CandidateTable, idx: np.ndarray, motions: Sequence[Sa
     finite = np.where(np.isfinite(margins), margins, np.inf)
     worst_m = finite.min(axis=0)
     worst_m[~np.isfinite(worst_m)] = np.nan
-    return _JointEval(idx=idx, checks=checks, evaluated=series_ok, bounded=bounded,
+    return _JointEval(idx=idx, checks=checks, evaluated=done, bounded=bounded,
                       ok=ok & ~unknown_obj, objective=value, worst=worst_m,
-                      unknown_objective=unknown_obj)
+                      unknown_objective=unknown_obj, skipped=series_ok & ~done)
 
 
 def _ok(check: LimitCheck, need: float, allow_unknown: bool) -> np.ndarray:
     """Per candidate: the check passes with the margin (``need`` = 1 - 1/M), is n/a,
     or is unknown and unknowns are allowed."""
-    st = np.array(check.status, dtype=object)
+    st = np.array(check.status)
     m = np.where(np.isfinite(check.margin), check.margin, -np.inf)
     good = ((st == PASS) & (m >= need)) | (st == NA)
     if allow_unknown:
@@ -739,23 +840,24 @@ def _failing_check(cand: Candidate, need: float) -> str:
 
 
 def _choose(table: CandidateTable, ev: _JointEval, name: str, j: int, need: float,
-            banned: set[str]) -> tuple[int, JointChoice | None]:
-    """The winner's position in ``ev.idx`` and the joint's report; raises
-    :class:`NoFeasibleDrive` when none is feasible."""
-    ok = ev.ok & np.array([table.label(i) not in banned for i in ev.idx], dtype=bool)
+            banned: set[int]) -> tuple[int, JointChoice | None]:
+    """The winner's position in ``ev.idx`` and the joint's report (``banned``: table
+    rows struck out); raises :class:`NoFeasibleDrive` when none is feasible."""
+    ok = ev.ok & ~np.isin(ev.idx, np.fromiter(banned, dtype=int, count=len(banned)))
     order = np.lexsort((-np.nan_to_num(ev.worst, nan=-np.inf),
                         np.where(np.isfinite(ev.objective), ev.objective, np.inf)))
-    feas = [k for k in order if ok[k]]
-    if not feas:
+    feas = order[ok[order]]
+    if not feas.size:
         raise _no_feasible(table, ev, name, need)
-    win = feas[0]
+    win = int(feas[0])
     alts = tuple(_candidate(table, ev, k, need) for k in feas[1:1 + N_ALTERNATIVES])
-    lighter = [k for k in order if not ok[k] and np.isfinite(ev.objective[k])
-               and ev.objective[k] <= ev.objective[win]][:N_ALTERNATIVES]
+    obj = ev.objective[order]
+    lighter = order[~ok[order] & np.isfinite(obj) & (obj <= ev.objective[win])][:N_ALTERNATIVES]
     rejected = tuple(_candidate(table, ev, k, need) for k in lighter)
     choice = JointChoice(joint=name, index=j, chosen=_candidate(table, ev, win, need),
                          alternatives=alts, rejected=rejected, considered=int(ev.idx.size),
-                         feasible=int(ok.sum()), mount="", mount_link="")
+                         feasible=int(ok.sum()), mount="", mount_link="",
+                         evaluated=int(ev.evaluated.sum()), skipped=int(ev.skipped.sum()))
     return win, choice
 
 
@@ -836,7 +938,8 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
                   joints: Sequence[int | str] | None = None,
                   mounts: Mapping[int | str, str] | None = None,
                   allow_unknown: bool = False, dt: float = 1e-3,
-                  t_end: float | None = None, verify: bool = True) -> Selection:
+                  t_end: float | None = None, verify: bool = True, ws: Any = None,
+                  count_all: bool = False) -> Selection:
     """Choose each joint's drive from the catalogue (module docstring).
 
     Args:
@@ -858,6 +961,12 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
         dt: sampling step, s (``size``'s default 1e-3).
         t_end: end of every run, s (default each trajectory's duration).
         verify: check the result with :func:`~manipcad.sizing.requirements.required_drive`.
+        ws: a workspace folder whose motor and gear files join the catalogue.
+        count_all: evaluate every candidate, so that the feasible counts are
+            complete; by default (objectives mass and rotor_inertia) the motor
+            series are evaluated in objective order only until the winner and
+            its alternatives are found, and the heavier candidates that pass the
+            gear and speed checks are counted as "skipped".
 
     Returns:
         :class:`Selection`.
@@ -904,12 +1013,12 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
                          "made from")
     cand_idx = {}
     for j in sel_joints:
-        table = candidate_table(robot.joint_types[j] == PRISMATIC)
+        table = candidate_table(robot.joint_types[j] == PRISMATIC, ws)
         cand_idx[j] = _filter(table, makers, gear_types)
 
     drives = list(robot.drives)
     masses: dict[int, float] = {}
-    banned: dict[int, set[str]] = {j: set() for j in sel_joints}
+    banned: dict[int, set[int]] = {j: set() for j in sel_joints}
     chosen: dict[int, JointChoice] = {}
     history: list[tuple[str, ...]] = []
     cache: dict[tuple, list[SampledMotion]] = {}
@@ -933,20 +1042,22 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
     evaluated: dict[tuple, _JointEval] = {}
 
     def evaluate(j: int, table: CandidateTable) -> _JointEval:
-        key = (j, tuple(sorted((k, m) for k, m in masses.items()
-                               if mount_body(robot, k, mount_of[k]) in moved[j])))
+        want = None if count_all else 1 + N_ALTERNATIVES + len(banned[j])
+        key = (j, want, tuple(sorted((k, m) for k, m in masses.items()
+                                     if mount_body(robot, k, mount_of[k]) in moved[j])))
         if key not in evaluated:
             evaluated[key] = _evaluate_joint(table, cand_idx[j], motions_for(masses), j, need,
-                                             allow_unknown, objective)
+                                             allow_unknown, objective, want)
         return evaluated[key]
 
     iterations = 0
     verified = False
+    rows: dict[int, int] = {}
     for _ in range(MAX_ITERATIONS):
         iterations += 1
         changed = False
         for j in sorted(sel_joints, reverse=True):
-            table = candidate_table(robot.joint_types[j] == PRISMATIC)
+            table = candidate_table(robot.joint_types[j] == PRISMATIC, ws)
             ev = evaluate(j, table)
             win, choice = _choose(table, ev, robot.joint_names[j], j, need, banned[j])
             body = mount_body(robot, j, mount_of[j])
@@ -956,6 +1067,7 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
             if j not in chosen or chosen[j].chosen.part != part:
                 changed = True
             chosen[j] = choice
+            rows[j] = int(ev.idx[win])
             masses[j] = part.mass
             drives[j] = part.drive
         history.append(tuple(chosen[j].chosen.label for j in sel_joints))
@@ -969,7 +1081,7 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
             verified = True
             break
         for j in failed:
-            banned[j].add(chosen[j].chosen.label)
+            banned[j].add(rows[j])
     else:
         raise ManipcadError(f"drive selection did not reach a fixed point in {MAX_ITERATIONS} "
                             f"sweeps (choices per sweep: {history})")
@@ -1041,4 +1153,4 @@ def save_selection(selection: Selection, path: Any) -> Any:
 
 __all__ = ["select_drives", "Selection", "JointChoice", "Candidate", "Part", "NoFeasibleDrive",
            "OBJECTIVES", "DEFAULT_MARGIN", "with_drive_masses", "save_selection",
-           "builtin_parts", "candidate_table", "CandidateTable", "mount_body"]
+           "catalogue_table", "candidate_table", "CandidateTable", "mount_body"]

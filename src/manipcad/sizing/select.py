@@ -251,9 +251,9 @@ class CandidateTable:
 
         Example:
             >>> t = candidate_table()
-            >>> sub = t.take(t.motor == "MM_597974")
+            >>> sub = t.take(t.motor == "MM_614949")
             >>> set(sub.motor), len(sub) > 1
-            ({'MM_597974'}, True)
+            ({'MM_614949'}, True)
         """
         rows = np.flatnonzero(rows) if np.asarray(rows).dtype == bool else np.asarray(rows)
         parent = self.drive_of
@@ -322,7 +322,7 @@ def catalogue_table(prismatic: bool = False, ws: Any = None) -> CandidateTable:
 
     Example:
         >>> t = catalogue_table()
-        >>> len(t) > 10000, t.part(0).drive.ratio == t.ratio[0]
+        >>> len(t) > 10000, bool(t.part(0).drive.ratio == t.ratio[0])
         (True, True)
     """
     from manipcad.catalog import compatible_pairs, drive_fields, gears, motors
@@ -708,13 +708,15 @@ def _evaluate_joint(table: CandidateTable, idx: np.ndarray, motions: Sequence[Sa
     bounded = np.zeros(C, dtype=bool)
     done = np.zeros(C, dtype=bool)
 
+    screen = {id(mo): _screen_rows(mo, j) for mo in motions}
+
     def run(sel: np.ndarray) -> None:
         """Screen, then fully evaluate, the candidates at positions ``sel``."""
         done[sel] = True
         arr = table.arrays.take(idx[sel])
         lower = {k: np.full(sel.size, -np.inf) for k in _SERIES}
         for mo in motions:
-            s = _series_requirements(arr, mo, j, _screen_rows(mo, j))
+            s = _series_requirements(arr, mo, j, screen[id(mo)])
             for k in _SERIES:
                 lower[k] = np.maximum(lower[k], s[k])
         lb = check_rated(lower, {k: rated[k][sel] for k in _SERIES}, geared[sel])

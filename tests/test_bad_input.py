@@ -290,10 +290,9 @@ def test_bundle_import_checks_the_manifest_hash(tmp_path):
 def test_a_path_too_long_to_follow_is_refused(tmp_path, monkeypatch):
     """A circle of many turns is refused by the work budget, naming the file, instead of
     taking minutes (1500 rad) or hours (1e6 rad)."""
+    import manipcad
     import manipcad.trajectories.cartesian as cart
     from manipcad.trajectories import load_trajectory
-
-    import manipcad
 
     arm = manipcad.load_robot("cylindrical")
     q0 = np.array([0.0, 0.3, 0.3])
@@ -318,9 +317,9 @@ def test_upload_is_validated_off_the_event_loop(tmp_path, monkeypatch):
     import time
 
     from nicegui import ui
+    from test_ui import _open, _simulate_user
 
     from manipcad.ui import logic
-    from test_ui import _open, _simulate_user
 
     real = logic.add_upload
 
@@ -353,3 +352,49 @@ def test_upload_is_validated_off_the_event_loop(tmp_path, monkeypatch):
         await user.should_see("refused: larger than")
 
     _simulate_user(tmp_path / "ws", script)
+
+
+# --------------------------------------------------------------------------- silent wrong
+
+def _ident_csv(tmp_path, *, header=None, huge=False) -> Path:
+    """Noise-free torques of the PUMA carrying 1.5 kg (manipcad's own inverse dynamics)."""
+    import manipcad
+
+    arm = manipcad.load_robot("puma560")
+    t = np.linspace(0, 2, 200)
+    k = np.arange(1, 7)
+    q, qd, qdd = (0.3 * np.sin(np.outer(t, k)), 0.3 * np.cos(np.outer(t, k)) * k,
+                  -0.3 * np.sin(np.outer(t, k)) * k**2)
+    tau = manipcad.inverse_dynamics(arm.with_payload(1.5, [0, 0, 0.08]), q, qd, qdd)
+    if huge:
+        tau[5, 1] = 1e308
+    cols = header or (["t"] + [f"{s}{i}" for s in ("q", "qd", "qdd", "tau") for i in k])
+    p = tmp_path / "m.csv"
+    np.savetxt(p, np.column_stack([t, q, qd, qdd, tau]), delimiter=",", header=",".join(cols),
+               comments="")
+    return p
+
+
+def test_identify_never_reports_nan(tmp_path):
+    res, out = cli("identify", "puma560", "--data", _ident_csv(tmp_path), "--estimate-com")
+    fails_cleanly(res, out, "m.csv", "determine no payload mass")
+    assert "nan ±" not in out
+    res, out = cli("identify", "puma560", "--data", _ident_csv(tmp_path, huge=True))
+    fails_cleanly(res, out, "line 7, column tau2", "too large")
+
+
+@pytest.mark.parametrize("label", ["tau2 [deg]", "tau2 [lbf·in]", "tau2 [kN·m]"])
+def test_identify_refuses_non_si_unit_labels(tmp_path, label):
+    import manipcad
+    from manipcad.dynamics.identification import load_torque_data
+
+    k = range(1, 7)
+    cols = ["t [s]"] + [f"{s}{i} [{u}]" for s, u in (("q", "rad"), ("qd", "rad/s"),
+                                                     ("qdd", "rad/s²"), ("tau", "N·m"))
+                        for i in k]
+    good = _ident_csv(tmp_path, header=cols)
+    arm = manipcad.load_robot("puma560")
+    assert load_torque_data(good, arm).tau.shape == (200, 6)  # SI labels are read
+    bad = _ident_csv(tmp_path, header=[label if c == "tau2 [N·m]" else c for c in cols])
+    with pytest.raises(InputError, match="not the SI unit"):
+        load_torque_data(bad, arm)

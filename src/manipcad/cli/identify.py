@@ -111,6 +111,7 @@ def identify(
     from manipcad.dynamics.identification import (
         FRICTION,
         METHODS,
+        check_estimate,
         identify_payload,
     )
     from manipcad.model.load import load_robot
@@ -144,6 +145,7 @@ def identify(
         est = identify_payload(model, d.q, d.qd, d.qdd, t=d.t, method=method, com=c,
                                joints=sel, drives=drives, link=where, friction=friction,
                                estimate_com=estimate_com, **kw)
+    check_estimate(est, str(data))
     notes = [str(w.message) for w in caught if issubclass(w.category, ManipcadWarning)]
     if as_json:
         doc = {"robot": model.name, "data": str(data), **est.to_dict(), "warnings": notes}

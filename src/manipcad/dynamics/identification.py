@@ -937,6 +937,22 @@ KINDS = ("q", "qd", "qdd", "tau", "current")
 UNITS = {"q": "rad or m", "qd": "rad/s or m/s", "qdd": "rad/s² or m/s²", "tau": "N·m or N",
          "current": "A"}
 TIME_COLUMNS = ("t", "time")
+#: the unit a column's header may name in brackets (``tau1 [N·m]``), per kind and joint
+#: type (SI only: a header naming another unit, ``[deg]``, ``[lbf·in]``, is refused, never
+#: read as SI); ``rad|m`` etc. are a stored result's units for joints of unknown type
+SI_UNITS = {
+    "q": {"revolute": ("rad",), "prismatic": ("m",), "": ("rad|m",)},
+    "qd": {"revolute": ("rad/s",), "prismatic": ("m/s",), "": ("rad/s|m/s",)},
+    "qdd": {"revolute": ("rad/s²", "rad/s^2", "rad/s2"),
+            "prismatic": ("m/s²", "m/s^2", "m/s2"), "": ("rad/s²|m/s²",)},
+    "tau": {"revolute": ("N·m", "Nm", "N*m", "N.m", "N⋅m"), "prismatic": ("N",),
+            "": ("N·m|N",)},
+    "current": {"revolute": ("A",), "prismatic": ("A",), "": ("A",)},
+    "t": {"": ("s",)},
+}
+#: largest magnitude of a CSV value: the least squares square the samples, and a value
+#: whose square overflows (1e308) would make every estimate nan
+MAX_CSV_VALUE = 1e100
 #: columns of a stored simulation result (timeseries.csv) that identification does not read
 RESULT_IGNORED = ("q_ref", "qd_ref", "error", "u")
 
@@ -1024,6 +1040,11 @@ def load_torque_data(path: str | Path, robot: Robot) -> TorqueData:
             if not math.isfinite(x):
                 raise InputError(src, f"line {lineno}, column {name}",
                                  f"{value.strip()!r} is not a finite number")
+            if abs(x) > MAX_CSV_VALUE:
+                raise InputError(src, f"line {lineno}, column {name}",
+                                 f"{value.strip()!r} is too large (more than "
+                                 f"{MAX_CSV_VALUE:g} in magnitude; not a measurement in SI "
+                                 "units)")
             row.append(x)
         rows.append(row)
     if header is None:
@@ -1050,6 +1071,33 @@ def load_torque_data(path: str | Path, robot: Robot) -> TorqueData:
                       arrays["current"])
 
 
+def check_estimate(est: PayloadEstimate, source: str) -> PayloadEstimate:
+    """Refuse an estimate that is not a number, never report it: the command line's and
+    the web application's check after :func:`identify_payload`.
+
+    Args:
+        est: the estimate.
+        source: the data it came from (a file), for the error.
+
+    Returns:
+        ``est`` when its mass (and an estimated centre of mass) are finite.
+
+    Raises:
+        ManipcadError: "the data determine no payload mass (nan)" with the likely cause.
+    """
+    bad_com = est.com_estimated and not np.all(np.isfinite(est.com))
+    if math.isfinite(est.mass) and not bad_com:
+        return est
+    what = "payload mass" if not math.isfinite(est.mass) else "centre of mass"
+    raise ManipcadError(
+        f"{source}: the data determine no {what} (the fit gives nan): its least squares "
+        "are singular, e.g. noise-free (synthetic) torques, whose drives are weighted by "
+        "an estimated noise of zero" + (", or too little excitation to separate the mass "
+                                        "from the centre of mass (--estimate-com)"
+                                        if est.com_estimated else "")
+        + "; nothing is reported")
+
+
 def _csv_lines(src: str, text: str):
     """(line number, fields) of the non-blank, non-comment lines."""
     lines = text.splitlines()
@@ -1063,16 +1111,32 @@ def _csv_lines(src: str, text: str):
         yield lineno, fields
 
 
+def _check_unit(src: str, lineno: int, k: int, full: str, unit: str | None, kind: str,
+                joint_type: str) -> None:
+    """Refuse a column whose header names a unit that is not the SI unit read."""
+    if unit is None:
+        return
+    table = SI_UNITS[kind]
+    ok = table.get(joint_type, ()) + table.get("", ())
+    if unit.replace(" ", "") not in {u.replace(" ", "") for u in ok}:
+        want = ok[0]
+        raise InputError(src, f"line {lineno}, column {k}",
+                         f"{full!r}: the unit {unit!r} is not the SI unit this column is read "
+                         f"in ({want}); convert the values to SI and name the unit so")
+
+
 def _header(src: str, lineno: int, header: list[str], accepted: dict, robot: Robot):
     cols: list[tuple[str, int] | None] = []
     seen: dict[tuple[str, int], str] = {}
     times = 0
     for k, full in enumerate(header, start=1):
-        name = full.split("[", 1)[0].strip() if full.endswith("]") else full
+        name = full.split("[", 1)[0].strip() if full.endswith("]") and "[" in full else full
+        unit = full[len(full.split("[", 1)[0]) + 1:-1].strip() if name != full else None
         if name.lower() in TIME_COLUMNS:
             times += 1
             if times > 1:
                 raise InputError(src, f"line {lineno}, column {k}", "a second time column")
+            _check_unit(src, lineno, k, full, unit, "t", "")
             cols.append(("t", -1))
             continue
         if "." in name and name.rsplit(".", 1)[1] in RESULT_IGNORED \
@@ -1087,6 +1151,7 @@ def _header(src: str, lineno: int, header: list[str], accepted: dict, robot: Rob
                              f"NAME.q, ... with the joint names "
                              f"{', '.join(robot.joint_names)}) and optionally t")
         key = accepted[name]
+        _check_unit(src, lineno, k, full, unit, key[0], robot.joint_types[key[1]])
         if key in seen:
             raise InputError(src, f"line {lineno}, column {k}",
                              f"column {name!r} repeats column {seen[key]!r}")

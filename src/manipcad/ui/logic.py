@@ -635,7 +635,11 @@ def identify_upload(robot, filename: str, data: bytes, *, com: Sequence[float] |
     Raises:
         InputError: too big, not .csv, or the loader's error naming the file.
     """
-    from manipcad.dynamics.identification import identify_payload, load_torque_data
+    from manipcad.dynamics.identification import (
+        check_estimate,
+        identify_payload,
+        load_torque_data,
+    )
 
     base = Path(filename or "").name or "upload.csv"
     if len(data) > MAX_UPLOAD:
@@ -655,7 +659,8 @@ def identify_upload(robot, filename: str, data: bytes, *, com: Sequence[float] |
     kw = {"tau": d.tau} if d.tau is not None else {"current": d.current}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
-        return identify_payload(robot, d.q, d.qd, d.qdd, t=d.t, com=com, **kw)
+        return check_estimate(identify_payload(robot, d.q, d.qd, d.qdd, t=d.t, com=com, **kw),
+                              base)
 
 
 #: files of a study folder the application serves (reports and figures)

@@ -245,3 +245,59 @@ def test_examples_select_then_size_passes(which, tmp_path):
     for payload in ("0", "0.5"):
         res = runner.invoke(app, ["size", str(out), "-t", str(pick), "--payload", payload])
         assert res.exit_code == 0, res.output
+
+
+def test_ui_logic_selects_and_saves(tmp_path):
+    """The web application's call: the workspace trajectory in, the robot with the chosen
+    drives saved as a workspace robot, the report rows out."""
+    from manipcad.trajectories import save_trajectory
+    from manipcad.ui import logic
+
+    w = logic.open_workspace(tmp_path / "ws")
+    arm = manipcad.load_robot("puma560").without_drives()
+    save_trajectory(_traj(6, 0.5), tmp_path / "move.yaml")
+    w.add(tmp_path / "move.yaml", kind="trajectories", name="move")
+    sel, item = logic.select_drives_for(w, arm, "move", payload_range=(0.0, 0.5),
+                                        makers="maxon", gear_types="harmonic, direct",
+                                        name="puma-sel")
+    assert item.ref == "robots/puma-sel" and sel.verified
+    saved = logic.load_robot_ref(w, item.ref)[0]
+    assert [d.name for d in saved.drives] == [c.chosen.part.motor for c in sel.joints]
+    rows = logic.selection_rows(sel)
+    assert [r["joint"] for r in rows] == list(arm.joint_names)
+    assert all(r["chosen"] == c.chosen.label for r, c in zip(rows, sel.joints, strict=True))
+    alts = logic.alternative_rows(sel)
+    assert {a["kind"] for a in alts} <= {"alternative", "rejected"} and alts
+    assert all(c.chosen.part.maker == "maxon" and c.chosen.part.gear_type in
+               ("harmonic", "direct") for c in sel.joints)
+
+
+def test_drives_page_selects_automatically(tmp_path):
+    """The Drives page's "select automatically": the form's filters, the report tables,
+    the saved robot made the current one; a bad payload range names the field."""
+    from nicegui import ui
+    from test_ui import _error, _field, _open, _simulate_user
+
+    from manipcad.ui import pages
+
+    async def script(user):
+        await _open(user, "/trajectories")
+        user.find(kind=ui.input, content="duration").clear().type("2")
+        user.find("Save to workspace").click()
+        await user.should_see("saved trajectories/move")
+        await _open(user, "/drives")
+        _field(user, ui.input, "payload range LO, HI [kg]").value = "1"
+        user.find("Select the drives automatically").click()
+        assert "payload range" in await _error(user)
+        _field(user, ui.input, "payload range LO, HI [kg]").value = "0, 0.5"
+        _field(user, ui.input, "makers (e.g. maxon, faulhaber)").value = "maxon"
+        _field(user, ui.input, "gear types (e.g. planetary, harmonic, direct)").value = \
+            "harmonic, direct"
+        user.find("Select the drives automatically").click()
+        await user.should_see("saved robots/puma560-selected", retries=600)
+        with user:
+            assert pages.state()["robot"] == "robots/puma560-selected"
+        (table,) = user.find(marker="select-table").elements
+        assert len(table.rows) == 6 and all(r["candidates"] for r in table.rows)
+
+    _simulate_user(tmp_path / "ws", script)

@@ -971,6 +971,85 @@ def ratio_sweep_png(sweep) -> bytes:
 
 
 # ---------------------------------------------------------------- synthesis: the LQR-GS table
+# ---------------------------------------------------------------- drives from the catalogue
+def select_drives_for(ws: Workspace, robot, trajectory: str, *,
+                      payload_range: Sequence[float] = (0.0, 0.0), objective: str = "mass",
+                      margin: float = 1.1, makers: str = "", gear_types: str = "",
+                      name: str, force: bool = False):
+    """Choose every joint's motor and gear from the catalogue (``manipcad select``,
+    :func:`manipcad.sizing.select.select_drives`) for a workspace trajectory, and save the
+    robot with them as ``robots/NAME`` (its file names the parts chosen).
+
+    Args:
+        ws: the workspace (its own motor and gear files join the catalogue).
+        robot: the arm (its drives are replaced; its links get the drives' masses).
+        trajectory: the workspace trajectory's name.
+        payload_range: (LO, HI) payload masses on the last link, kg; both are checked.
+        objective: "mass", "rotor_inertia" or "power".
+        margin: every rating at least this × what the motion needs (1.0: size's limits).
+        makers, gear_types: comma-separated filters ("" for all).
+        name: the saved robot's name; force: replace a robot of that name.
+
+    Returns:
+        ``(selection, item)``: the :class:`~manipcad.sizing.select.Selection` and the
+        workspace item of the robot saved.
+
+    Raises:
+        NoFeasibleDrive: a joint has no feasible drive (naming the joint, the closest
+            candidate and the check it fails); InputError: a bad form value.
+    """
+    from manipcad.sizing.select import save_selection, select_drives
+
+    check_name(name, "name")
+
+    def names(text: str) -> list[str] | None:
+        out = [x.strip() for x in str(text or "").split(",") if x.strip()]
+        return out or None
+
+    traj = load_trajectory_ref(ws, trajectory, robot)
+    lo, hi = (float(x) for x in payload_range)
+    sel = select_drives(robot, [traj], payload_range=(lo, hi), objective=objective,
+                        margin=margin, makers=names(makers), gear_types=names(gear_types),
+                        ws=ws.root)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = save_selection(sel, Path(tmp) / f"{name}.yaml")
+        item = ws.add(path, kind="robots", name=name, force=force)
+    return sel, item
+
+
+def selection_rows(sel) -> list[dict[str, Any]]:
+    """One row per joint of a selection: joint, chosen pair, ratio i_r, mass (kg), the
+    objective's value, the binding check and its margin (%), and the candidates
+    feasible / evaluated / considered."""
+    rows = []
+    for c in sel.joints:
+        ch = c.chosen
+        rows.append({"joint": c.joint, "chosen": ch.label, "ratio": f"{ch.part.drive.ratio:.4g}",
+                     "mass": f"{ch.part.mass:.3g}", "objective": f"{ch.objective:.4g}",
+                     "binding": ch.binding or "-",
+                     "margin": f"{ch.binding_margin:+.0%}" if np.isfinite(ch.binding_margin)
+                     else "-",
+                     "candidates": f"{c.feasible} / {c.evaluated} / {c.considered}",
+                     "mounted_on": c.mount_link or "base"})
+    return rows
+
+
+def alternative_rows(sel) -> list[dict[str, Any]]:
+    """Per joint, the next alternatives and the lighter candidates rejected: joint, kind
+    ("alternative" or "rejected"), candidate, objective, binding check and margin or
+    the reason it fails."""
+    rows = []
+    for c in sel.joints:
+        for kind, cands in (("alternative", c.alternatives), ("rejected", c.rejected)):
+            for a in cands:
+                note = (f"{a.binding} {a.binding_margin:+.0%}" if kind == "alternative"
+                        and np.isfinite(a.binding_margin) else a.reason)
+                rows.append({"key": f"{c.joint}/{kind}/{a.label}", "joint": c.joint,
+                             "kind": kind, "candidate": a.label,
+                             "objective": f"{a.objective:.4g}", "note": note})
+    return rows
+
+
 def gain_table_figure(reg):
     """The LQR-GS gain table of a regulator as a Plotly figure: each gain (D_e V/rad,
     D_v V·s/rad, D_i V/A, and D_θ, D_ω of an elastic model) against the H_ii grid

@@ -12,6 +12,7 @@ from manipcad.errors import InputError, ManipcadError
 from manipcad.sizing import required_drive
 from manipcad.ui import logic
 from manipcad.ui.pages.common import connected, error_label, frame, numbers, robot, ws
+from manipcad.ui.pages.drive_select import select_form
 
 
 async def page() -> None:
@@ -130,6 +131,7 @@ async def page() -> None:
                 ui.button("Attach", on_click=attach).props("data-testid=attach-run")
 
         attach_form()
+        select_form(S, show, clear)
 
         # ---- what the trajectory needs, against the limits
         ui.label("Along the current trajectory").classes("text-subtitle1")
@@ -220,3 +222,4 @@ async def page() -> None:
                 ui.image(f"data:image/png;base64,{b64}").style("max-width: 700px")
 
         ui.button("Sweep the ratio", on_click=sweep).props("data-testid=sweep-run")
+

@@ -133,6 +133,11 @@ def design(
                   f"{ex['runs_cached']} from the cache) in {ex['wall_time_s']:.1f} s; wrote "
                   f"{folder}/ (robot.yaml, regulators.yaml, design.json, report.html, c/, "
                   "runs/)", highlight=False, soft_wrap=True)
+    for jn, fails in (doc.get("support_failures") or {}).items():
+        err_console.print(f"[yellow]warning:[/] {jn} (not named by the requirements, driven by "
+                          f"a PID) fails " + ", ".join(f"{k} in {n} runs" for k, n in
+                                                       fails.items()),
+                          highlight=False, soft_wrap=True)
     if not met:
         err_console.print(f"[bold red]not met:[/] {doc['failure']['text']}", highlight=False,
                           soft_wrap=True)

@@ -129,6 +129,24 @@ def write_c(folder: Path, nominal, regs, prefix: str = "design") -> list[str]:
     return sorted(files)
 
 
+def support_failures(runs: list[dict], joints: list[str]) -> dict[str, dict[str, int]]:
+    """Per joint the requirements do not name: each check it fails and in how many runs.
+
+    Example:
+        >>> r = [{"checks": {"lift": {"position": {"verdict": "fail"}}}}] * 2
+        >>> support_failures(r, ["lift"])
+        {'lift': {'position': 2}}
+    """
+    out: dict[str, dict[str, int]] = {}
+    for jn in joints:
+        for r in runs:
+            for name, c in (r["checks"].get(jn) or {}).items():
+                if c.get("verdict") == "fail":
+                    out.setdefault(jn, {}).setdefault(name, 0)
+                    out[jn][name] += 1
+    return out
+
+
 def joint_ratings(d) -> dict | None:
     """A drive's ratings referred to the joint: gear repeated-peak torque and motor peak
     torque·|i_r| (N·m; η = 1), motor max speed/|i_r| (rad/s), motor peak current (A).
@@ -192,7 +210,9 @@ def design_document(*, req, arm, nominal, outcome, runs, decoupling, drive_info,
 
     Keys: ``status`` ("met" | "not met"), ``accuracy`` (rad or m) and the joints it applies
     to, ``parts`` (per joint motor, gear, ratio, source), ``counterbalance`` (the
-    decoupling report), ``methods`` (per designed joint), ``worst_case_error``
+    decoupling report), ``methods`` (per designed joint), ``support`` and
+    ``support_failures`` (the joints the requirements do not name: their PID, and each
+    check they fail with the number of runs), ``worst_case_error``
     ({joint: rad or m} over the final design's runs), ``worst_margins`` (per joint and
     check), ``candidates`` (per method and joint: cost, worst error, passed, why not),
     ``cases`` (every run: id, method, payload, uncertainty sample, trajectory, status,
@@ -274,6 +294,8 @@ def design_document(*, req, arm, nominal, outcome, runs, decoupling, drive_info,
         "methods": {jn: outcome["choice"].get(jn) for jn in dnames},
         "support": {names[j]: "pid" for j in range(arm.n)
                     if arm.drives[j] is not None and j not in designed},
+        "support_failures": support_failures(final_runs, [
+            names[j] for j in range(arm.n) if arm.drives[j] is not None and j not in designed]),
         "worst_case_error": worst,
         "worst_margins": worst_margins(final_runs, names),
         "peaks": peaks,

@@ -196,6 +196,13 @@ def design_html(doc: Mapping[str, Any], runs: Sequence[Mapping[str, Any]],
     verdict = ("The design meets the accuracy in every case." if met
                else f"No design meets the requirements. {doc['failure']['text']}")
     body.append(paragraph(verdict, cls="holds" if met else "fails"))
+    for jn, fails in (doc.get("support_failures") or {}).items():
+        body.append(paragraph(
+            f"Note: {jn}, which the requirements do not name (driven by a PID), fails "
+            + ", ".join(f"{k} in {n} of {len(doc['final_cases'])} runs"
+                        for k, n in fails.items())
+            + " — its drive or its trajectory needs a look (every check's worst margin "
+              "below).", cls="fails"))
     rows = [[jn, doc["methods"].get(jn) or doc["support"].get(jn, "–"),
              (doc["parts"][jn] or {}).get("motor"), (doc["parts"][jn] or {}).get("gear"),
              (doc["parts"][jn] or {}).get("ratio"), doc["worst_case_error"].get(jn),

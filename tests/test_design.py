@@ -224,6 +224,25 @@ def test_fig3_design_rerun_computes_nothing(fig3_design):
     assert doc["executor"]["runs_computed"] == 0 and doc["executor"]["runs_cached"] > 0
 
 
+def test_more_samples_compute_only_the_new_runs(tmp_path):
+    """The cache: a rerun with more uncertainty samples runs only the new samples' cases
+    (the regulators' load range is bounded by the all-up and all-down samples, which do
+    not change)."""
+    out = tmp_path / "d"
+    args = ["design", *FIG3, "--uncertainty", "5", "--max-methods", "1", "--out", str(out)]
+    r = runner.invoke(app, [*args, "--samples", "3"])
+    assert r.exit_code in (0, 1), r.output
+    first = json.loads((out / "design.json").read_text())
+    r = runner.invoke(app, [*args, "--samples", "5"])
+    assert r.exit_code in (0, 1), r.output
+    again = json.loads((out / "design.json").read_text())
+    ids = {c["id"] for c in first["cases"]}
+    new = [c for c in again["cases"] if c["id"] not in ids]
+    assert new and all(c["sample"] >= 3 for c in new)
+    assert again["executor"]["runs_cached"] >= len(ids)
+    assert again["executor"]["runs_computed"] == len(new)
+
+
 def test_unmeetable_accuracy_exits_1_with_the_closest_design(tmp_path):
     req = yaml.safe_load(open("examples/requirements_fig3.yaml"))
     req["accuracy"] = 1e-9

@@ -102,7 +102,8 @@ def _accepts(method: str, option: str) -> bool:
 
 
 def load_ranges(robots, joints) -> dict[int, tuple[float, float]]:
-    """{joint: (H_min, H_max) kg·m² (kg)} over the arms (one per payload), per joint.
+    """{joint: (H_min, H_max) kg·m² (kg)} over the arms (payloads, parameter bounds), per
+    joint.
 
     Example:
         >>> import manipcad

@@ -361,3 +361,64 @@ def test_simulate_reports_the_undersized_elbow(undersized):
     assert json.loads(none.output) == []
     sat = _cli("ws", "list", "--ws", ws, "--where", "check_saturation[elbow]>0.5", "--json")
     assert [i["name"] for i in json.loads(sat.output)] == ["small"]
+
+
+def test_verify_reports_the_undersized_elbow(undersized):
+    """verify: the elbow's failed checks are the verdict, exit 1."""
+    u = undersized
+    res = _cli("verify", u["robot"], "-t", u["traj"], "-r", EXAMPLES / "pid_puma.yaml",
+               "--accuracy", "1e-3", "--json")
+    assert res.exit_code == 1, res.output
+    doc = json.loads(res.stdout)
+    assert doc["verdict"] == "fail"
+    for name in ("tracking", "saturation", "current_rms"):
+        assert doc["checks"]["elbow"][name]["verdict"] == "fail", name
+    assert doc["checks"]["waist"]["saturation"]["verdict"] == "pass"
+
+
+def test_verify_judges_the_accuracy_asked_apart_from_the_promise(tmp_path):
+    """A joint within the accuracy asked but over its nominal promise meets the
+    requirement (exit 0), the promise reported as exceeded; asked tighter, it fails."""
+    from manipcad.control.files import save_regulators
+    from manipcad.trajectories import save_trajectory
+
+    arm = _load("cylindrical")
+    traj = cosine([0.5, 0.05, 0.1], [4.0, 3.0, 16.0], 0.8, q0=[0, 0.3, 0.2])
+    reg = manipcad.synthesize(arm, "turn", "ace_de", spec={"max_error": 1e-3},
+                              reference=traj)
+    others = manipcad.synthesize(arm, ["lift", "reach"], "lqr")
+    save_regulators([reg, *others], tmp_path / "regs.yaml", robot=arm)
+    save_trajectory(traj, tmp_path / "traj.yaml")
+    args = ["verify", "cylindrical", "-t", tmp_path / "traj.yaml", "-r", tmp_path / "regs.yaml",
+            "--factor", "1", "--json"]
+    res = _cli(*args)
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    turn = doc["promises"][0]
+    # measured: promise 3.37e-5 rad, simulated 3.67e-5 rad (×1.09), asked 1e-3
+    assert turn["kept"] is False and turn["met"] is True and turn["accuracy"] == 1e-3
+    assert "within the 0.001 asked" in turn["why"] and "promise exceeded" in turn["why"]
+    assert doc["checks"]["turn"]["tracking"]["verdict"] == "pass"
+    tight = _cli(*args[:-1], "--spec", "max_error=1e-5", "--json")
+    assert tight.exit_code == 1, tight.output
+    assert json.loads(tight.stdout)["checks"]["turn"]["tracking"]["verdict"] == "fail"
+
+
+def test_recommend_verify_reports_the_undersized_elbow(undersized):
+    """recommend --verify: no method passes every check on the undersized elbow: each is
+    listed with the checks it fails, and the command exits 1."""
+    u = undersized
+    req = u["dir"] / "req.yaml"
+    req.write_text("accuracy: 1.0e-3\novershoot_allowed: true\nfast_action: false\n"
+                   "transmission: {backlash: false, elasticity: false}\n")
+    res = _cli("recommend", req, "--robot", u["robot"], "-t", u["traj"], "--joint", "elbow",
+               "--verify", "--top", "2", "--json")
+    assert res.exit_code == 1, res.output
+    recs = json.loads(res.stdout)["recommendations"]
+    simulated = [r for r in recs if r["checks"] is not None]
+    assert len(simulated) >= 2
+    for r in simulated:
+        assert r["verdict"] == "fail" and any("elbow: tracking" in f for f in r["failed"])
+    # the methods that push hardest saturate the amplifier and overload the motor
+    sat = [r for r in simulated if any("elbow: saturation" in f for f in r["failed"])]
+    assert sat and all(any("elbow: current_rms" in f for f in r["failed"]) for r in sat)

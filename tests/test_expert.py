@@ -399,12 +399,16 @@ def test_verify_ranks_by_simulated_accuracy_and_agrees_on_fig3(arm, laws):
     assert len(done) == 3
     assert recs.best.method == "ace_de" and recs.best.meets_accuracy
     assert recs.best.complexity["source"] == "synthesis"
-    flags = [r.meets_accuracy for r in recs]
-    order = {True: 0, None: 1, False: 2}
-    assert [order[f] for f in flags] == sorted(order[f] for f in flags)
-    meets = [r.cost for r in recs if r.meets_accuracy]
-    misses = [r.max_error for r in recs if r.meets_accuracy is False]
+    # ranked by the verdict of every run check (docs/checks.md), then cost; the failing
+    # ones by the error
+    order = {"pass": 0, "unknown": 1, "unverified": 2, "fail": 3}
+    flags = [order[r.verdict] for r in recs]
+    assert flags == sorted(flags) and recs.best.verdict == "pass"
+    meets = [r.cost for r in recs if r.verdict == "pass"]
+    misses = [r.max_error for r in recs if r.verdict == "fail"]
     assert meets == sorted(meets) and misses == sorted(misses)
+    assert all(r.failed for r in recs if r.verdict == "fail")
+    assert any("tracking" in f for r in recs if r.meets_accuracy is False for f in r.failed)
     others = [synthesize(arm, "lift", "pid"), synthesize(arm, "reach", "pid")]
     res = simulate(arm, t_end=laws.duration, dt=1e-4, trajectory=laws,
                    regulators=[synthesize(arm, "turn", "ace_tf"), *others])
@@ -490,7 +494,7 @@ def test_verify_goes_on_while_nothing_meets_the_accuracy(arm, laws):
     assert {r.accuracy for r in simulated} == {"missed"}
     assert not any("not verified" in n for n in recs.notes)
     errors = [r.max_error for r in recs]
-    assert errors == sorted(errors)
+    assert errors == sorted(errors) and {r.verdict for r in recs} == {"fail"}
     assert all(r.complexity["source"] == "synthesis" for r in recs)
 
 

@@ -10,8 +10,13 @@ the robot and the trajectory, applies the rule base and prints the methods that
 meet every rule — most preferred by the rules first, then the least realization
 complexity — with the rules that put each there, and the excluded methods with
 why. ``--verify`` synthesizes and simulates the top candidates and re-ranks by the
-measured error. Bad input, incomplete or contradictory requirements exit with
-status 2 and one line on stderr.
+measured error and every run check (docs/checks.md): a method ranks first only
+if its run passes every check (tracking, amplifier saturation, chattering,
+currents, speeds, gear and joint limits); one that meets the accuracy by
+saturating, chattering or overloading is listed below with the check it fails.
+Exit status 0, or with ``--verify`` 1 when no simulated method passes every
+check. Bad input, incomplete or contradictory requirements exit with status 2
+and one line on stderr.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from typing import Annotated
 
 import typer
 from rich import box
+from rich.markup import escape
 from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
@@ -70,9 +76,12 @@ def recommend(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
         recs = run(req, robot, trajectory, verify=verify, joint=jt, top=top, rules=rules)
+    none_pass = recs.verified and not any(r.verdict == "pass" for r in recs)
     if as_json:
         print(json.dumps({"requirements_file": requirements, **recs.to_dict()}, indent=2,
                          default=_json_default))
+        if none_pass:
+            raise typer.Exit(1)
         return
 
     given = req.given()
@@ -98,6 +107,8 @@ def recommend(
     if recs.verified:
         table.add_column("max error", justify="right")
     table.add_column("accuracy", justify="left")
+    if recs.verified:
+        table.add_column("checks", justify="left", overflow="fold")
     table.add_column("reasons (rules)", overflow="fold")
     for k, r in enumerate(recs, 1):
         c = r.complexity
@@ -111,6 +122,10 @@ def recommend(
                 row.append(f"[{style}]{r.max_error:.3g}[/]")
         row.append({"met": "[green]met[/]", "missed": "[red]missed[/]"}.get(
             r.accuracy, "[yellow]unverified[/]"))
+        if recs.verified:
+            row.append({"pass": "[green]pass[/]", "unknown": "[yellow]unknown[/]",
+                        "unverified": "[yellow]unverified[/]"}.get(
+                r.verdict, "[red]✗ fail: " + escape("; ".join(r.failed) or "not run") + "[/]"))
         ids = [x.split(" ", 1)[0] for x in r.reasons if x.split(" ", 1)[0] in recs.rule_texts]
         row.append(", ".join(ids) or "meets every fired rule")
         table.add_row(*row)
@@ -135,6 +150,13 @@ def recommend(
             console.print(f"- {text}", highlight=False)
     for note in recs.notes:
         console.print(f"[yellow]note:[/] {note}", highlight=False)
+    if recs.verified:
+        passing = [r.method for r in recs if r.verdict == "pass"]
+        console.print("verdict: " + (f"[green]{passing[0]} passes every check[/]" if passing
+                                     else "[red]no method simulated passes every check[/]"),
+                      highlight=False)
     if recs.undecided:
         console.print(f"[dim]undecided rules (no value of their missing fields could change "
                       f"the answer): {', '.join(recs.undecided)}[/]", highlight=False)
+    if none_pass:
+        raise typer.Exit(1)

@@ -67,7 +67,7 @@ def _robot_file(arg: str) -> Path | None:
     return None
 
 
-_VERDICT_STYLE = {"fail": "bold red", "unknown": "yellow", "pass": "green", "n/a": "dim"}
+VERDICT_STYLE = {"fail": "bold red", "unknown": "yellow", "pass": "green", "n/a": "dim"}
 
 
 def checks_table(checks) -> Table:
@@ -81,7 +81,7 @@ def checks_table(checks) -> Table:
         for k, name in enumerate(names):
             c = cs[name]
             mark = "✗ fail" if c.verdict == "fail" else c.verdict
-            style = _VERDICT_STYLE.get(c.verdict, "")
+            style = VERDICT_STYLE.get(c.verdict, "")
             t.add_row(j if k == 0 else "", name, _num(c.value, ".3g"),
                       "none" if c.limit == math.inf else _num(c.limit, ".3g"), c.unit,
                       f"[{style}]{mark}[/]" if style else mark,
@@ -313,7 +313,7 @@ def simulate(
         return
     console.print(metrics_table(doc))
     console.print(checks_table(checks))
-    style = _VERDICT_STYLE[checks.verdict]
+    style = VERDICT_STYLE[checks.verdict]
     console.print(f"[{style}]{escape(checks.summary())}[/]", soft_wrap=True)
     console.print(f"simulated {t_end:g} s ({int(round(t_end / dt))} steps of {dt:g} s) in "
                   f"{wall:.3g} s wall (the first run compiles); wrote {out}/ (inputs/, "

@@ -29,7 +29,7 @@ from __future__ import annotations
 import ast
 import math
 import operator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -402,6 +402,11 @@ class Recommendation:
         max_error: with verify, the largest simulated tracking error, rad or m.
         meets_accuracy: with verify, whether max_error <= accuracy (None: not verified).
         note: with verify, what happened (e.g. why it was not verified).
+        checks: with verify, the run's checks of the joints designed
+            (:meth:`manipcad.sim.checks.RunChecks.to_dict`: {joint: {check: {value, limit,
+            unit, verdict}}}); None when not simulated.
+        failed: with verify, every failed check in words ("elbow: saturation 0.72 of
+            0.02 -"), empty when none fails.
 
     The rules know qualitative facts (coupling, speed, inductance, transmission,
     overshoot; paper section 5), never the error a method reaches on this robot
@@ -417,6 +422,8 @@ class Recommendation:
     max_error: float | None = None
     meets_accuracy: bool | None = None
     note: str = ""
+    checks: dict | None = None
+    failed: list[str] = field(default_factory=list)
 
     @property
     def accuracy(self) -> str:
@@ -426,6 +433,18 @@ class Recommendation:
             return "unverified"
         return "met" if self.meets_accuracy else "missed"
 
+    @property
+    def verdict(self) -> str:
+        """The verdict of every check of its simulated run (docs/checks.md): "pass" (every
+        check passes: tracking, saturation, chattering, currents, speeds, gear and joint
+        limits), "fail", "unknown" (none fails, one cannot be made), or "unverified" (not
+        simulated)."""
+        if self.checks is None:
+            return "fail" if self.meets_accuracy is False else "unverified"
+        from manipcad.sim.checks import RunChecks
+
+        return RunChecks.from_dict(self.checks).verdict
+
     def to_dict(self) -> dict:
         err = self.max_error
         if err is not None and not math.isfinite(err):
@@ -433,7 +452,8 @@ class Recommendation:
         return {"method": self.method, "score": self.score, "cost": self.cost,
                 "complexity": self.complexity, "reasons": self.reasons,
                 "max_error": err, "meets_accuracy": self.meets_accuracy,
-                "accuracy": self.accuracy, "note": self.note}
+                "accuracy": self.accuracy, "verdict": self.verdict, "failed": self.failed,
+                "checks": self.checks, "note": self.note}
 
 
 class Recommendations(list):
@@ -714,11 +734,13 @@ def _verify(out: Recommendations, rb: RuleBase, robot, trajectory, *, top: int,
             except ManipcadError as exc:
                 raise ManipcadError(f"verify: cannot design the PID that drives the other "
                                     f"joint {robot.joint_names[j]!r}: {exc}") from None
+    from manipcad.sim.checks import run_checks
+
     done, met = 0, False
     for rec in out:
         if done >= top and met:
             rec.note = (f"not verified (the top {top} are simulated, and further ones only "
-                        "until one meets the accuracy)")
+                        "until one passes every check)")
             continue
         if rec.method not in SYNTH:
             rec.note = "not verified: the synthesis package has no such method"
@@ -734,7 +756,12 @@ def _verify(out: Recommendations, rb: RuleBase, robot, trajectory, *, top: int,
         err = np.abs(res.error[:, targets])
         rec.max_error = float(err.max()) if np.isfinite(err).all() else math.inf
         rec.meets_accuracy = rec.max_error <= req.accuracy
-        met = met or rec.meets_accuracy
+        names = [robot.joint_names[j] for j in targets]
+        checks = run_checks(res, robot, accuracy={nm: req.accuracy for nm in names})
+        rec.checks = {nm: checks.to_dict()[nm] for nm in names}
+        rec.failed = [f"{j}: {k} {c.value:.3g} of {c.limit:.3g} {c.unit}"
+                      for j, k, c in checks.failures() if j in names]
+        met = met or rec.verdict == "pass"
         cx = realization_complexity(regs[0])
         cx = {"gains_stored": int(cx.get("gains_stored", 0)),
               "ops_per_period": int(cx.get("ops_per_period", 0)),
@@ -743,14 +770,25 @@ def _verify(out: Recommendations, rb: RuleBase, robot, trajectory, *, top: int,
         worst = robot.joint_names[targets[int(np.argmax(err.max(axis=0)))]]
         rec.note = (f"simulated along the trajectory ({t_end:g} s, dt = {dt:g} s): max error "
                     f"{rec.max_error:.3g} ({worst}) {'<=' if rec.meets_accuracy else '>'} "
-                    f"accuracy {req.accuracy:.3g}")
+                    f"accuracy {req.accuracy:.3g}"
+                    + (f"; fails {len(rec.failed)} check{'s' * (len(rec.failed) > 1)}: "
+                       + "; ".join(rec.failed) if rec.failed else "")
+                    + ("; checks unknown: " + ", ".join(
+                        f"{j}: {k}" for j, k, _ in checks.failures("unknown") if j in names)
+                       if rec.verdict == "unknown" else ""))
 
     def key(r: Recommendation):
-        if r.meets_accuracy is True:
+        # every check passed, then none failed (one unknown), then not simulated, then
+        # failed (by the error, then the number of failed checks)
+        v = r.verdict
+        if v == "pass":
             return (0, r.cost, 0.0, r.method)
-        if r.meets_accuracy is None:
-            return (1, -r.score, r.cost, r.method)
-        return (2, r.max_error if r.max_error is not None else math.inf, r.cost, r.method)
+        if v == "unknown":
+            return (1, r.cost, 0.0, r.method)
+        if v == "unverified":
+            return (2, -r.score, r.cost, r.method)
+        return (3, r.max_error if r.max_error is not None else math.inf, len(r.failed),
+                r.method)
 
     out.sort(key=key)
     out.verified = True

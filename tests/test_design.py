@@ -93,8 +93,12 @@ def test_counterweight_removes_the_need_for_a_bigger_drive():
     assert report["sizing_before"]["status"] == "fail"
     assert report["sizing_after"]["status"] == "pass"
     assert report["counterweight"]["mass"] > 0
+    # the drive the catalogue selection picks for the shoulder: a lighter one with it
+    sel = report["selected_drive"]
+    assert "error" not in sel["before"] and "error" not in sel["after"]
+    assert sel["after"]["mass"] < sel["before"]["mass"]
     # "none" reports the same proposal and leaves the arm alone
-    none = decouple(arm, tr, mode="none")
+    none = decouple(arm, tr, mode="none", select=False)
     assert not none.applied and none.robot is arm and len(none.counterweights) == len(
         dec.counterweights)
 

@@ -17,7 +17,10 @@ For every driven joint along the trajectories (paper section 2):
    than it relieves this one); of the arms that pay, the one with the smallest sum of
    the joints' largest rating utilizations is proposed (the lighter one on a tie);
 4. what the proposal changes: each joint's class, required RMS and peak joint torque,
-   sizing verdict and largest rating utilization (1 − margin) with and without it.
+   sizing verdict and largest rating utilization (1 − margin) with and without it, and
+   for each counterweighted joint the drive the catalogue selection
+   (:func:`manipcad.sizing.select.select_drives`, least mass) picks without and with
+   the counterweights.
 
 Applied (the arm that the design goes on with carries the counterweights) with
 ``mode="auto"``; reported either way.
@@ -164,6 +167,8 @@ class Decoupling:
         classes_before, classes_after: the coupling classes without and with them.
         robot: the arm the design goes on with (with the counterweights if applied).
         applied: whether the counterweights are on ``robot``.
+        selected: {joint: {"before", "after"}} for each counterweighted joint: the
+            selection's choice ({"drive", "mass" kg, "feasible"} or {"error"}).
     """
 
     mode: str
@@ -177,6 +182,7 @@ class Decoupling:
     classes_after: list[str] = field(default_factory=list)
     robot: Robot | None = None
     applied: bool = False
+    selected: dict = field(default_factory=dict)
 
     def to_dict(self, joint_names) -> dict[str, Any]:
         """A JSON-ready report, per joint (SI units)."""
@@ -198,6 +204,8 @@ class Decoupling:
                 e["counterweight"] = cws[name].to_dict()
             if name in self.rejected:
                 e["no_counterweight"] = self.rejected[name]
+            if name in self.selected:
+                e["selected_drive"] = self.selected[name]
             joints[name] = e
         return {"mode": self.mode, "applied": self.applied, "dominant_share": DOMINANT,
                 "pays": PAYS, "arms_tried": list(ARMS), "joints": joints,
@@ -230,7 +238,22 @@ def subtree_mass(robot: Robot, joint: int) -> float:
     return total
 
 
-def decouple(robot: Robot, trajectories, *, mode: str = "none", arms=ARMS) -> Decoupling:
+def selected_drive(robot: Robot, trajectories, joint: int) -> dict[str, Any]:
+    """The catalogue selection's choice for one joint (least mass, default margin):
+    {"drive": label, "mass": kg, "feasible": candidates that pass}, or {"error": why}."""
+    from manipcad.errors import ManipcadError
+    from manipcad.sizing.select import select_drives
+
+    try:
+        ch = select_drives(robot, list(trajectories), joints=[joint], verify=False).joints[0]
+    except (ManipcadError, ImportError) as exc:
+        return {"error": str(exc)}
+    return {"drive": ch.chosen.label, "mass": float(ch.chosen.part.mass),
+            "feasible": int(ch.feasible)}
+
+
+def decouple(robot: Robot, trajectories, *, mode: str = "none", arms=ARMS,
+             select: bool = True) -> Decoupling:
     """Propose the counterweights that pay, report what they change, apply them with "auto".
 
     Args:
@@ -238,6 +261,8 @@ def decouple(robot: Robot, trajectories, *, mode: str = "none", arms=ARMS) -> De
         trajectories: the trajectories (objects).
         mode: "auto" (apply) or "none" (report only).
         arms: the counterweight arm lengths tried, m.
+        select: report the drive the catalogue selection picks for each counterweighted
+            joint without and with the counterweights.
 
     Returns:
         :class:`Decoupling`.
@@ -292,6 +317,11 @@ def decouple(robot: Robot, trajectories, *, mode: str = "none", arms=ARMS) -> De
                          else list(out.classes_before))
     out.applied = mode == "auto" and bool(out.counterweights)
     out.robot = after_robot if out.applied else robot
+    if select:
+        for cw in out.counterweights:
+            out.selected[cw.joint] = {"before": selected_drive(robot, trajectories, cw.index),
+                                      "after": selected_drive(after_robot, trajectories,
+                                                              cw.index)}
     return out
 
 

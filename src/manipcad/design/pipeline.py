@@ -171,9 +171,13 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
     mid = C.nominal_payload(lo, hi)
     dec = decouple(C.with_payload(arm, mid), trajs, mode=counterbalance)
     for cw in dec.counterweights:
+        sel = dec.selected.get(cw.joint, {})
+        pick = ("; the catalogue selection picks " + " without it, ".join(
+            x.get("error") or f"{x['drive']} ({x['mass']:.3g} kg)"
+            for x in (sel["before"], sel["after"])) + " with it") if sel else ""
         trace.add("decouple", f"{cw.joint}: gravity dominates; counterweight {cw.mass:.3g} kg "
                   f"at {cw.arm:g} m takes its peak gravity torque from "
-                  f"{cw.gravity_peak_before:.3g} to {cw.gravity_peak_after:.3g} N·m "
+                  f"{cw.gravity_peak_before:.3g} to {cw.gravity_peak_after:.3g} N·m{pick} "
                   f"({'applied' if dec.applied else 'proposed, not applied: --counterbalance auto applies it'})")
     for name, why in dec.rejected.items():
         trace.add("decouple", f"{name}: gravity dominates, no counterweight proposed: {why}")

@@ -159,6 +159,16 @@ def methods_figure(doc: Mapping[str, Any]) -> bytes:
     return _png(fig)
 
 
+def _selected(sel: Mapping[str, Any] | None) -> str:
+    """"A (m kg) → B (m kg)": the selection's drive without and with the counterweight."""
+    if not sel:
+        return "–"
+
+    def one(x: Mapping[str, Any]) -> str:
+        return x.get("error") or f"{x['drive']} ({x['mass']:.3g} kg)"
+    return f"{one(sel['before'])} → {one(sel['after'])}"
+
+
 def _counterbalance(cb: Mapping[str, Any]) -> str:
     rows = []
     for jn, e in cb["joints"].items():
@@ -170,7 +180,8 @@ def _counterbalance(cb: Mapping[str, Any]) -> str:
                      f"{e['class_before']} → {e['class_after']}",
                      f"{fmt(b.get('rms_torque'))} → {fmt(a.get('rms_torque'))}",
                      f"{fmt(b.get('peak_torque'))} → {fmt(a.get('peak_torque'))}",
-                     f"{b.get('status')} → {a.get('status')}"])
+                     f"{b.get('status')} → {a.get('status')}",
+                     _selected(e.get("selected_drive"))])
     head = paragraph(
         f"Counterweights {'applied' if cb['applied'] else 'not applied'} "
         f"(--counterbalance {cb['mode']}). Gravity dominates a joint when RMS(Q_i) ≥ "
@@ -178,7 +189,7 @@ def _counterbalance(cb: Mapping[str, Any]) -> str:
         f"joint's RMS motor torque by ≥ {100 * cb['pays']:g} % and no joint's sizing gets worse.")
     return head + table(["joint", "gravity share", "dominates", "counterweight",
                          "coupling class", "RMS torque N·m", "peak torque N·m",
-                         "sizing (drive)"], rows)
+                         "sizing (drive)", "catalogue selection"], rows)
 
 
 def figures(doc: Mapping[str, Any], runs: Sequence[Mapping[str, Any]]) -> dict[str, bytes]:

@@ -998,23 +998,41 @@ def select_drives_for(ws: Workspace, robot, trajectory: str, *,
         NoFeasibleDrive: a joint has no feasible drive (naming the joint, the closest
             candidate and the check it fails); InputError: a bad form value.
     """
-    from manipcad.sizing.select import save_selection, select_drives
-
     check_name(name, "name")
+    traj = load_trajectory_ref(ws, trajectory, robot)
+    sel = select_drives_along(robot, traj, payload_range=payload_range, objective=objective,
+                              margin=margin, makers=makers, gear_types=gear_types,
+                              parts=ws.root)
+    return sel, save_selected(ws, sel, name, force=force)
+
+
+def select_drives_along(robot, traj, *, payload_range: Sequence[float] = (0.0, 0.0),
+                        objective: str = "mass", margin: float = 1.1, makers: str = "",
+                        gear_types: str = "", parts: str | Path | None = None):
+    """The selection of :func:`select_drives_for` without the workspace's index (so it may
+    run in a worker thread): ``traj`` a trajectory, ``parts`` the workspace folder whose
+    motor and gear files join the catalogue (None: the catalogue alone)."""
+    from manipcad.sizing.select import select_drives
 
     def names(text: str) -> list[str] | None:
         out = [x.strip() for x in str(text or "").split(",") if x.strip()]
         return out or None
 
-    traj = load_trajectory_ref(ws, trajectory, robot)
     lo, hi = (float(x) for x in payload_range)
-    sel = select_drives(robot, [traj], payload_range=(lo, hi), objective=objective,
-                        margin=margin, makers=names(makers), gear_types=names(gear_types),
-                        ws=ws.root)
+    return select_drives(robot, [traj], payload_range=(lo, hi), objective=objective,
+                         margin=margin, makers=names(makers), gear_types=names(gear_types),
+                         ws=parts)
+
+
+def save_selected(ws: Workspace, sel, name: str, *, force: bool = False):
+    """Save a selection's robot into the workspace as ``robots/NAME`` (the file
+    :func:`manipcad.sizing.select.save_selection` writes); returns the item."""
+    from manipcad.sizing.select import save_selection
+
+    check_name(name, "name")
     with tempfile.TemporaryDirectory() as tmp:
         path = save_selection(sel, Path(tmp) / f"{name}.yaml")
-        item = ws.add(path, kind="robots", name=name, force=force)
-    return sel, item
+        return ws.add(path, kind="robots", name=name, force=force)
 
 
 def selection_rows(sel) -> list[dict[str, Any]]:

@@ -1,5 +1,6 @@
 """The Drives page's "select automatically" section: every joint's drive chosen from the
-catalogue (``manipcad select``, :func:`manipcad.ui.logic.select_drives_for`) and the report."""
+catalogue (``manipcad select``; :func:`manipcad.ui.logic.select_drives_along` in a worker
+thread, :func:`~manipcad.ui.logic.save_selected`) and the report."""
 
 from __future__ import annotations
 
@@ -47,12 +48,14 @@ def select_form(S, show, clear) -> None:
                                  f"got {pay.value!r}")
             margin = numbers(mar.value, "margin", "select form")[0]
             arm, w = robot(), ws()
+            traj = logic.load_trajectory_ref(w, S["trajectory"], arm)
             with out:
                 ui.spinner()
-            sel, item = await run.io_bound(
-                logic.select_drives_for, w, arm, S["trajectory"], payload_range=lohi,
+            sel = await run.io_bound(
+                logic.select_drives_along, arm, traj, payload_range=lohi,
                 objective=obj.value, margin=margin, makers=makers.value,
-                gear_types=types.value, name=name.value, force=force.value)
+                gear_types=types.value, parts=w.root)
+            item = logic.save_selected(w, sel, name.value, force=force.value)
         except ManipcadError as exc:
             out.clear()
             show(exc)

@@ -171,7 +171,7 @@ def test_fig3_design_meets_the_accuracy(fig3_design):
     cand = {c["method"]: c for c in doc["candidates"].values()}
     # least complex that passes: every cheaper candidate on the joint was rejected
     cost = cand[chosen]["joints"]["turn"]["cost"]
-    for m, c in cand.items():
+    for c in cand.values():
         e = c["joints"].get("turn")
         if e and e["cost"] < cost:
             assert not e["passed"] and e["reason"]

@@ -21,8 +21,8 @@ def tracking_check(max_error: float, accuracy: float, unit: str) -> dict:
     """The tracking check of one joint: max |e| against the accuracy asked.
 
     Example:
-        >>> tracking_check(2e-4, 1e-3, "rad")["verdict"], tracking_check(2e-3, 1e-3, "rad")["verdict"]
-        ('pass', 'fail')
+        >>> [tracking_check(e, 1e-3, "rad")["verdict"] for e in (2e-4, 2e-3)]
+        ['pass', 'fail']
     """
     if max_error is None or not math.isfinite(max_error):
         return {"value": None, "limit": accuracy, "unit": unit, "verdict": FAIL}

@@ -174,7 +174,6 @@ def write_outputs(out: Path, *, req, arm, nominal, trajectories, outcome, runs, 
     from manipcad.design.drives import parts
 
     out.mkdir(exist_ok=True)
-    names = list(arm.joint_names)
     save_robot(nominal, out / "robot.yaml")
     atomic_write_text(out / "regulators.yaml", regulators_yaml(outcome["mix_regs"],
                                                                robot=nominal))

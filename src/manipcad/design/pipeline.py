@@ -40,7 +40,6 @@ from manipcad.design.candidates import (
 from manipcad.design.decide import choose, closest, evaluate
 from manipcad.design.decouple import decouple
 from manipcad.design.drives import next_drive_up, parts, resolve_drives
-from manipcad.design.judge import FAIL
 from manipcad.design.sweep import run_sweep
 from manipcad.errors import InputError, ManipcadError
 
@@ -141,8 +140,8 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
             design's files are written and ``.doc`` holds its design.json.
     """
     from manipcad.design.outputs import write_outputs
-    from manipcad.parallel.executor import check_workers
     from manipcad.fileio import writable_folder
+    from manipcad.parallel.executor import check_workers
 
     t0 = time.perf_counter()
     _check_settings(period, dt, samples, max_methods, max_iterations, counterbalance)
@@ -178,7 +177,8 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
         trace.add("decouple", f"{cw.joint}: gravity dominates; counterweight {cw.mass:.3g} kg "
                   f"at {cw.arm:g} m takes its peak gravity torque from "
                   f"{cw.gravity_peak_before:.3g} to {cw.gravity_peak_after:.3g} N·m{pick} "
-                  f"({'applied' if dec.applied else 'proposed, not applied: --counterbalance auto applies it'})")
+                  + ("(applied)" if dec.applied else
+                     "(proposed, not applied: --counterbalance auto applies it)"))
     for name, why in dec.rejected.items():
         trace.add("decouple", f"{name}: gravity dominates, no counterweight proposed: {why}")
     if dec.applied:

@@ -438,8 +438,8 @@ def _take(number: int) -> _Worker:
 
 class SimulationJob:
     """A simulation (:class:`SimSpec`), a study (:class:`StudySpec`), a verification
-    (:class:`VerifySpec`) or a design (:class:`DesignSpec`) running in a worker process; once done, ``result`` and
-    ``metrics`` are what the spec's ``run`` returned.
+    (:class:`VerifySpec`) or a design (:class:`DesignSpec`) running in a worker process;
+    once done, ``result`` and ``metrics`` are what the spec's ``run`` returned.
 
     Example (not run here: it starts a process)::
 

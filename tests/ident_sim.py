@@ -18,6 +18,7 @@ import numpy as np
 
 import manipcad
 from manipcad.control import synthesize
+from manipcad.control.design import damping_floor, nominal_drive
 from manipcad.errors import ManipcadWarning
 from manipcad.model.robot import Drive
 from manipcad.sim import simulate
@@ -100,7 +101,10 @@ def run(name: str, stops: int = 14, move_time: float = 0.7, dwell: float = 0.5,
         c_body = R @ np.asarray(s["com"], float) + p
     payload = {"mass": s["mass"], "com": c_body.tolist()}
     loaded = robot.with_payload(s["mass"], c_body)
-    regs = [synthesize(loaded, j, "pid", period=1e-3, spec={"bandwidth": bandwidth})
+    # the bandwidth asked, or the lowest that keeps the drive's damping where that is higher
+    regs = [synthesize(loaded, j, "pid", period=1e-3,
+                       spec={"bandwidth": max(bandwidth, damping_floor(
+                           nominal_drive(loaded, j)[5], 1.0))})
             for j in range(robot.n)]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)

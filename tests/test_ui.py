@@ -267,9 +267,9 @@ def test_recommendation_and_synthesis_are_the_apis(ws, puma):
     assert recs.rule_texts                             # the rules that fired, in words
     with pytest.raises(InputError, match=r"requirements form.*accuracy"):
         logic.recommend_for({**form, "accuracy": -1.0}, puma)
-    regs, item = logic.synthesize_to(ws, puma, "pid", spec={"bandwidth": 20.0}, name="pid")
+    regs, item = logic.synthesize_to(ws, puma, "pid", spec={"bandwidth": 50.0}, name="pid")
     assert len(regs) == 6 and item.ref == "regulators/pid"
-    ref = manipcad.synthesize(puma, "all", "pid", spec={"bandwidth": 20.0})
+    ref = manipcad.synthesize(puma, "all", "pid", spec={"bandwidth": 50.0})
     np.testing.assert_array_equal(regs[0].params, ref[0].params)
     loaded = manipcad.load_regulators(ws.resolve("regulators", "pid"), puma)
     np.testing.assert_array_equal(loaded[3].params, ref[3].params)

@@ -104,3 +104,35 @@ def test_bad_fields_named(data, field, reason):
     assert info.value.source == "w.yaml"
     assert info.value.field.startswith(field)
     assert reason in info.value.reason
+
+
+def test_dither_whole_cycles_at_the_end_of_each_dwell(tmp_path):
+    """``dither``: every dwell after the first ends with the whole cycles of
+    P + a·sin(2πf·τ) that fit in it; the moves and the first dwell are unchanged."""
+    a = np.array([0.01, 0.0, 0.02])
+    plain = waypoints(POINTS, move_time=0.5, dwell=0.45)
+    traj = waypoints(POINTS, move_time=0.5, dwell=0.45, dither=a, dither_frequency=5.0)
+    iv = traj.dither_intervals()
+    np.testing.assert_allclose(iv[1:, 1] - iv[1:, 0], 0.4)         # 2 whole cycles of 0.2 s
+    assert iv[0, 0] == iv[0, 1] and np.allclose(iv[:, 1], plain.dwell_intervals()[:, 1])
+    t = np.linspace(0.0, traj.duration, 3001)
+    q, qd, qdd = traj.sample(t)
+    q0, qd0, _ = plain.sample(t)
+    on = np.zeros(t.size, dtype=bool)
+    for s, e in iv:
+        on |= (t > s) & (t < e)
+    k = np.searchsorted(iv[:, 1], t[on])
+    start = iv[k, 0]
+    np.testing.assert_allclose(q[on] - q0[on], np.sin(2 * np.pi * 5.0 * (t[on] - start))[:, None]
+                               * a, atol=1e-12)
+    np.testing.assert_allclose(q[~on], q0[~on], atol=1e-12)
+    np.testing.assert_allclose(np.gradient(q[on][:40], t[on][:40], axis=0)[1:-1],
+                               qd[on][:40][1:-1], rtol=0, atol=2e-3)
+    assert np.all(qd0[on] == 0)
+    save_trajectory(traj, tmp_path / "d.yaml")
+    back = load_trajectory(tmp_path / "d.yaml")
+    assert back.to_dict() == traj.to_dict() and back.to_dict()["dither_frequency"] == 5.0
+    with pytest.raises(InputError, match=r"dither\[1\].*>= 0"):
+        waypoints(POINTS, move_time=0.5, dither=[0.01, -0.01, 0.0])
+    with pytest.raises(InputError, match="dither_frequency.*> 0"):
+        waypoints(POINTS, move_time=0.5, dither=0.01, dither_frequency=0.0)

@@ -138,8 +138,9 @@ def pickup(
     dt: Annotated[float, typer.Option("--dt", help="Integration step, s.")] = 1e-4,
     noise: Annotated[float, typer.Option(
         "--noise", help="Std of the current noise the estimator reads, A.")] = 0.02,
-    forgetting: Annotated[float, typer.Option(
-        "--forgetting", help="The estimator's forgetting factor λ in (0, 1].")] = 0.998,
+    forgetting: Annotated[float | None, typer.Option(
+        "--forgetting", help="The estimator's forgetting factor λ in (0, 1] (default 0.99: "
+        "a memory of 100 periods).")] = None,
     methods: Annotated[str | None, typer.Option(
         "--methods", help="Comma-separated subset of ace_tf, ace_de, asvs, lqr_gs.")] = None,
     integrator: Annotated[str, typer.Option(
@@ -150,11 +151,12 @@ def pickup(
     """Pickup study: an unknown payload gripped mid-trajectory, identified online; each
     adaptive method with the true mass, the online estimate and no payload knowledge;
     writes pickup.json and pickup.png into --out."""
-    from manipcad.study.pickup import run_pickup
+    from manipcad.study.pickup import FORGETTING, run_pickup
 
     res = run_pickup(out, robot=robot, mass=mass, t_pick=t_pick, t_end=t_end, dt=dt,
-                     current_noise=noise, forgetting=forgetting, methods=methods,
-                     integrator=integrator)
+                     current_noise=noise,
+                     forgetting=FORGETTING if forgetting is None else forgetting,
+                     methods=methods, integrator=integrator)
     d = res.data
     ts = d["estimate_settling_time"]
     cx = d["estimator"]["operations_per_period"]

@@ -82,6 +82,12 @@ MIN_STOP_EQUATIONS = 5
 REASSIGN_ROUNDS = 20
 #: a stop lasts at least this long, s
 MIN_STOP = 0.15
+#: a dithered stop: every joint stays within this of the pose (rad, m), over whole cycles
+#: of a joint's back-and-forth motion that each last at most DITHER_PERIOD_MAX, s
+DITHER_BAND = {REVOLUTE: 0.05, PRISMATIC: 0.005}
+DITHER_PERIOD_MAX = 0.5
+#: ... and at least this many cycles
+DITHER_CYCLES_MIN = 2
 #: the first fraction of each stop is left out (current and torque settling)
 STOP_SETTLE = 0.25
 #: ... and the last fraction (the next move may be starting)
@@ -133,7 +139,10 @@ class Stop:
         used: (first_used, last_used) the samples averaged (without the first
             ``STOP_SETTLE`` and the last ``STOP_END_TRIM`` of the stop).
         direction: (n,) per joint, the sign of its last motion before the stop
-            (+1, -1; 0 if it had not moved since the samples began).
+            (+1, -1; 0 if it had not moved since the samples began, or dithered).
+        dither: the joints slid back and forth about the pose (a dithered stop,
+            ``waypoints(dither=...)``): ``used`` spans whole cycles, over which the sliding
+            friction averages to a constant per drive and the inertial torques to zero.
     """
 
     start: float
@@ -142,6 +151,7 @@ class Stop:
     last: int
     used: tuple[int, int]
     direction: np.ndarray = field(repr=False)
+    dither: bool = False
 
 
 @dataclass(frozen=True)
@@ -400,6 +410,58 @@ def find_stops(t, q, qd=None, *, joint_types=None, stop_speed=None,
                 direction[j] = int(np.sign(V[idx[-1], j]))
         out.append(Stop(float(T[a]), float(T[b]), int(a), int(b),
                         (int(first_used), int(last_used)), direction))
+    out += _dither_stops(T, Q, V, types, vmax, min_duration)
+    return sorted(out, key=lambda st: st.start)
+
+
+def _dither_stops(T, Q, V, types, vmax, min_duration: float) -> list[Stop]:
+    """Dithered stops: runs of at least ``DITHER_CYCLES_MIN`` whole cycles (between upward
+    zero crossings of its velocity, each at most ``DITHER_PERIOD_MAX`` long, faster than
+    the stop speed somewhere) of the joint that moves most, with every joint within
+    ``DITHER_BAND`` of the run's mean pose; the run spans at least ``min_duration``."""
+    n = Q.shape[1]
+    band = np.array([DITHER_BAND[jt] for jt in types])
+    runs = []
+    for j in range(n):
+        up = np.flatnonzero((V[:-1, j] < 0) & (V[1:, j] >= 0)) + 1
+        good = []
+        for a, b in zip(up[:-1], up[1:], strict=True):
+            seg = Q[a:b + 1, j]
+            good.append(T[b] - T[a] <= DITHER_PERIOD_MAX and np.abs(V[a:b, j]).max() > vmax[j]
+                        and seg.max() - seg.min() <= 2 * band[j])
+        k = 0
+        while k < len(good):
+            if not good[k]:
+                k += 1
+                continue
+            e = k
+            while e + 1 < len(good) and good[e + 1]:
+                e += 1
+            nxt = e + 1
+            # the cycles at a run's ends may be the start transient or cut by the next
+            # move: drop the worse end until both are within 5 % of the median cycle
+            span = np.diff(T[up[k:e + 2]])
+            while span.size:
+                med = float(np.median(span))
+                dev0, dev1 = abs(span[0] - med), abs(span[-1] - med)
+                if max(dev0, dev1) <= 0.05 * med:
+                    break
+                if dev0 >= dev1:
+                    k, span = k + 1, span[1:]
+                else:
+                    e, span = e - 1, span[:-1]
+            if e - k + 1 >= DITHER_CYCLES_MIN:
+                runs.append((int(up[k]), int(up[e + 1]), j))
+            k = nxt
+    out: list[Stop] = []
+    for a, b, _ in sorted(runs, key=lambda r: np.ptp(Q[r[0]:r[1], r[2]]), reverse=True):
+        if T[b] - T[a] < min_duration or any(a < st.last and st.first < b for st in out):
+            continue
+        win = Q[a:b]
+        if np.any(win.max(axis=0) - win.min(axis=0) > 2 * band):
+            continue
+        out.append(Stop(float(T[a]), float(T[b - 1]), a, b - 1, (a, b - 1),
+                        np.zeros(n, dtype=int), dither=True))
     return out
 
 
@@ -528,15 +590,30 @@ def identify_payload(robot: Robot, q, qd=None, qdd=None, tau=None, *, t=None, cu
     c_body = R_l @ c_link + p_l
     G = eq.regressor(robot, c_body, body)
     W = eq.mask
-    excitation = np.sqrt(np.sum((G * W) ** 2, axis=0) / np.maximum(W.sum(axis=0), 1))
+
+    def rms(X):
+        return np.sqrt(np.sum((X * W) ** 2, axis=0) / np.maximum(W.sum(axis=0), 1))
+
+    # how strongly the payload shows in each drive (before the held-friction levels)
+    excitation = rms(eq.G_raw)
     if estimate_com:  # a drive the payload loads from some com nearby counts too
         for axis in np.eye(3) * 0.1:
-            Ga = eq.regressor(robot, c_body + axis, body)
-            excitation = np.maximum(excitation, np.sqrt(
-                np.sum((Ga * W) ** 2, axis=0) / np.maximum(W.sum(axis=0), 1)))
+            eq.regressor(robot, c_body + axis, body)
+            excitation = np.maximum(excitation, rms(eq.G_raw))
         G = eq.regressor(robot, c_body, body)
     strongest = float(excitation.max())
     weak = (excitation <= EXCITATION_ABS) | (excitation <= EXCITATION_REL * strongest)
+    if eq.nuisance is not None:
+        # the levels absorb all of a drive's regressor when no direction class has stops at
+        # poses where the payload's torque differs: too few stops, not too little payload
+        spent = ~weak & (rms(G) <= 1e-6 * excitation)
+        if spent.any():
+            need = _stops_needed(robot, eq, np.flatnonzero(spent), spent=True)
+            if joints is None and np.all(weak | spent):
+                raise InputError(SOURCE, "q, t", f"too few stops to separate the payload from "
+                                 f"the held friction: {need}")
+            notes.append(f"left out, too few stops: {need}")
+            weak = weak | spent
     sel = _select(robot, joints, weak, excitation, method, c_link, link_name)
     if eq.nuisance is not None and friction == "estimate":
         if estimate_com:  # the levels depend on the com: a first com before reassigning
@@ -582,8 +659,8 @@ def identify_payload(robot: Robot, q, qd=None, qdd=None, tau=None, *, t=None, cu
         warnings.warn(ManipcadWarning(
             f"only {len(eq.stops)} stops: after fitting each drive's held-friction levels at "
             f"most {int(left.max())} equation(s) per drive remain, too few to trust the "
-            f"estimate {m:.4g} ± {std:.2g} kg or its uncertainty; add stops (approached "
-            "from both directions) or use friction='model'"), stacklevel=2)
+            f"estimate {m:.4g} ± {std:.2g} kg or its uncertainty; "
+            f"{_stops_needed(robot, eq, sel)}; or use friction='model'"), stacklevel=2)
     if flagged:
         detail = ", ".join(f"{nm} {mj:.4g} ± {sj:.2g} kg ({zz:+.1f} σ)" for nm, mj, sj, zz in zip(
             names, fit["m_j"], fit["std_j"], fit["z"], strict=True) if nm in flagged)
@@ -605,8 +682,11 @@ class _Equations:
     """
 
     def __init__(self, Q, QD, QDD, Y, mask, lost, nuisance=None, stops=(), ordered=False,
-                 directions=None):
+                 directions=None, avg=None):
         self.Q, self.QD, self.QDD, self.Y0 = Q, QD, QDD, Y
+        # (rows × samples) the mean each equation takes of the samples' dynamics (a
+        # dithered stop averages its window), or None: one sample per equation
+        self.avg = avg
         self.ordered = ordered  # rows are consecutive samples in time
         self.mask = mask
         self.lost = lost
@@ -628,6 +708,8 @@ class _Equations:
         """g of a 1 kg point mass at c_body (m, body frame) on ``body``, projected like Y."""
         unit = _unit_payload_robot(robot, c_body, body)
         self.G_raw = inverse_dynamics(unit, self.Q, self.QD, self.QDD, drives=False)
+        if self.avg is not None:
+            self.G_raw = self.avg @ self.G_raw
         return self._project(self.G_raw)
 
     def held(self, j: int, m: float) -> dict:
@@ -686,7 +768,7 @@ def _reassign_directions(eq: _Equations, robot: Robot, c_body, body: int, sel) -
                     if eq.nuisance[j] is not None else None for j in range(dirs.shape[1])]
         lost = np.array([np.linalg.matrix_rank(A) if A is not None else 0 for A in nuisance])
         eq.__init__(eq.Q, eq.QD, eq.QDD, eq.Y0, eq.mask, lost, nuisance, eq.stops,
-                    directions=dirs)
+                    directions=dirs, avg=eq.avg)
     return int(np.sum(eq.directions != start))
 
 
@@ -715,20 +797,89 @@ def _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes,
         Qs = np.array([Q[s.used[0]:s.used[1] + 1].mean(axis=0) for s in stops])
         Ts = np.array([TAU[s.used[0]:s.used[1] + 1].mean(axis=0) for s in stops])
         dirs = np.array([s.direction for s in stops])
-        notes.append(f"{len(stops)} stops found")
+        dithered = sum(s.dither for s in stops)
+        notes.append(f"{len(stops)} stops found" + (f", {dithered} of them dithered (the "
+                                                    "sliding friction averaged over whole "
+                                                    "cycles)" if dithered else ""))
     Z = np.zeros_like(Qs)
-    Y = Ts - inverse_dynamics(robot, Qs, Z, Z, drives=False)
+    QD_s = QDD_s = Z
+    avg = None
+    if any(s.dither for s in stops):
+        # a dithered stop's equation is the mean over its window of the whole dynamics
+        # (q̈ from q̇): its inertial and velocity torques do not vanish sample by sample
+        V = np.gradient(Q, T, axis=0) if QD is None else QD
+        rows, cols, parts = [], [], []
+        at = 0
+        for k, st in enumerate(stops):
+            if st.dither:
+                a, b = st.used[0], st.used[1] + 1
+                parts.append((Q[a:b], V[a:b], np.gradient(V[a:b], T[a:b], axis=0)))
+                m = b - a
+            else:
+                parts.append((Qs[k:k + 1], Z[k:k + 1], Z[k:k + 1]))
+                m = 1
+            rows += [k] * m
+            cols += list(range(at, at + m))
+            at += m
+        avg = np.zeros((len(stops), at))
+        avg[rows, cols] = 1.0
+        avg /= avg.sum(axis=1, keepdims=True)
+        Qs, QD_s, QDD_s = (np.concatenate([p_[i] for p_ in parts]) for i in range(3))
+    Y = Ts - _averaged(avg, inverse_dynamics(robot, Qs, QD_s, QDD_s, drives=False))
     lost = np.zeros(n, dtype=int)
     nuisance = None
     if friction == "model":
         tab = np.asarray(robot.table)
         Y = Y - np.where(dirs > 0, tab[:, COL_FCP], np.where(dirs < 0, -tab[:, COL_FCN], 0.0))
     elif friction in ("estimate", "symmetric"):
-        G = inverse_dynamics(_unit_payload_robot(robot, c_body, body), Qs, Z, Z, drives=False)
+        G = _averaged(avg, inverse_dynamics(_unit_payload_robot(robot, c_body, body), Qs, QD_s,
+                                            QDD_s, drives=False))
         nuisance = [_friction_unknowns(dirs[:, j], G[:, j], friction) for j in range(n)]
         lost = np.array([np.linalg.matrix_rank(A) if A is not None else 0 for A in nuisance])
-    return _Equations(Qs, Z, Z, Y, np.ones(Qs.shape, dtype=bool), lost, nuisance, stops,
-                      directions=dirs)
+    return _Equations(Qs, QD_s, QDD_s, Y, np.ones(Y.shape, dtype=bool), lost, nuisance, stops,
+                      directions=dirs, avg=avg)
+
+
+def _stops_needed(robot: Robot, eq: _Equations, drives, spent: bool = False) -> str:
+    """What the stops give each of ``drives`` and what they need, in words.
+
+    With one held-friction level per approach direction (dithered stops and joints that
+    had not moved: one level), a class of k stops tells the mass only through how the
+    payload's torque g differs among them: k − 1 equations if g differs, 0 if all its
+    stops are at one pose. :data:`MIN_STOP_EQUATIONS` equations are needed per drive.
+    """
+    label = {1: "approached from +", -1: "from −", 0: "dithered or not approached"}
+    parts = []
+    for j in drives:
+        d = eq.directions[:, j]
+        g = eq.G_raw[:, j]
+        tol = 1e-3 * max(float(np.abs(g).max()), 1e-300)
+        counts = []
+        for c in (1, -1, 0):
+            k = int(np.sum(d == c))
+            if not k:
+                continue
+            poses = np.unique(np.round(g[d == c] / tol)).size
+            counts.append(f"{k} {label[c]} ({poses} distinct pose{'s' * (poses != 1)})")
+        A = eq.nuisance[j] if eq.nuisance is not None else None
+        sym = A is not None and A.shape[1] < np.unique(d).size
+        left = d.size - int(eq.lost[j])
+        got = (f"its {int(eq.lost[j])} held-friction level(s) absorb all of the payload's "
+               f"torque" if spent else f"{left} equation(s) left after {int(eq.lost[j])} "
+               f"held-friction level(s)")
+        parts.append(f"drive {robot.joint_names[j]}: {', '.join(counts)}, {got}"
+                     + (" (one level ±f for both directions: the friction taken as "
+                        "symmetric)" if sym else ""))
+    return ("; ".join(parts) + f" — each approach direction's stops must include at least "
+            f"2 poses where the payload's torque differs, and {MIN_STOP_EQUATIONS} equations "
+            f"are needed per drive: {MIN_STOP_EQUATIONS // 2 + 2} stops at different poses from "
+            f"each direction, or {MIN_STOP_EQUATIONS + 1} dithered stops "
+            f"(waypoints dither=...)")
+
+
+def _averaged(avg, X: np.ndarray) -> np.ndarray:
+    """avg @ X, or X without an averaging matrix."""
+    return X if avg is None else avg @ X
 
 
 def _motion_equations(robot, Q, QD, QDD, TAU, drives, edge, ordered):

@@ -18,7 +18,9 @@ A file is one mapping with a ``type`` key and that type's fields, SI units
                             #   angle (rad, default 2π), start, profile, orientation
     type: waypoints         # points (one pose a row, rad or m), move_time (s, one or
                             #   one per move), dwell (s, one or one per pose),
-                            #   profile (quintic|trapezoidal)
+                            #   profile (quintic|trapezoidal), dither (rad or m, one or
+                            #   one per joint: a sine at the end of each dwell),
+                            #   dither_frequency (Hz)
 
 ``robot`` is a catalog name or a robot file path (relative paths are taken
 from the trajectory file's folder). Unknown fields, wrong types, wrong
@@ -143,6 +145,8 @@ class WaypointsFile(_Schema):
     move_time: NumbersOrOne
     dwell: NumbersOrOne = [0.0]
     profile: Literal["quintic", "trapezoidal"] = "quintic"
+    dither: NumbersOrOne = [0.0]
+    dither_frequency: float = 10.0
 
 
 SCHEMAS: dict[str, type[_Schema]] = {

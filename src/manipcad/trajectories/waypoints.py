@@ -68,8 +68,11 @@ class WaypointsTrajectory(Trajectory):
     kind = "waypoints"
 
     def __init__(self, points: np.ndarray, move_time: np.ndarray, dwell: np.ndarray,
-                 profile: str) -> None:
+                 profile: str, *, dither: np.ndarray | None = None,
+                 dither_frequency: float = 10.0) -> None:
         self.points, self.move_time, self.dwell, self.profile = points, move_time, dwell, profile
+        self.dither = np.zeros(points.shape[1]) if dither is None else dither
+        self.dither_frequency = float(dither_frequency)
         m = points.shape[0]
         # phase k: 2j = dwell at pose j, 2j + 1 = move j -> j + 1
         lengths = np.empty(2 * m - 1)
@@ -109,17 +112,40 @@ class WaypointsTrajectory(Trajectory):
             q[moving] = self.points[k] + s[:, None] * D
             qd[moving] = (sd / T)[:, None] * D
             qdd[moving] = (sdd / T**2)[:, None] * D
+        if self.dither.any():
+            start = self.dither_intervals()[pose, 0]
+            on = ~moving & (pose > 0) & (t > start)
+            w = 2.0 * np.pi * self.dither_frequency
+            x = w * (t[on] - start[on])
+            q[on] += np.sin(x)[:, None] * self.dither
+            qd[on] += (w * np.cos(x))[:, None] * self.dither
+            qdd[on] -= (w * w * np.sin(x))[:, None] * self.dither
         return q, qd, qdd
+
+    def dither_intervals(self) -> np.ndarray:
+        """(m, 2) start and end of the dither at each pose, s: the whole cycles that fit in
+        its dwell, at the dwell's end (start = end: none; never at the first pose)."""
+        ends = self._ends[0::2]
+        cycles = np.floor(self.dwell * self.dither_frequency + 1e-9)
+        cycles[0] = 0.0
+        if not self.dither.any():
+            cycles[:] = 0.0
+        return np.stack([ends - cycles / self.dither_frequency, ends], axis=1)
 
     def to_dict(self) -> dict[str, Any]:
         """The YAML mapping: type, points (rad or m), move_time and dwell (s), profile."""
-        return {"type": self.kind, "points": floats(self.points),
-                "move_time": floats(self.move_time), "dwell": floats(self.dwell),
-                "profile": self.profile}
+        out = {"type": self.kind, "points": floats(self.points),
+               "move_time": floats(self.move_time), "dwell": floats(self.dwell),
+               "profile": self.profile}
+        if self.dither.any():
+            out["dither"] = floats(self.dither)
+            out["dither_frequency"] = self.dither_frequency
+        return out
 
 
 def waypoints(points: Sequence[Sequence[float]], *, move_time: Sequence[float] | float,
               dwell: Sequence[float] | float = 0.0, profile: str = "quintic",
+              dither: Sequence[float] | float = 0.0, dither_frequency: float = 10.0,
               ) -> WaypointsTrajectory:
     """Point-to-point moves through poses with a dwell at each.
 
@@ -129,6 +155,13 @@ def waypoints(points: Sequence[Sequence[float]], *, move_time: Sequence[float] |
         dwell: time held at each pose, s, >= 0: one number for all or m numbers
             (the first is held before the first move, the last after the last).
         profile: "quintic" (zero end accelerations) or "trapezoidal" (thirds).
+        dither: amplitude a of a dither at every dwell after the first, rad or m (one
+            number for all joints or n numbers, >= 0; 0: none): the dwell ends with the
+            whole cycles of q = P_k + a·sin(2π·f·τ) that fit in it, so every drive slides
+            back and forth about the pose and its dry friction, sliding, averages out over
+            the cycles instead of holding anywhere in its band (what the payload
+            identification at stops needs, docs/identification.md).
+        dither_frequency: f, Hz (> 0).
 
     Returns:
         A :class:`WaypointsTrajectory` of duration Σ dwell + Σ move_time (s).
@@ -169,4 +202,11 @@ def waypoints(points: Sequence[Sequence[float]], *, move_time: Sequence[float] |
     if profile not in PROFILES:
         raise InputError(src, "profile", f"unknown profile {profile!r}; expected one of "
                          f"{', '.join(PROFILES)}")
-    return WaypointsTrajectory(P, T, W, profile)
+    A = vector(dither, "dither", src, P.shape[1], allow_scalar=True)
+    if np.any(A < 0):
+        k = int(np.flatnonzero(A < 0)[0])
+        raise InputError(src, f"dither[{k}]", f"must be >= 0 (rad or m), got {A[k]}")
+    f = float(dither_frequency)
+    if not (np.isfinite(f) and f > 0):
+        raise InputError(src, "dither_frequency", f"must be > 0 Hz, got {dither_frequency}")
+    return WaypointsTrajectory(P, T, W, profile, dither=A, dither_frequency=f)

@@ -540,7 +540,7 @@ def test_voltage_bound_within_the_motor_rating(arm):
     for method in ("pid", "none", "none_sce", "computed_torque", "ace_tf", "ace_de", "vss",
                    "asvs", "lqr"):
         reg = synthesize(low, "turn", method)
-        assert reg.to_dict()["gains"]["u_limit_V"] == 24.0, method
+        assert reg.params[METHODS[method].fields["u_limit_V"]] == 24.0, method
 
 
 def test_gains_that_remove_damping_are_refused_with_the_range():

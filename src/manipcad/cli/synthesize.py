@@ -227,16 +227,20 @@ def synthesize(
     console.print(t)
     if coupled is not None:
         held = ", ".join(f"{', '.join(r.joint_names)} ({r.method})" for r in coupled.others)
-        rt = Table(box=box.SIMPLE_HEAD, title=f"max |e| in the coupled simulation (asked "
+        rt = Table(box=box.SIMPLE_HEAD, title=f"the coupled simulation (asked "
                    f"{coupled.asked:g}; other joints held by {held or 'nothing'})",
-                   caption="per round: the nominal target the design was asked for, and the "
-                   "simulated max |e| (rad or m)")
+                   caption="per round: the nominal target the design was asked for, the "
+                   "simulated max |e| (rad or m), the run checks other than the tracking "
+                   "that fail")
         rt.add_column("round")
         for name in coupled.simulated:
             rt.add_column(f"{name}: target / simulated")
+        rt.add_column("run checks failing")
         for k, rd in enumerate(coupled.rounds):
             rt.add_row(str(k + 1), *(f"{rd.targets[n]:.3g} / {rd.simulated[n]:.3g}"
-                                     for n in coupled.simulated))
+                                     for n in coupled.simulated),
+                       "; ".join(f"{n}: {', '.join(f)}" for n, f in rd.failing.items())
+                       or "none")
         console.print(rt)
         style = "green" if coupled.reached else "red"
         console.print(f"[{style}]{coupled.why}[/]", highlight=False, soft_wrap=True)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -166,10 +166,13 @@ def verify(robot, trajectory, regulators, *, dt: float = 1e-4, factor: float = 2
 @dataclass
 class SpecRound:
     """One round of :func:`synthesize_to_spec`: per joint, the nominal target and the
-    coupled simulation's max |e|, rad or m."""
+    coupled simulation's max |e|, rad or m, and the run checks other than the tracking
+    that fail (:func:`manipcad.sim.checks.run_checks`: saturation, chattering, currents,
+    gear and joint limits)."""
 
     targets: dict[str, float]
     simulated: dict[str, float]
+    failing: dict[str, list[str]] = field(default_factory=dict)
 
 
 @dataclass
@@ -185,6 +188,8 @@ class SpecDesign:
         rounds: every round's nominal targets and simulated errors.
         why: in words: reached, or why not (the joint, its best error, what stopped it).
         result: the last simulation result.
+        checks: the run checks of the last simulation
+            (:class:`~manipcad.sim.checks.RunChecks`, tracking against ``asked``).
     """
 
     regulators: list
@@ -195,6 +200,7 @@ class SpecDesign:
     rounds: list[SpecRound]
     why: str
     result: object
+    checks: object = None
 
 
 def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
@@ -215,7 +221,12 @@ def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
     "unreachable accuracy": the bandwidth the period and the inductance allow is spent),
     or after ``rounds`` simulations, and says which.
 
-    The verdict is the tracking error of the coupled simulation.
+    The verdict is every run check of the coupled simulation on the joints asked
+    (:func:`manipcad.sim.checks.run_checks`, the tracking against the accuracy asked): a
+    joint meets the spec when its tracking is within it and no other check fails. A
+    failing check other than the tracking (the amplifier saturated, chattering, a current
+    or gear torque above its rating, a joint limit) stops the loop: a higher bandwidth
+    would not cure it. Checks whose rating is unknown do not block.
 
     Args:
         robot: the robot (with drives).
@@ -245,6 +256,7 @@ def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
         (True, 1)
     """
     from manipcad.control import synthesize
+    from manipcad.sim.checks import run_checks
 
     spec = dict(spec or {})
     if "max_error" not in spec:
@@ -278,13 +290,17 @@ def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
                                  t_end=t_end)
         err = {robot.joint_index(c.joint): c.simulated for c in checks
                if robot.joint_index(c.joint) in regs}
+        run = run_checks(res, robot, accuracy={names[j]: asked for j in idx})
+        failing = {names[j]: [c for c, chk in run[names[j]].items()
+                              if c != "tracking" and chk.verdict == "fail"] for j in idx}
+        failing = {nm: f for nm, f in failing.items() if f}
         history.append(SpecRound({names[j]: target[j] for j in idx},
-                                 {names[j]: err[j] for j in idx}))
+                                 {names[j]: err[j] for j in idx}, failing))
         for j in idx:
             if j not in best or err[j] < best[j][0]:
                 best[j] = (err[j], regs[j])
         missing = [j for j in idx if err[j] > asked]
-        if not missing or k == int(rounds) - 1:
+        if not missing or failing or k == int(rounds) - 1:
             break
         moved = False
         for j in missing:
@@ -309,10 +325,19 @@ def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
         if not moved:
             break
     last = {names[j]: float(history[-1].simulated[names[j]]) for j in idx}
-    reached = all(v <= asked for v in last.values())
+    failing = history[-1].failing
+    unknown = sorted({c for j in idx for c, chk in run[names[j]].items()
+                      if chk.verdict == "unknown"})
+    reached = all(v <= asked for v in last.values()) and not failing
     if reached:
         why = (f"reached: every joint within {asked:g} in the coupled simulation after "
-               f"{len(history)} round(s)")
+               f"{len(history)} round(s), no run check failing"
+               + (f" ({', '.join(unknown)} unknown: ratings not given)" if unknown else ""))
+    elif failing:
+        why = ("not reached: the coupled simulation fails run checks other than the "
+               "tracking (a tighter design would not cure them): "
+               + "; ".join(f"{nm}: {', '.join(f)} (max |e| {last[nm]:.3g})"
+                           for nm, f in failing.items()))
     else:
         parts = []
         for j in idx:
@@ -323,4 +348,5 @@ def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
             parts.append(f"{names[j]}: best {best[j][0]:.3g} against {asked:g} asked; "
                          f"{reason}")
         why = "not reached in the coupled simulation: " + "; ".join(parts)
-    return SpecDesign([regs[j] for j in idx], others, asked, last, reached, history, why, res)
+    return SpecDesign([regs[j] for j in idx], others, asked, last, reached, history, why, res,
+                      run)

@@ -256,7 +256,7 @@ def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
         (True, 1)
     """
     from manipcad.control import synthesize
-    from manipcad.sim.checks import run_checks
+    from manipcad.sim.checks import RunChecks
 
     spec = dict(spec or {})
     if "max_error" not in spec:
@@ -287,10 +287,10 @@ def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ManipcadWarning)
             checks, res = verify(robot, trajectory, [regs[j] for j in idx] + others, dt=dt,
-                                 t_end=t_end)
+                                 t_end=t_end, accuracy={names[j]: asked for j in idx})
         err = {robot.joint_index(c.joint): c.simulated for c in checks
                if robot.joint_index(c.joint) in regs}
-        run = run_checks(res, robot, accuracy={names[j]: asked for j in idx})
+        run = RunChecks.from_dict(res.checks)
         failing = {names[j]: [c for c, chk in run[names[j]].items()
                               if c != "tracking" and chk.verdict == "fail"] for j in idx}
         failing = {nm: f for nm, f in failing.items() if f}

@@ -349,6 +349,10 @@ def find_stops(t, q, qd=None, *, joint_types=None, stop_speed=None,
     inside the stop (a regulator's integral action pulling it back after an
     overshoot) holds with the friction of that creep's direction.
 
+    Also the dithered stops (``Stop.dither``; ``waypoints(dither=...)``): runs of at least
+    ``DITHER_CYCLES_MIN`` whole cycles of a back-and-forth motion about a pose, every joint
+    within ``DITHER_BAND`` of it; ``used`` spans the whole cycles, direction 0.
+
     Args:
         t: (N,) sample times, s, strictly increasing.
         q: (N, n) joint positions, rad or m.

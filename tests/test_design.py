@@ -122,6 +122,8 @@ def test_uncertainty_corners():
 
 
 def test_serial_equals_parallel():
+    """The same cases serially, on a 2-worker local cluster and on a cluster given by
+    address: the same numbers and verdicts."""
     from manipcad.control.files import regulators_document
     from manipcad.design.sweep import run_sweep
 
@@ -135,10 +137,15 @@ def test_serial_equals_parallel():
               "keep_result": False}
     one = run_sweep(cases, common=common, workers=1)
     two = run_sweep(cases, common=common, workers=2)
-    for a, b in zip(one, two, strict=True):
-        assert a["max_error"] == b["max_error"]
-        assert a["checks"] == b["checks"]
-        assert a["envelope"] == b["envelope"]
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                      dashboard_address=None) as cluster:     # a cluster given by address
+        far = run_sweep(cases, common=common, scheduler=cluster.scheduler_address)
+    for a, b, c in zip(one, two, far, strict=True):
+        assert a["max_error"] == b["max_error"] == c["max_error"]
+        assert a["checks"] == b["checks"] == c["checks"]
+        assert a["envelope"] == b["envelope"] == c["envelope"]
 
 
 # ------------------------------------------------------------------ end to end

@@ -447,6 +447,14 @@ def test_worker_runs_stores_and_cancels(ws):
 
     folder = ws.path(ws.get("results/r1"))
     res, doc = load_result(folder)
+    # the run is checked against every rating, as `manipcad simulate` checks it
+    from manipcad.sim.checks import run_checks
+    rows, verdict = logic.check_rows(ws, "r1")
+    assert res.checks == run_checks(direct, arm).to_dict()
+    assert {r["check"] for r in rows} >= {"saturation", "chattering", "current_rms"}
+    assert verdict.split(":")[0] in ("PASS", "FAIL", "UNKNOWN")
+    row = next(r for r in logic.result_rows(ws) if r["name"] == "r1")
+    assert row["checks"].split(" ")[0] == verdict.split(":")[0].lower()
     ua = logic.result_series(res, "voltage", folder)
     k_u = np.array([d.k_u for d in arm.drives])
     u_max = np.array([d.u_max for d in arm.drives])

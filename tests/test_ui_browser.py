@@ -155,6 +155,10 @@ def _simulate(page, regulator: str, name: str, meanwhile=None) -> None:
         time.sleep(0.25)
     assert text.startswith("done"), (text, page.get_by_test_id("error").inner_text())
     assert f"results/{name}" in text
+    # the run's checks against every rating and their one-line verdict (docs/checks.md)
+    page.get_by_test_id("sim-checks").wait_for()
+    assert page.get_by_test_id("sim-verdict").inner_text().startswith(
+        ("PASS", "FAIL", "UNKNOWN"))
 
 
 def _selected(page, robot: str, trajectory: str) -> None:

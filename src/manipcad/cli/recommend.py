@@ -28,7 +28,6 @@ from typing import Annotated
 
 import typer
 from rich import box
-from rich.markup import escape
 from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
@@ -125,7 +124,7 @@ def recommend(
         if recs.verified:
             row.append({"pass": "[green]pass[/]", "unknown": "[yellow]unknown[/]",
                         "unverified": "[yellow]unverified[/]"}.get(
-                r.verdict, "[red]✗ fail: " + escape("; ".join(r.failed) or "not run") + "[/]"))
+                r.verdict, f"[red]✗ fail ({len(r.failed) or 'not run'})[/]"))
         ids = [x.split(" ", 1)[0] for x in r.reasons if x.split(" ", 1)[0] in recs.rule_texts]
         row.append(", ".join(ids) or "meets every fired rule")
         table.add_row(*row)

@@ -195,8 +195,8 @@ def simulate(
         "--max-saturation", help="Largest fraction of the run an amplifier may spend at "
         "its output limit (0..1].")] = 0.02,
     max_chatter: Annotated[float, typer.Option(
-        "--max-chatter", help="Largest amplifier-input reversals per regulator period "
-        "(0..1].")] = 0.1,
+        "--max-chatter", help="Largest amplifier-input reversals per second, 1/s "
+        "(docs/checks.md).")] = 50.0,
     strict: Annotated[bool, typer.Option(
         "--strict", help="Exit 1 when a check fails (default: exit 0 whatever the "
         "checks say).")] = False,
@@ -212,9 +212,10 @@ def simulate(
     check_numbers(dt, t_end, every, OPTION_NAMES)  # before anything is loaded
     if accuracy is not None and not (math.isfinite(accuracy) and accuracy > 0):
         raise InputError("--accuracy", "", f"must be > 0 rad (m), got {accuracy}")
-    for opt, v in (("--max-saturation", max_saturation), ("--max-chatter", max_chatter)):
-        if not (math.isfinite(v) and 0 < v <= 1):
-            raise InputError(opt, "", f"must be in (0, 1], got {v}")
+    if not (math.isfinite(max_saturation) and 0 < max_saturation <= 1):
+        raise InputError("--max-saturation", "", f"must be in (0, 1], got {max_saturation}")
+    if not (math.isfinite(max_chatter) and max_chatter > 0):
+        raise InputError("--max-chatter", "", f"must be > 0 reversals/s, got {max_chatter}")
     if payload is not None and not (math.isfinite(payload) and payload >= 0):
         raise InputError("--payload", "", f"must be >= 0 kg, got {payload}")
     from manipcad.workspace import Workspace, resolve_input

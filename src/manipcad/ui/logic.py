@@ -16,6 +16,7 @@ torques N·m (N), voltages V, currents A.
 
 from __future__ import annotations
 
+import json
 import tempfile
 import warnings
 from collections.abc import Mapping, Sequence
@@ -484,11 +485,42 @@ def result_rows(ws: Workspace, where: str | None = None) -> list[dict[str, Any]]
     rows = []
     for item in ws.list("results", where=where or None):
         row = {"name": item.name, "status": item.status or "", "created": item.created}
+        fails, unknowns = item.metrics.get("fails"), item.metrics.get("unknowns")
+        row["checks"] = ("" if fails is None else f"fail ({int(fails)})" if fails
+                         else "unknown" if unknowns else "pass")
         for m, _ in COMPARE_METRICS:
             v = item.metrics.get(m)
             row[m] = None if v is None else float(f"{v:.4g}")
         rows.append(row)
     return rows
+
+
+def check_rows(ws: Workspace, name: str) -> tuple[list[dict[str, Any]], str]:
+    """A stored result's run checks (docs/checks.md) as table rows, and its one-line verdict.
+
+    Args:
+        ws: the workspace.
+        name: the result's name.
+
+    Returns:
+        (rows ``{joint, check, value, limit, unit, verdict}`` with numbers rounded to 4
+        digits and "fail" marked "✗ fail", the summary line); ([], "") for a result
+        stored without checks.
+    """
+    from manipcad.sim.checks import RunChecks
+    from manipcad.store.results import METRICS_JSON
+
+    doc = json.loads((ws.path(ws.get(f"results/{name}")) / METRICS_JSON).read_text())
+    if not isinstance(doc.get("checks"), dict):
+        return [], ""
+    checks = RunChecks.from_dict(doc["checks"])
+
+    def num(x):
+        return None if x is None else float(f"{x:.4g}")
+    rows = [{**r, "value": num(r["value"]), "limit": num(r["limit"]),
+             "verdict": "✗ fail" if r["verdict"] == "fail" else r["verdict"]}
+            for r in checks.rows()]
+    return rows, checks.summary()
 
 
 def overlay_figure(ws: Workspace, names: Sequence[str], quantity: str = "error"):

@@ -286,6 +286,9 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
                                        status="diverged", message=str(exc))
                 raise ManipcadError(f"{exc}; the partial result is {item.name}") from None
             raise ManipcadError(f"{exc}; nothing was stored") from None
+        from manipcad.sim.checks import run_checks
+
+        res.checks = run_checks(res, arm).to_dict()   # every rating (docs/checks.md)
         item = ws.store_result(res, name=spec.name, robot=arm, trajectory=spec.trajectory,
                                regulators=spec.regulators, run=run)
     return item.name, item.metrics

@@ -32,8 +32,8 @@ async def page() -> None:
             where = ui.input("filter, e.g. max_error<1e-3 and status=ok", value="") \
                 .classes("w-96").props("data-testid=res-where")
             quantity = ui.select(QUANTITIES, value="error", label="Quantity")
-        cols = ["name", "status", "max_error", "rms_error", "peak_torque", "peak_current",
-                "peak_power", "energy", "created"]
+        cols = ["name", "status", "checks", "max_error", "rms_error", "peak_torque",
+                "peak_current", "peak_power", "energy", "created"]
         table = ui.table(columns=[{"name": c, "label": c, "field": c, "sortable": True}
                                   for c in cols], rows=[], row_key="name",
                          selection="multiple").props("dense flat data-testid=res-table")
@@ -64,6 +64,22 @@ async def page() -> None:
             ui.button("Overlay selected (all when none)", on_click=overlay) \
                 .props("data-testid=res-overlay-run")
         figs = ui.column().classes("w-full")
+
+        def show_checks() -> None:
+            clear()
+            picked = [r["name"] for r in table.selected] or [r["name"] for r in table.rows]
+            figs.clear()
+            with figs:
+                for nm in picked[:1]:
+                    rows, verdict = logic.check_rows(ws(), nm)
+                    ui.label(f"{nm}: {verdict or 'stored without checks'}") \
+                        .props("data-testid=res-verdict")
+                    ui.table(columns=[{"name": c, "label": c, "field": c} for c in (
+                        "joint", "check", "value", "limit", "unit", "verdict")], rows=rows) \
+                        .props("dense flat data-testid=res-checks")
+
+        ui.button("Checks of the selected result (docs/checks.md)", on_click=show_checks) \
+            .props("data-testid=res-checks-run")
         load()
         ui.label("Studies: the paper's Fig. 3 study and the claims maps (manipcad study "
                  "fig3 | claims), run here in a worker process and kept in the workspace") \

@@ -99,6 +99,12 @@ async def page() -> None:
                     ui.toggle(QUANTITIES, value="error", on_change=lambda e: draw(e.value)) \
                         .move(target_index=0)
                     draw("error")
+                    rows, verdict = logic.check_rows(ws(), job.result)
+                    ui.label(verdict).props("data-testid=sim-verdict").classes(
+                        "text-negative" if verdict.startswith("FAIL") else "")
+                    ui.table(columns=[{"name": c, "label": c, "field": c} for c in (
+                        "joint", "check", "value", "limit", "unit", "verdict")], rows=rows) \
+                        .props("dense flat data-testid=sim-checks")
             else:
                 status.text = state
                 if state == "error":

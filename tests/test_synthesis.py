@@ -18,7 +18,7 @@ import pytest
 import manipcad
 from manipcad.control import METHODS, realization_complexity, synthesize
 from manipcad.control.lqr import LQ_NG, closed_loop_poles, gain, lqr_gains
-from manipcad.errors import ManipcadError
+from manipcad.errors import ManipcadError, ManipcadWarning
 from manipcad.sim import simulate
 from manipcad.trajectories.cosine import cosine
 
@@ -527,6 +527,11 @@ def test_lqr_current_bound_within_the_motor_peak(arm):
         i_max = w.i_max if w is not None else float(reg.law.split("i_max = ")[1].split(" A")[0])
         assert i_max == pytest.approx(i_peak, rel=1e-9)
         assert i_peak == pytest.approx(24.86, abs=0.01)
+    # the voltage bound drives 32 A through the winding at rest: said, and recorded
+    with pytest.warns(ManipcadWarning, match=r"drives 32 A .*above the motor's peak current "
+                      r"24.9 A.*set the amplifier's current limit"):
+        reg = synthesize(am, "turn", "pid")
+    assert reg.design["bounds"]["i_limit_A"] == pytest.approx(i_peak)
     with pytest.raises(ManipcadError, match="above the motor's current bound 24.86 A"):
         synthesize(am, "turn", "lqr", spec={"i_max": 49.0})
     with pytest.raises(ManipcadError, match="above the drive's voltage bound 48 V"):

@@ -2,18 +2,23 @@
 
 The method's own synthesis (its registry entry) gives the regulator; this module
 fills in what every regulator carries (joint indices and names, the robot's name and
-content hash, the spec and options asked for) and checks the sampled loop of a
+content hash, the spec and options asked for), checks the sampled loop of a
 single-joint regulator whose drive has an inductance
-(:func:`~manipcad.control.sampled.check_sampled`).
+(:func:`~manipcad.control.sampled.check_sampled`) and records its bounds against the
+drive's ratings (:func:`drive_bounds`).
 """
 
 from __future__ import annotations
 
+import math
+import warnings
+
 from manipcad.control.design import inertia_range
 from manipcad.control.method import Method
 from manipcad.control.registry import method
+from manipcad.control.regulator import current_limit, u_limit
 from manipcad.control.sampled import check_sampled
-from manipcad.errors import ManipcadError
+from manipcad.errors import ManipcadError, ManipcadWarning
 from manipcad.model.hashing import robot_hash
 
 
@@ -81,4 +86,34 @@ def _call(m: Method, robot, joint, spec, options):
         drive = robot.drives[idx[0]]
         if drive.has_electrics and drive.L > 0:
             reg.design["sampled_loop"] = check_sampled(reg, drive, (float(lo), float(hi)))
+        reg.design["bounds"] = drive_bounds(drive, reg)
     return reg
+
+
+def drive_bounds(drive, reg) -> dict:
+    """The regulator's output bound against the drive's ratings; warns where the voltage
+    bound can drive more than the motor's peak current through the winding at rest.
+
+    Returns:
+        ``{"u_limit_V", "i_limit_A", "stall_current_A"}``: the voltage bound
+        (:func:`~manipcad.control.regulator.u_limit`), the current bound
+        (:func:`~manipcad.control.regulator.current_limit`) and the current that voltage
+        drives through the winding at rest, k_u·u_limit/R, A.
+
+    Warns:
+        ManipcadWarning: the stall current is over 5 % above the motor's peak current
+            (none of the methods limits the current itself: the amplifier's current limit
+            must, and the run checks' ``current_peak`` tells whether a run exceeds it).
+    """
+    ulim = u_limit(drive)
+    stall = drive.k_u * ulim / drive.R if drive.R > 0 else math.nan
+    peak = drive.peak_current
+    if math.isfinite(stall) and math.isfinite(peak) and stall > 1.05 * peak:
+        names = ", ".join(reg.joint_names)
+        warnings.warn(ManipcadWarning(
+            f"{reg.method} on {names}: its voltage bound {ulim:.4g} V drives "
+            f"{stall:.3g} A through the winding at rest (R = {drive.R:g} Ω), above the "
+            f"motor's peak current {peak:.3g} A; the regulator does not limit the current: "
+            f"set the amplifier's current limit at {peak:.3g} A, and check the runs' "
+            f"current_peak"), stacklevel=3)
+    return {"u_limit_V": ulim, "i_limit_A": current_limit(drive), "stall_current_A": stall}

@@ -301,3 +301,31 @@ def test_drives_page_selects_automatically(tmp_path):
         assert len(table.rows) == 6 and all(r["candidates"] for r in table.rows)
 
     _simulate_user(tmp_path / "ws", script)
+
+
+def test_drive_mounts_from_the_robot_file(tmp_path, monkeypatch):
+    """A robot file's drive_mounts override the convention: a drive mounted on the base
+    loads no link; the selected robot's file keeps the mounts and loads back; an unknown
+    joint is refused naming the field."""
+    _use(monkeypatch, {"MM_614949", "MM_402687"})
+    text = (EXAMPLES / "ur5" / "ur5_bare.yaml").read_text()
+    text = text.replace("urdf: ur5_robot.urdf", f"urdf: {EXAMPLES / 'ur5' / 'ur5_robot.urdf'}")
+    path = tmp_path / "ur5_mounts.yaml"
+    path.write_text(text + "drive_mounts: {wrist_2_joint: base}\n")
+    arm = manipcad.load_robot(path)
+    assert arm.drive_mounts == (("wrist_2_joint", "base"),)
+    pick = manipcad.load_trajectory(EXAMPLES / "ur5" / "pick.yaml", robot=arm)
+    sel = S.select_drives(arm, [pick], joints=["wrist_2_joint", "wrist_3_joint"], dt=DT,
+                          margin=1.0)
+    added = sel.robot.mass - arm.mass
+    w2, w3 = arm.joint_index("wrist_2_joint"), arm.joint_index("wrist_3_joint")
+    assert added[int(arm.parent[w2])] == pytest.approx(0.0, abs=1e-12)          # on the base
+    assert added[int(arm.parent[w3])] == pytest.approx(sel.joints[1].chosen.part.mass)
+    assert sel.joints[0].mount == "base" and sel.joints[0].mount_link == ""
+    out = S.save_selection(sel, tmp_path / "sel.yaml")
+    again = manipcad.load_robot(out)
+    assert again.drive_mounts == arm.drive_mounts
+    assert np.array_equal(again.mass, sel.robot.mass)
+    path.write_text(text + "drive_mounts: {no_such_joint: base}\n")
+    with pytest.raises(manipcad.errors.InputError, match="drive_mounts.no_such_joint"):
+        manipcad.load_robot(path)

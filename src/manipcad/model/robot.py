@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -28,6 +28,10 @@ from numba.extending import register_jitable
 
 from manipcad.errors import ModelError
 from manipcad.model.html import robot_html
+
+#: where a drive's own mass can sit (Robot.drive_mounts): on the link before its joint,
+#: or off the arm
+DRIVE_MOUNTS = ("before", "base")
 
 REVOLUTE = "revolute"
 PRISMATIC = "prismatic"
@@ -254,6 +258,13 @@ class Robot:
             (the link's own frame, which differs from the body frame by the
             axis alignment, and links merged through fixed joints); see
             :meth:`link_frame`.
+        drive_mounts: where a drive's own mass (motor + gear) sits, for the
+            joints that differ from the convention, as ``((joint name, mount),
+            ...)``: "before" (the convention: on the link before the joint, at
+            the joint's origin) or "base" (off the arm: a remote motor driving
+            through a belt, cable or shaft). Read by drive selection
+            (:mod:`manipcad.sizing.select`), which puts the chosen drives'
+            masses on the links; robot files give it as ``drive_mounts: {joint: base}``.
     """
 
     name: str
@@ -276,6 +287,7 @@ class Robot:
     frames: tuple = ()
     velocity_limits: np.ndarray | None = None
     effort_limits: np.ndarray | None = None
+    drive_mounts: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self) -> None:
         # no speed or torque limit unless given: (n,) inf
@@ -308,6 +320,7 @@ class Robot:
         frames: Sequence = (),
         velocity_limits: Sequence[float] | None = None,
         effort_limits: Sequence[float] | None = None,
+        drive_mounts: Mapping[str, str] | Sequence[tuple[str, str]] = (),
     ) -> Robot:
         """Build and validate a robot from per-joint arrays (see the class docstring)."""
         n = len(joint_types)
@@ -339,6 +352,7 @@ class Robot:
                              else f(velocity_limits, dtype=float).reshape(-1)),
             effort_limits=(np.full(n, np.inf) if effort_limits is None
                            else f(effort_limits, dtype=float).reshape(-1)),
+            drive_mounts=mounts_tuple(drive_mounts),
         )
         robot.validate()
         return robot
@@ -367,6 +381,13 @@ class Robot:
                                  "must name an earlier joint or the base (-1)")
         if len(set(self.joint_names)) != n:
             raise ModelError("joint names must be unique")
+        for joint, mount in self.drive_mounts:
+            if joint not in self.joint_names:
+                raise ModelError(f"drive_mounts: no joint named {joint!r}; joints are "
+                                 f"{', '.join(self.joint_names)}", field="drive_mounts")
+            if mount not in DRIVE_MOUNTS:
+                raise ModelError(f"drive_mounts: {joint}: unknown mount {mount!r}; expected "
+                                 f"one of {', '.join(DRIVE_MOUNTS)}", field="drive_mounts")
         names = set()
         for name, body, R, p in self.frames:
             if name in names:
@@ -564,6 +585,19 @@ class Robot:
     def __repr__(self) -> str:
         kinds = "".join("R" if t == REVOLUTE else "P" for t in self.joint_types)
         return f"Robot({self.name!r}, n={self.n}, joints={kinds})"
+
+
+def mounts_tuple(mounts: Mapping[str, str] | Sequence[tuple[str, str]]
+                 ) -> tuple[tuple[str, str], ...]:
+    """Drive mounts as :attr:`Robot.drive_mounts` holds them: sorted (joint, mount) pairs
+    (the conventional "before" left out).
+
+    Example:
+        >>> mounts_tuple({"elbow": "base", "wrist": "before"})
+        (('elbow', 'base'),)
+    """
+    items = mounts.items() if isinstance(mounts, Mapping) else mounts
+    return tuple(sorted((str(j), str(m)) for j, m in items if m != "before"))
 
 
 def _check_finite(robot: Robot) -> None:

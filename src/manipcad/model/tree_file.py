@@ -113,6 +113,7 @@ class TreeRobotSpec(_Spec):
     tool: PoseSpec | None = None
     joints: list[TreeJointSpec] = Field(min_length=1)
     frames: list[FrameSpec] = []
+    drive_mounts: dict[str, Literal["before", "base"]] = {}
 
 
 def is_tree_file(data: object) -> bool:
@@ -167,7 +168,7 @@ def load_tree_robot(path: str | Path) -> Robot:
                              for j in spec.joints]),
             link_names=[j.link.name or f"link{i + 1}" for i, j in enumerate(spec.joints)],
             tool_R=np.array(tool.R), tool_p=np.array(tool.p), source=spec.source,
-            frames=frames,
+            frames=frames, drive_mounts=spec.drive_mounts,
             velocity_limits=[math.inf if j.velocity_limit is None else j.velocity_limit
                              for j in spec.joints],
             effort_limits=[math.inf if j.effort_limit is None else j.effort_limit
@@ -251,6 +252,8 @@ def robot_to_dict(robot: Robot) -> dict[str, Any]:
         "tool": {"R": _rows(robot.tool_R), "p": _vec(robot.tool_p)},
         "joints": joints,
     }
+    if robot.drive_mounts:
+        out["drive_mounts"] = dict(robot.drive_mounts)
     if robot.frames:
         out["frames"] = [{"name": nm, "body": "base" if b < 0 else robot.joint_names[b],
                           "R": _rows(R), "p": _vec(p)} for nm, b, R, p in robot.frames]

@@ -27,6 +27,9 @@ SI units throughout:
 - ``tool``: the tool frame at ``xyz`` (m) and ``rpy`` (rad, fixed axes x, y, z)
   in the frame of ``link`` (a URDF link carried by the last joint; default the
   last joint's child link).
+- ``drive_mounts``: joint name -> ``before`` (the convention: a drive's own
+  mass on the link before its joint) or ``base`` (off the arm); read by
+  ``manipcad select`` (docs/select.md).
 - ``gravity``: m/s², base frame (default [0, 0, -9.81]); ``name``,
   ``source``, ``description``: text.
 
@@ -37,12 +40,13 @@ the field (``drives.elbow_joint.motor``) and the reason.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from pydantic import Field
 
 from manipcad.errors import InputError, ModelError
-from manipcad.model.robot import Robot
+from manipcad.model.robot import Robot, mounts_tuple
 from manipcad.model.urdf import load_urdf
 from manipcad.model.yaml_robot import (
     DriveSpec,
@@ -88,6 +92,7 @@ class UrdfRobotSpec(_Spec):
     drives: dict[str, DriveSpec] = {}
     payload: PayloadSpec | None = None
     tool: LinkToolSpec | None = None
+    drive_mounts: dict[str, Literal["before", "base"]] = {}
 
 
 def is_urdf_robot_file(data: object) -> bool:
@@ -146,8 +151,13 @@ def build_urdf_robot(spec: UrdfRobotSpec, label: str, base_dir: Path) -> Robot:
                              f"{spec.urdf}; joints are {', '.join(body.joint_names)}")
         drives[body.joint_names.index(name)] = build_drive(dspec, label, f"drives.{name}",
                                                            base_dir)
+    for name in spec.drive_mounts:
+        if name not in body.joint_names:
+            raise InputError(label, f"drive_mounts.{name}", "no movable joint of that name "
+                             f"in {spec.urdf}; joints are {', '.join(body.joint_names)}")
     changes: dict = {"drives": tuple(drives), "gravity": np.array(spec.gravity),
-                     "source": spec.source.strip() or body.source}
+                     "source": spec.source.strip() or body.source,
+                     "drive_mounts": mounts_tuple(spec.drive_mounts)}
     if spec.name:
         changes["name"] = spec.name
     if spec.tool is not None:

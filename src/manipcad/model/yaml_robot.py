@@ -246,6 +246,7 @@ class RobotSpec(_Spec):
     description: str = ""
     tool: ToolSpec | None = None
     joints: list[JointSpec] = Field(min_length=1)
+    drive_mounts: dict[str, Literal["before", "base"]] = {}
 
 
 # --------------------------------------------------------------------------- reading
@@ -412,13 +413,17 @@ def build_robot(spec: RobotSpec, label: str, base_dir: Path | None = None) -> Ro
         Rd, pd = dh.standard_distal(joints[-1].dh.a, joints[-1].dh.alpha)
         tool_R, tool_p = Rd @ tool_R, pd + Rd @ tool_p
 
+    for jname in spec.drive_mounts:
+        if jname not in index:
+            raise InputError(label, f"drive_mounts.{jname}", "no joint of that name; joints "
+                             f"are {', '.join(index)}")
     try:
         return Robot.from_arrays(
             spec.name, [j.type for j in joints], parents, R_pl, p_pl, mass, com, inertia,
             offset=offset, joint_names=[j.name for j in joints], drives=drives,
             gravity=spec.gravity, limits=limits, tool_R=tool_R, tool_p=tool_p,
             source=spec.source.strip(), velocity_limits=rates["velocity_limit"],
-            effort_limits=rates["effort_limit"],
+            effort_limits=rates["effort_limit"], drive_mounts=spec.drive_mounts,
         )
     except ModelError as exc:
         field = "tool" if exc.field.startswith("tool") else (

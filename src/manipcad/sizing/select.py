@@ -39,9 +39,11 @@ them "fail"; both are infeasible).
 
 The drives' own masses load the arm. Convention: a drive (motor + gear) sits
 on the link before its joint — the link of the parent joint — as a point
-mass at the joint's origin (``mounts={joint: "before"}``, the default); a
-drive mounted on the base (``"base"``: a remote motor driving through a
-belt, a cable or a shaft) loads nothing. A joint's torque depends only on
+mass at the joint's origin (``"before"``, the default); a drive mounted on
+the base (``"base"``: a remote motor driving through a belt, a cable or a
+shaft) loads nothing. The robot file overrides the convention per joint
+(``drive_mounts: {joint: base}``, :attr:`Robot.drive_mounts`), and the
+``mounts`` argument overrides the file. A joint's torque depends only on
 the links it moves, so a drive's mass loads the joints proximal to it, never
 its own joint. The selection sweeps the joints from the distal end to the
 base (each joint chosen with the masses of the drives beyond it) and repeats
@@ -70,7 +72,14 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError, ManipcadError
-from manipcad.model.robot import PRISMATIC, Drive, Robot, combine_bodies
+from manipcad.model.robot import (
+    DRIVE_MOUNTS,
+    PRISMATIC,
+    Drive,
+    Robot,
+    combine_bodies,
+    mounts_tuple,
+)
 from manipcad.sizing.limits import (
     ALL_LIMITS,
     FAIL,
@@ -100,8 +109,8 @@ OBJECTIVES: dict[str, tuple[str, str]] = {
 }
 #: the default margin: every rating at least 1.1 × what the motion needs
 DEFAULT_MARGIN = 1.1
-#: mount conventions of a drive's mass (module docstring)
-MOUNTS = ("before", "base")
+#: mount conventions of a drive's mass (module docstring; Robot.drive_mounts)
+MOUNTS = DRIVE_MOUNTS
 #: the gear type of a candidate without a gear
 DIRECT = "direct"
 #: the checks decided per candidate from per-joint statistics (no time series)
@@ -573,8 +582,9 @@ def with_drive_masses(robot: Robot, masses: Mapping[int, float],
     Args:
         robot: the robot.
         masses: joint index -> drive mass (motor + gear), kg.
-        mounts: joint index -> "before" (default: on the parent joint's link, at
-            this joint's origin) or "base" (not on the arm: adds nothing).
+        mounts: joint index -> "before" (on the parent joint's link, at this
+            joint's origin: the convention) or "base" (not on the arm: adds
+            nothing); default the robot's own ``drive_mounts`` (its file's).
 
     Returns:
         A new robot (this one is unchanged).
@@ -586,7 +596,8 @@ def with_drive_masses(robot: Robot, masses: Mapping[int, float],
         >>> round(float(heavier.mass[1] - arm.mass[1]), 9)
         1.5
     """
-    mounts = mounts or {}
+    if mounts is None:
+        mounts = {robot.joint_index(j): m for j, m in robot.drive_mounts}
     mass, com, inertia = robot.mass.copy(), robot.com.copy(), robot.inertia.copy()
     for j, m in masses.items():
         if not (math.isfinite(m) and m >= 0):
@@ -958,7 +969,8 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
         gear_types: keep only these gear types ("planetary", "harmonic", ...;
             "direct" for no gear).
         joints: the joints to select for (names or indices; default all).
-        mounts: joint -> "before" (default) or "base": where its drive's mass sits.
+        mounts: joint -> "before" or "base": where its drive's mass sits (default
+            the robot's ``drive_mounts``, from its file, else "before").
         allow_unknown: accept a check that cannot be made (``size --allow-unknown``).
         dt: sampling step, s (``size``'s default 1e-3).
         t_end: end of every run, s (default each trajectory's duration).
@@ -1004,7 +1016,9 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
     need = 1.0 - 1.0 / margin
     sel_joints = (list(range(robot.n)) if joints is None
                   else sorted({robot.joint_index(j) for j in joints}))
-    mount_of = {j: "before" for j in sel_joints}
+    mount_of = {j: "before" for j in range(robot.n)}
+    for name, m in robot.drive_mounts:             # the robot file's drive_mounts
+        mount_of[robot.joint_index(name)] = m
     for key, m in (mounts or {}).items():
         j = robot.joint_index(key)
         mount_body(robot, j, m)
@@ -1092,7 +1106,9 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
             "link masses include the drives' masses: " + ", ".join(
                 f"{robot.joint_names[j]} {masses[j]:.4g} kg on "
                 f"{chosen[j].mount_link or 'the base'}" for j in sel_joints))
-    arm = arm.replace(source=(robot.source + "; " if robot.source else "") + note)
+    arm = arm.replace(source=(robot.source + "; " if robot.source else "") + note,
+                      drive_mounts=mounts_tuple({robot.joint_names[j]: m
+                                                 for j, m in mount_of.items()}))
     return Selection(robot=arm, joints=tuple(chosen[j] for j in sel_joints),
                      iterations=iterations, objective=objective, margin=margin,
                      payloads=payloads,

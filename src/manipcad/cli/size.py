@@ -106,6 +106,14 @@ def size(
                          f"has {arm.n}")
     if not math.isfinite(dt) or dt <= 0:
         raise InputError("--dt", "", f"must be a number > 0 s, got {dt}")
+    span = t_end if t_end is not None else traj.duration
+    if math.isfinite(span) and span > 0 and span / dt < MIN_STEPS:
+        # a peak between two samples is missed: --dt 10 on a 0.3 s move sampled its two
+        # ends and passed with half the peak torque
+        steps = max(1, math.ceil(span / dt - 1e-9))
+        raise InputError("--dt", "", f"{dt:g} s gives {steps} step{'s' * (steps > 1)} over "
+                         f"the {span:g} s motion, too coarse to find its peaks (at least "
+                         f"{MIN_STEPS} steps: --dt {span / MIN_STEPS:.3g} or less)")
     if payload is not None and (not math.isfinite(payload) or payload < 0):
         raise InputError("--payload", "", f"must be a mass >= 0 kg, got {payload}")
     from manipcad.cli.warmup import ensure_warm
@@ -287,6 +295,10 @@ def _print_assumed(on_assumed: list[dict]) -> None:
                       f"(motor torque and voltage checks of {escape(', '.join(joints))}; "
                       f"--strict takes it as unknown): {escape(why.split(': ', 1)[1])}",
                       soft_wrap=True, highlight=False)
+
+
+#: fewest sampling steps over the motion ``size`` accepts (a coarser --dt is refused)
+MIN_STEPS = 50
 
 
 def _sweeps(arm, traj, spec: str | None, joints: list[str] | None, t_end, dt, payload) -> list:

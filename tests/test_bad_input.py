@@ -398,3 +398,28 @@ def test_identify_refuses_non_si_unit_labels(tmp_path, label):
     bad = _ident_csv(tmp_path, header=[label if c == "tau2 [N·m]" else c for c in cols])
     with pytest.raises(InputError, match="not the SI unit"):
         load_torque_data(bad, arm)
+
+
+def test_size_refuses_a_dt_that_undersamples(tmp_path):
+    traj = tmp_path / "m.yaml"
+    traj.write_text("type: quintic\nq_start: [0, 0.5, -0.5, 0, 0.3, 0]\n"
+                    "q_end: [1, 0.5, -0.5, 0, 0.3, 0]\nduration: 0.3\n")
+    res, out = cli("size", "puma560", "--trajectory", traj, "--dt", "10")
+    fails_cleanly(res, out, "--dt", "1 step over the 0.3 s motion", "0.006")
+    res, out = cli("size", "puma560", "--trajectory", traj, "--dt", "0.006", "--json")
+    assert res.exit_code in (0, 1) and "error" not in out, out
+
+
+def test_api_simulate_refuses_another_robots_regulators():
+    """Regulators made for a two-link arm are not run on the PUMA's waist and shoulder."""
+    import manipcad
+    from manipcad.control.files import load_regulators
+    from manipcad.sim import simulate
+
+    two = manipcad.load_robot(str(EXAMPLES / "two_link.yaml"))
+    regs = [manipcad.synthesize(two, j, "pid") for j in two.joint_names]
+    puma = manipcad.load_robot("puma560")
+    with pytest.raises(ManipcadError, match="was made for joint 'shoulder'.*'waist'"):
+        simulate(puma, t_end=0.01, dt=1e-4, regulators=regs)
+    own = load_regulators(str(EXAMPLES / "pid_puma.yaml"), puma)
+    assert simulate(puma, t_end=0.002, dt=1e-4, regulators=own).t[-1] > 0

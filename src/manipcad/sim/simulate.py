@@ -787,6 +787,15 @@ def _pack_regulators(robot: Robot, regulators, dt: float, est):
             except (ManipcadError, KeyError, IndexError, ValueError):
                 raise ManipcadError(f"regulator {reg.method!r}: robot {robot.name!r} has no "
                                     f"joint {jt!r}") from None
+            named = reg.joint_names[len(idx)] if len(reg.joint_names) > len(idx) else None
+            if named is not None and named != robot.joint_names[j]:
+                # made for another robot: its joint k is not this one's (the CLI refuses the
+                # same by the file's joint names)
+                raise ManipcadError(
+                    f"regulator {reg.method!r} was made for joint {named!r}"
+                    + (f" of {reg.robot!r}" if reg.robot else "")
+                    + f", but joint {jt!r} of {robot.name!r} is {robot.joint_names[j]!r}: "
+                    "give the regulators of this robot (synthesize them for it)")
             if j in owner:
                 raise ManipcadError(f"two regulators for joint {robot.joint_names[j]!r}")
             owner[j] = r

@@ -423,3 +423,21 @@ def test_api_simulate_refuses_another_robots_regulators():
         simulate(puma, t_end=0.01, dt=1e-4, regulators=regs)
     own = load_regulators(str(EXAMPLES / "pid_puma.yaml"), puma)
     assert simulate(puma, t_end=0.002, dt=1e-4, regulators=own).t[-1] > 0
+
+
+def test_ws_where_refuses_unknown_joint_and_status(tmp_path):
+    import manipcad
+    from manipcad.sim import simulate
+    from manipcad.workspace import Workspace
+
+    ws = Workspace.init(tmp_path / "ws")
+    arm = manipcad.load_robot("cylindrical")
+    res = simulate(arm, t_end=0.01, dt=1e-3, drives=False, q0=[0.0, 0.3, 0.2])
+    ws.store_result(res, name="r1", robot=arm, plot=False)
+    assert [i.name for i in ws.list(where="max_error[lift]>=0 and status=ok")] == ["r1"]
+    with pytest.raises(InputError, match="no stored result has a joint 'elbow'.*lift"):
+        ws.list(where="max_error[elbow]<1")
+    with pytest.raises(InputError, match="status 'okay'.*diverged, ok"):
+        ws.list(where="status=okay")
+    res, out = cli("ws", "list", "--where", "max_error[lfit]<1", "--ws", ws.root)
+    fails_cleanly(res, out, "lfit")

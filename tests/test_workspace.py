@@ -189,7 +189,8 @@ def test_where_refuses_anything_else(results_ws, text):
 
 
 def test_where_joint_text_is_a_parameter(results_ws):
-    assert results_ws.list(where="max_error[x' OR '1'='1]<1") == []
+    with pytest.raises(InputError, match="no stored result has a joint \"x' OR '1'='1\""):
+        results_ws.list(where="max_error[x' OR '1'='1]<1")  # a name, never SQL
     assert parse_where("max_error[x' OR '1'='1]<1")[0].joint == "x' OR '1'='1"
     assert len(results_ws.list()) == 5
 

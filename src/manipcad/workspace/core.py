@@ -324,7 +324,9 @@ class Workspace:
             conds.append("kind = ?")
             params.append(kind_of(kind))
         if where:
-            cond, wparams = where_sql(parse_where(where))
+            clauses = parse_where(where)
+            self._check_where_names(clauses)
+            cond, wparams = where_sql(clauses)
             conds.append(cond)
             params += wparams
         if conds:
@@ -337,6 +339,22 @@ class Workspace:
                 if m["item_id"] in by_item:
                     by_item[m["item_id"]].append(m)
         return ItemList(self._item(r, by_item[r["id"]]) for r in rows)
+
+    def _check_where_names(self, clauses) -> None:
+        """Refuse a filter naming a joint no stored result has, or a status none can have
+        (a misspelt name matched nothing and listed no result, as if none qualified)."""
+        joints = {r["joint"] for r in self.index.query("SELECT DISTINCT joint FROM metrics")}
+        joints.discard("*")
+        statuses = {"ok", "diverged"} | {r["status"] for r in self.index.query(
+            "SELECT DISTINCT status FROM items WHERE status IS NOT NULL")}
+        for c in clauses:
+            if c.joint != "*" and c.joint not in joints:
+                raise InputError("--where", "", f"{c.field}[{c.joint}]: no stored result has a "
+                                 f"joint {c.joint!r}; the results' joints: "
+                                 f"{', '.join(sorted(joints)) or '(no results)'}")
+            if c.field == "status" and c.value not in statuses:
+                raise InputError("--where", "", f"status {c.value!r}: a result's status is one "
+                                 f"of {', '.join(sorted(statuses))}")
 
     def library(self, kind: str | None = None, where: str | None = None) -> ItemList:
         """The workspace's items and, for robots, motors and gears, the built-in

@@ -441,3 +441,36 @@ def test_ws_where_refuses_unknown_joint_and_status(tmp_path):
         ws.list(where="status=okay")
     res, out = cli("ws", "list", "--where", "max_error[lfit]<1", "--ws", ws.root)
     fails_cleanly(res, out, "lfit")
+
+
+def test_yaml_base60_and_octal_are_not_numbers(tmp_path):
+    """YAML 1.1 read 'ratio: 1:30' as 90 and '010' as 8: now text, which the number field
+    refuses naming it."""
+    from manipcad.fileio import parse_yaml
+    from manipcad.model.load import load_robot
+
+    assert parse_yaml("a: 1:30\nb: 010\nc: 190:20:30.15\nd: 0x1f\ne: 1_000\n", "x") == {
+        "a": "1:30", "b": "010", "c": "190:20:30.15", "d": 31, "e": 1000}
+    text = (EXAMPLES / "two_link.yaml").read_text()
+    p = tmp_path / "arm.yaml"
+    p.write_text(text.replace("ratio: 50 ", "ratio: 1:30"))
+    with pytest.raises(InputError, match="ratio") as err:
+        load_robot(str(p))
+    assert "1:30" in str(err.value) and err.value.source == str(p)
+
+
+def test_names_that_look_like_numbers_read_back(tmp_path):
+    import manipcad
+    from manipcad.control.files import load_regulators, save_regulators
+    from manipcad.fileio import dump_yaml, parse_yaml
+
+    data = {"names": ["1e0", "1e3", "1:30", "010", ".5", "yes", "x"]}
+    assert parse_yaml(dump_yaml(data), "x") == data
+    arm = manipcad.load_robot("cylindrical").replace(joint_names=("1e0", "1e3", "reach"))
+    manipcad.save_robot(arm, tmp_path / "arm.yaml")
+    back = manipcad.load_robot(str(tmp_path / "arm.yaml"))
+    assert back.joint_names == ("1e0", "1e3", "reach")
+    regs = [manipcad.synthesize(back, j, "pid") for j in ("1e0", "1e3")]
+    save_regulators(regs, tmp_path / "regs.yaml")
+    again = load_regulators(str(tmp_path / "regs.yaml"), back)
+    assert [r.joint_names for r in again] == [("1e0",), ("1e3",)]

@@ -56,10 +56,15 @@ MAX_DEPTH = 100
 _FLOAT = re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
     |[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+
     |[-+]?\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?
-    |[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+\.[0-9_]*
     |[-+]?\.(?:inf|Inf|INF)
     |\.(?:nan|NaN|NAN))$""", re.VERBOSE)
 _FLOAT_TAG = "tag:yaml.org,2002:float"
+# integers: decimal, 0x hex, 0b binary; not YAML 1.1's base 60 ("1:30" was 90) nor its
+# octal ("010" was 8): such text stays text, which a number field refuses by name
+_INT = re.compile(r"""^(?:[-+]?0b[0-1_]+
+    |[-+]?(?:0|[1-9][0-9_]*)
+    |[-+]?0x[0-9a-fA-F_]+)$""", re.VERBOSE)
+_INT_TAG = "tag:yaml.org,2002:int"
 
 
 class _Refused(yaml.MarkedYAMLError):
@@ -89,10 +94,12 @@ class _Constructor(yaml.constructor.SafeConstructor):
 
 
 class _Resolver(yaml.resolver.Resolver):
-    """PyYAML's resolver with the one float rule (:data:`_FLOAT`)."""
+    """PyYAML's resolver with the one float rule (:data:`_FLOAT`) and integers without
+    YAML 1.1's base-60 and octal forms (:data:`_INT`)."""
 
     yaml_implicit_resolvers = {
-        first: [(_FLOAT_TAG, _FLOAT) if tag == _FLOAT_TAG else (tag, rx) for tag, rx in rules]
+        first: [(_FLOAT_TAG, _FLOAT) if tag == _FLOAT_TAG else (_INT_TAG, _INT)
+                if tag == _INT_TAG else (tag, rx) for tag, rx in rules]
         for first, rules in yaml.resolver.Resolver.yaml_implicit_resolvers.items()}
     for _first in "0123456789-+.":
         _rules = yaml_implicit_resolvers.setdefault(_first, [])
@@ -183,6 +190,34 @@ def _measure(root: yaml.Node) -> None:
         return count, height
 
     walk(root, 0)
+
+
+class _Dumper(yaml.SafeDumper):
+    """SafeDumper that quotes every text :class:`SafeYamlLoader` or YAML 1.1 (PyYAML's
+    own loader) would read as something else: ``1e0``, ``1e3`` (floats here), ``1:30``
+    (90 in YAML 1.1), ``010``."""
+
+    yaml_implicit_resolvers = {
+        first: list(_Resolver.yaml_implicit_resolvers.get(first, []))
+        + list(yaml.resolver.Resolver.yaml_implicit_resolvers.get(first, []))
+        for first in set(_Resolver.yaml_implicit_resolvers)
+        | set(yaml.resolver.Resolver.yaml_implicit_resolvers)}
+
+
+def dump_yaml(data: Any, **kwargs: Any) -> str:
+    """YAML text of plain data (``yaml.safe_dump``'s options) that reads back the same
+    with :func:`parse_yaml`: text that looks like a number (a joint named ``1e0``) is
+    quoted.
+
+    Example:
+        >>> print(dump_yaml({"joints": ["1e0", "1:30", "elbow"], "ratio": 30.0}), end="")
+        joints:
+        - '1e0'
+        - '1:30'
+        - elbow
+        ratio: 30.0
+    """
+    return yaml.dump(data, Dumper=_Dumper, **kwargs)
 
 
 #: the name older callers use for :class:`SafeYamlLoader`
@@ -926,7 +961,8 @@ def json_safe(x: Any) -> Any:
 
 
 __all__ = [
-    "read_yaml", "read_text", "read_bytes", "parse_yaml", "check_readable", "SafeYamlLoader",
+    "read_yaml", "read_text", "read_bytes", "parse_yaml", "dump_yaml", "check_readable",
+    "SafeYamlLoader",
     "UniqueKeyLoader", "MAX_FILE_BYTES", "MAX_NODES", "MAX_DEPTH", "field_path",
     "describe_error", "validation_error",
     "write_folder", "exchange_paths", "clean_folder_leftovers",

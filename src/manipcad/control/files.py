@@ -41,7 +41,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from manipcad.control.complexity import realization_complexity
 from manipcad.control.pid_file import short_pid_groups
@@ -68,7 +67,7 @@ from manipcad.drives.params import (
     P_WEPS,
 )
 from manipcad.errors import InputError, ManipcadError
-from manipcad.fileio import atomic_write_text, file_number, json_safe, read_yaml
+from manipcad.fileio import atomic_write_text, dump_yaml, file_number, json_safe, read_yaml
 from manipcad.model.hashing import robot_hash
 from manipcad.model.robot import Robot
 from manipcad.version import __version__
@@ -155,7 +154,7 @@ def regulators_yaml(regs: Sequence[Regulator], *, robot: Robot | None = None) ->
     doc = regulators_document(regs, robot=robot)
     head = ("# manipcad regulator file: SI units (in the keys); made by manipcad "
             f"{doc['manipcad_version']}\n")
-    return head + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=100)
+    return head + dump_yaml(doc, sort_keys=False, allow_unicode=True, width=100)
 
 
 # ---------------------------------------------------------------- reading

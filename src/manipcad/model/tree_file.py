@@ -37,10 +37,10 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-import yaml
 from pydantic import BeforeValidator, Field
 
 from manipcad.errors import InputError, ModelError
+from manipcad.fileio import dump_yaml
 from manipcad.model.robot import Drive, Robot
 from manipcad.model.yaml_robot import (
     DriveSpec,
@@ -284,7 +284,7 @@ def save_robot(robot: Robot, path: str | Path) -> Path:
     path = Path(path)
     text = ("# manipcad robot, tree form (docs/robot-files.md); SI units: m, rad, kg, kg·m²,\n"
             "# drive fields as in robot files (motor side J kg·m², R Ω, L H, k_m N·m/A, ...)\n"
-            + yaml.safe_dump(robot_to_dict(robot), sort_keys=False, allow_unicode=True,
+            + dump_yaml(robot_to_dict(robot), sort_keys=False, allow_unicode=True,
                              default_flow_style=None,
                              width=100))
     from manipcad.fileio import atomic_write_text

@@ -60,10 +60,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from manipcad.errors import InputError
-from manipcad.fileio import json_safe
+from manipcad.fileio import dump_yaml, json_safe
 from manipcad.sim.series import SERIES, result_arrays, series_columns, series_units  # noqa: F401
 from manipcad.version import __version__
 
@@ -404,7 +403,7 @@ def _write_input(folder: Path, key: str, value: Any) -> None:
     if hasattr(value, "to_dict"):
         value = value.to_dict()
     if isinstance(value, Mapping):
-        text = yaml.safe_dump(jsonable(value), sort_keys=False, default_flow_style=None,
+        text = dump_yaml(jsonable(value), sort_keys=False, default_flow_style=None,
                               width=100, allow_unicode=True)
         (folder / f"{key}.yaml").write_text(text, encoding="utf-8")
         return

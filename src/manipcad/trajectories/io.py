@@ -39,11 +39,16 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
 
 from manipcad.errors import InputError, ManipcadError
-from manipcad.fileio import atomic_write_text, describe_error, read_yaml, validation_error
+from manipcad.fileio import (
+    atomic_write_text,
+    describe_error,
+    dump_yaml,
+    read_yaml,
+    validation_error,
+)
 from manipcad.model.robot import Robot
 from manipcad.trajectories.base import Trajectory
 from manipcad.trajectories.cartesian import circle, line
@@ -318,6 +323,6 @@ def save_trajectory(trajectory: Trajectory, path: str | Path) -> Path:
         PosixPath('/tmp/q1.yaml')
     """
     text = ("# manipcad trajectory; SI units: joint values rad or m, times s\n"
-            + yaml.safe_dump(trajectory.to_dict(), sort_keys=False, default_flow_style=None,
+            + dump_yaml(trajectory.to_dict(), sort_keys=False, default_flow_style=None,
                              width=100))
     return atomic_write_text(path, text)

@@ -839,7 +839,7 @@ def add_part(ws: Workspace, kind: str, name: str, form: Mapping[str, Any], *,
         ...          source="test").ref
         'gears/g50'
     """
-    import yaml
+    from manipcad.fileio import dump_yaml
 
     if kind not in ("motors", "gears"):
         raise InputError("library", "", f"{kind!r}: expected motors or gears")
@@ -850,7 +850,7 @@ def add_part(ws: Workspace, kind: str, name: str, form: Mapping[str, Any], *,
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{name}.yaml"
         path.write_text(f"# {kind[:-1]} file (SI units, docs/robot-files.md)\n"
-                        + yaml.safe_dump(data, sort_keys=False, allow_unicode=True),
+                        + dump_yaml(data, sort_keys=False, allow_unicode=True),
                         encoding="utf-8")
         try:
             return ws.add(path, kind=kind, name=name, force=force)

@@ -339,3 +339,23 @@ def test_package_data_covers_the_data_files():
         if p.is_file():
             rel = p.relative_to(pkg).as_posix()
             assert any(fnmatch.fnmatch(rel, pat) for pat in pats), rel
+
+
+def test_a_gear_file_may_say_its_efficiency_is_unknown(tmp_path):
+    """``efficiency: unknown`` in a harmonic gear file: no assumption, nan in the drive,
+    None in the listings (robots list, the library table)."""
+    base = yaml.safe_load((DATA / "parts" / "gears" / "harmonic_csg14_100.yaml").read_text(
+        encoding="utf-8"))
+    ws = tmp_path / "ws"
+    assert runner.invoke(app, ["ws", "init", str(ws)]).exit_code == 0
+    p = tmp_path / "g.yaml"
+    p.write_text(yaml.safe_dump(dict(base, efficiency="unknown")), encoding="utf-8")
+    assert runner.invoke(app, ["ws", "add", str(p), "--ws", str(ws), "--name", "g"]).exit_code == 0
+    res = runner.invoke(app, ["robots", "list", "--ws", str(ws), "--json"])
+    assert res.exit_code == 0, res.output
+    row = next(g for g in json.loads(res.output)["gears"] if g["name"] == "g")
+    assert row["efficiency"] is None
+    g = catalog.gears(ws=ws).loc["g"]
+    assert math.isnan(g.efficiency) and g.efficiency_basis == "unknown"
+    assert math.isnan(Drive(**catalog.drive_fields("MM_597974", catalog.part("g", ws=ws)))
+                      .efficiency)

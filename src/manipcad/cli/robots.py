@@ -84,7 +84,7 @@ def list_catalog(
         g = load_gear(ref)
         rows["gears"].append({
             "name": name, "origin": origin, "type": g.type, "ratio": g.direction * g.ratio,
-            "J_kgm2": g.J, "efficiency": g.efficiency,
+            "J_kgm2": g.J, "efficiency": None if g.efficiency == "unknown" else g.efficiency,
             "max_continuous_Nm": g.max_continuous_torque,
             "peak_Nm": g.max_intermittent_torque, "n_in_max_rad_per_s": g.max_input_speed})
     if as_json:

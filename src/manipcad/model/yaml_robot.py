@@ -75,6 +75,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 from manipcad import fileio
 from manipcad.catalog import compose_drive
 from manipcad.catalog.files import GearSpec, MotorSpec, compose_gears
+from manipcad.catalog.files import part_names as _catalog_names  # noqa: F401  (callers)
 from manipcad.catalog.library import load_gear, load_motor
 from manipcad.errors import InputError, ManipcadWarning, ModelError
 from manipcad.model import dh

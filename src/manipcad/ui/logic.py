@@ -806,6 +806,8 @@ def library_rows(ws: Workspace, kind: str) -> list[dict[str, Any]]:
             row["type"] = spec.type
         for k in keys:
             v = getattr(spec, k)
+            if k == "efficiency" and v == "unknown":   # a file's "efficiency: unknown"
+                v = None
             row[k] = "-" if v is None else (", ".join(f"{x:.4g}" for x in v)
                                             if isinstance(v, tuple) else f"{float(v):.4g}")
         rows.append(row)

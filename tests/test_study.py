@@ -48,6 +48,11 @@ def test_writes_three_files_with_required_keys(study):
         assert (lab in data["max_error"]) != (lab in data["skipped"]), lab
     for lab in STEP:
         assert (lab in data["rise_time"]) != (lab in data["skipped"]), lab
+    # each tracking run judged against every rating of the turn drive (docs/checks.md)
+    for lab in data["max_error"]:
+        c = data["checks"][lab]
+        assert c["verdict"] in ("pass", "fail", "unknown") and "saturation" in c["checks"]
+        assert (c["verdict"] == "fail") == bool(c["failed"])
     # on the Fig. 2 arm every method runs: a study where everything was skipped must fail
     assert not data["skipped"], data["skipped"]
     for lab, why in data["skipped"].items():

@@ -468,6 +468,7 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
     import manipcad
     from manipcad.report.fig3 import fig3_html, plot_fig3
     from manipcad.sim import SimulationDiverged, simulate
+    from manipcad.sim.checks import run_checks
     from manipcad.trajectories import cosine, gripper_speed
 
     t_end = _check_args(dt, t_end, step, step_t_end)
@@ -509,7 +510,7 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
         "max_error": {}, "rms_error": {},
         "rise_time": {}, "overshoot": {}, "settling_time": {}, "monotone": {},
         "complexity": {}, "laws_used": {}, "titles": {}, "other_joints": {},
-        "skipped": {},
+        "skipped": {}, "checks": {},
     }
     data["arm"] = arm_parameters(arm)
     tracking: dict[str, Any] = {}
@@ -550,6 +551,13 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
             data["other_joints"][v.label] = {
                 name: {"max_error": _metric(res, name, "max_error"),
                        "rms_error": _metric(res, name, "rms_error")} for name in (LIFT, REACH)}
+            # the method's joint against every rating (docs/checks.md)
+            checks = run_checks(res, arm)
+            data["checks"][v.label] = {
+                "verdict": checks.joint_verdict(TURN),
+                "failed": [f"{k} {c.value:.3g} of {c.limit:.3g} {c.unit}"
+                           for j, k, c in checks.failures() if j == TURN],
+                "checks": checks.to_dict()[TURN]}
             bar.advance(task)
 
         j3 = arm.joint_index(REACH)

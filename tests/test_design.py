@@ -302,7 +302,8 @@ def test_example_arms_designed_reproduced_and_compiled(robot, pose, tmp_path):
     out = tmp_path / "d"
     r = runner.invoke(app, ["design", req, "--robot", robot, "-t", str(traj),
                             "--payload-range", "0,0.5", "--max-methods", "2", "--workers",
-                            "1", "--no-progress", "--out", str(out)])
+                            "1", "--no-progress", "--no-compare-selection", "--out",
+                            str(out)])
     assert r.exit_code == 0, r.output
     doc = json.loads((out / "design.json").read_text())
     assert doc["status"] == "met"

@@ -97,6 +97,9 @@ def design(
         "--scheduler", help="Address of a running Dask scheduler, tcp://HOST:PORT.")] = None,
     progress: Annotated[bool, typer.Option(
         "--progress/--no-progress", help="Show a progress bar of the runs.")] = True,
+    compare_selection: Annotated[bool, typer.Option(
+        "--compare-selection/--no-compare-selection", help="For each counterweight "
+        "proposed, the drive the catalogue selection picks without and with it.")] = True,
     ws: Annotated[Path | None, typer.Option(
         "--ws", help="Workspace: the robot and trajectories may be its item names, and the "
         "design is stored there as studies/OUT (without the run cache).")] = None,
@@ -122,7 +125,7 @@ def design(
             folder = Path(stack.enter_context(tempfile.TemporaryDirectory())) / "design"
         doc, met = _run(requirements, robot, trajectory, folder, lo, hi, uncertainty, samples,
                         seed, mk, counterbalance, period, dt, max_methods, max_iterations,
-                        strict, workers, scheduler, progress, sources)
+                        strict, workers, scheduler, progress, sources, compare_selection)
         if space is not None:
             shutil.rmtree(folder / "cache", ignore_errors=True)
             space.add(folder, kind="study", name=out)
@@ -146,7 +149,7 @@ def design(
 
 def _run(requirements, robot, trajectory, out, lo, hi, uncertainty, samples, seed, mk,
          counterbalance, period, dt, max_methods, max_iterations, strict, workers, scheduler,
-         progress, sources) -> tuple[dict, bool]:
+         progress, sources, compare_selection=True) -> tuple[dict, bool]:
     """run_design with the command's arguments: (design.json, met)."""
     from manipcad.design import DesignNotMet, run_design
 
@@ -157,7 +160,8 @@ def _run(requirements, robot, trajectory, out, lo, hi, uncertainty, samples, see
                          makers=mk, counterbalance=counterbalance, period=period, dt=dt,
                          max_methods=max_methods, max_iterations=max_iterations,
                          strict=strict, workers=workers, scheduler=scheduler,
-                         progress=progress, sources=sources)
+                         progress=progress, sources=sources,
+                         compare_selection=compare_selection)
     except DesignNotMet as exc:
         doc, met = exc.doc, False
     return doc, met

@@ -238,18 +238,19 @@ def subtree_mass(robot: Robot, joint: int) -> float:
     return total
 
 
-def selected_drive(robot: Robot, trajectories, joint: int) -> dict[str, Any]:
-    """The catalogue selection's choice for one joint (least mass, default margin):
-    {"drive": label, "mass": kg, "feasible": candidates that pass}, or {"error": why}."""
+def selected_drives(robot: Robot, trajectories, joints: list[int]) -> dict[str, dict]:
+    """The catalogue selection's choice for some joints, in one selection (least mass,
+    default margin): {joint: {"drive": label, "mass": kg, "feasible": candidates that
+    pass}}, or {joint: {"error": why}} for all when the selection refuses."""
     from manipcad.errors import ManipcadError
     from manipcad.sizing.select import select_drives
 
     try:
-        ch = select_drives(robot, list(trajectories), joints=[joint], verify=False).joints[0]
+        sel = select_drives(robot, list(trajectories), joints=joints, verify=False)
     except (ManipcadError, ImportError) as exc:
-        return {"error": str(exc)}
-    return {"drive": ch.chosen.label, "mass": float(ch.chosen.part.mass),
-            "feasible": int(ch.feasible)}
+        return {robot.joint_names[j]: {"error": str(exc)} for j in joints}
+    return {ch.joint: {"drive": ch.chosen.label, "mass": float(ch.chosen.part.mass),
+                       "feasible": int(ch.feasible)} for ch in sel.joints}
 
 
 def decouple(robot: Robot, trajectories, *, mode: str = "none", arms=ARMS,
@@ -317,11 +318,12 @@ def decouple(robot: Robot, trajectories, *, mode: str = "none", arms=ARMS,
                          else list(out.classes_before))
     out.applied = mode == "auto" and bool(out.counterweights)
     out.robot = after_robot if out.applied else robot
-    if select:
-        for cw in out.counterweights:
-            out.selected[cw.joint] = {"before": selected_drive(robot, trajectories, cw.index),
-                                      "after": selected_drive(after_robot, trajectories,
-                                                              cw.index)}
+    if select and out.counterweights:
+        idx = sorted(cw.index for cw in out.counterweights)
+        before = selected_drives(robot, trajectories, idx)
+        after = selected_drives(after_robot, trajectories, idx)
+        out.selected = {cw.joint: {"before": before[cw.joint], "after": after[cw.joint]}
+                        for cw in out.counterweights}
     return out
 
 

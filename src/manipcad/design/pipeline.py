@@ -104,7 +104,7 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
                period: float = 1e-3, dt: float = 1e-4, max_methods: int = 4,
                max_iterations: int = 3, strict: bool = False, workers: int | None = None,
                scheduler: str | None = None, progress=False, store_runs: bool = True,
-               sources: dict | None = None) -> dict:
+               compare_selection: bool = True, sources: dict | None = None) -> dict:
     """Design the control of a manipulator and verify it over payloads and uncertainty.
 
     Args:
@@ -127,7 +127,10 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
         strict: an unknown check counts as failed.
         workers, scheduler: the executor (:func:`manipcad.parallel.run_tasks`).
         progress: a progress bar (True) or a callable given (stage text, fraction).
-        store_runs: store every run as a result folder under ``out/runs``.
+        store_runs: store every run of the final design as a result folder under
+            ``out/runs``.
+        compare_selection: for each counterweight proposed, report the drive the catalogue
+            selection picks without and with it (two selections: seconds on a 7-joint arm).
         sources: {"robot": path, "trajectories": [paths], "requirements": path} for the
             reproduction commands and the report.
 
@@ -168,7 +171,8 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
     # 2. decoupling
     stage("decoupling", 0.05)
     mid = C.nominal_payload(lo, hi)
-    dec = decouple(C.with_payload(arm, mid), trajs, mode=counterbalance)
+    dec = decouple(C.with_payload(arm, mid), trajs, mode=counterbalance,
+                   select=compare_selection)
     for cw in dec.counterweights:
         sel = dec.selected.get(cw.joint, {})
         pick = ("; the catalogue selection picks " + " without it, ".join(

@@ -186,6 +186,8 @@ def exit_status(status: tuple[str, ...], allow_unknown: bool) -> int:
 
 
 def _print_tables(req, source: str) -> None:
+    from manipcad.sizing.requirements import check_unit
+
     title = (f"{escape(req.robot.name)}: drive requirements along {escape(source)} "
              f"(t_end = {req.t_end:g} s, dt = {req.dt:.3g} s"
              + (f", payload {req.payload_mass:g} kg" if req.payload_mass else "") + ")")
@@ -235,7 +237,9 @@ def _print_tables(req, source: str) -> None:
                   "speed; gear_average: the speed-weighted cubic mean of |P_rigid| vs the "
                   "gear's average-torque limit (else its rated torque, a lower bound); "
                   "gear_average_speed: mean |ω_m| vs the gear's average-input-speed limit; "
-                  "n/a: no gear, or a rating the gear does not have")
+                  "position / velocity / effort: the joint's extreme, peak |q̇|, peak "
+                  "|P_rigid| vs the robot's joint limits (URDF <limit>); "
+                  "n/a: no gear, a rating the gear does not have, or no such joint limit")
     for col, just in (("joint", "left"), ("limit", "left"),
                       ("required", "right"),
                       ("rating", "right"), ("unit", "left"), ("margin", "right"),
@@ -247,11 +251,12 @@ def _print_tables(req, source: str) -> None:
         for k, c in enumerate(req.checks.values()):
             st = c.status[j]
             m = c.margin[j]
+            prismatic = req.robot.joint_types[j] == "prismatic"
             check.add_row(
                 first[k] if k < len(first) else "", c.name, _fmt(c.required[j]),
-                _fmt(c.limit[j]),
-                "N" if c.unit == "N·m" and c.name.startswith("gear_")
-                and req.robot.joint_types[j] == "prismatic" else c.unit,
+                "none" if c.limit[j] == math.inf else _fmt(c.limit[j]),
+                "N" if c.unit == "N·m" and c.name.startswith("gear_") and prismatic
+                else check_unit(c.name, c.unit, req.robot.joint_types[j]),
                 f"[{_COLOUR[st]}]{m:+.0%}[/]" if st in ("pass", "fail") else "",
                 f"[{_COLOUR[st]}]{st}[/]", end_section=k == len(req.checks) - 1)
     console.print("drives:")

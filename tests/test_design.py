@@ -449,3 +449,29 @@ def test_cli_design_into_a_workspace(tmp_path):
     assert r.exit_code == 0, r.output
     assert "report.html" in logic.study_files(w, "d2")
     assert not (w.root / "studies" / "d2" / "cache").exists()
+
+
+def test_store_all_runs(tmp_path):
+    """--store-runs all: every run of the sweep, the rejected candidates' too, is a result
+    folder that loads back with the numbers design.json gives."""
+    from manipcad.store import load_result
+
+    traj = tmp_path / "move.yaml"
+    traj.write_text(yaml.safe_dump({"type": "quintic", "q_start": [0.0, 0.0, 0.0],
+                                    "q_end": [0.3, 0.0, 0.1], "duration": 0.3}))
+    req = tmp_path / "req.yaml"
+    req.write_text(yaml.safe_dump({"accuracy": 1e-3, "overshoot_allowed": True,
+                                   "fast_action": False, "joint": "turn",
+                                   "transmission": {"backlash": False,
+                                                    "elasticity": False}}))
+    out = tmp_path / "d"
+    r = runner.invoke(app, ["design", str(req), "--robot", "cylindrical", "-t", str(traj),
+                            "--max-methods", "2", "--workers", "1", "--no-progress",
+                            "--store-runs", "all", "--out", str(out)])
+    assert r.exit_code in (0, 1), r.output
+    doc = json.loads((out / "design.json").read_text())
+    assert len({c["method"] for c in doc["cases"]}) == 2
+    for c in doc["cases"]:
+        res, m = load_result(out / c["folder"])
+        assert m["metrics"]["turn"]["max_error"] == pytest.approx(c["max_error"]["turn"],
+                                                                  rel=1e-12)

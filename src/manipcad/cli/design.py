@@ -97,6 +97,9 @@ def design(
         "--scheduler", help="Address of a running Dask scheduler, tcp://HOST:PORT.")] = None,
     progress: Annotated[bool, typer.Option(
         "--progress/--no-progress", help="Show a progress bar of the runs.")] = True,
+    store_runs: Annotated[str, typer.Option(
+        "--store-runs", help="Runs stored as result folders in DESIGN/runs: final (the "
+        "chosen design's), all (every run of the sweep; large), none.")] = "final",
     compare_selection: Annotated[bool, typer.Option(
         "--compare-selection/--no-compare-selection", help="For each counterweight "
         "proposed, the drive the catalogue selection picks without and with it.")] = True,
@@ -125,7 +128,8 @@ def design(
             folder = Path(stack.enter_context(tempfile.TemporaryDirectory())) / "design"
         doc, met = _run(requirements, robot, trajectory, folder, lo, hi, uncertainty, samples,
                         seed, mk, counterbalance, period, dt, max_methods, max_iterations,
-                        strict, workers, scheduler, progress, sources, compare_selection)
+                        strict, workers, scheduler, progress, sources, compare_selection,
+                        store_runs)
         if space is not None:
             shutil.rmtree(folder / "cache", ignore_errors=True)
             space.add(folder, kind="study", name=out)
@@ -149,7 +153,8 @@ def design(
 
 def _run(requirements, robot, trajectory, out, lo, hi, uncertainty, samples, seed, mk,
          counterbalance, period, dt, max_methods, max_iterations, strict, workers, scheduler,
-         progress, sources, compare_selection=True) -> tuple[dict, bool]:
+         progress, sources, compare_selection=True, store_runs="final"
+         ) -> tuple[dict, bool]:
     """run_design with the command's arguments: (design.json, met)."""
     from manipcad.design import DesignNotMet, run_design
 
@@ -161,7 +166,7 @@ def _run(requirements, robot, trajectory, out, lo, hi, uncertainty, samples, see
                          max_methods=max_methods, max_iterations=max_iterations,
                          strict=strict, workers=workers, scheduler=scheduler,
                          progress=progress, sources=sources,
-                         compare_selection=compare_selection)
+                         compare_selection=compare_selection, store_runs=store_runs)
     except DesignNotMet as exc:
         doc, met = exc.doc, False
     return doc, met

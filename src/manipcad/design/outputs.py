@@ -11,8 +11,9 @@ c/ and runs/.
   also as ``figures/envelope.png``, ``ratings.png``, ``methods.png``.
 - ``c/``: the drive processor's C99: the arm's dynamics (``<prefix>.h/.c``) and the
   regulators' updates (``<prefix>_regulators.h/.c``).
-- ``runs/<case>/``: every run of the sweep as a result folder (:mod:`manipcad.store`),
-  its inputs included (the plant's robot file, the trajectory, the regulators).
+- ``runs/<case>/``: the final design's runs (``store_runs="all"``: every run of the
+  sweep) as result folders (:mod:`manipcad.store`), their inputs included (the plant's
+  robot file, the trajectory, the regulators).
 """
 
 from __future__ import annotations
@@ -185,8 +186,9 @@ def write_outputs(out: Path, *, req, arm, nominal, trajectories, outcome, runs, 
         atomic_write_text(f, yaml.safe_dump(json_safe(tr.to_dict()), sort_keys=False))
         traj_files.append(f"trajectories/traj-{k}.yaml")
     c_files = write_c(out / "c", nominal, outcome["mix_regs"])
-    if store_runs:
-        _store_runs(out / "runs", outcome["final_runs"], results, arm)
+    if store_runs != "none":
+        _store_runs(out / "runs", runs if store_runs == "all" else outcome["final_runs"],
+                    results, arm)
     doc = design_document(req=req, arm=arm, nominal=nominal, outcome=outcome, runs=runs,
                           decoupling=decoupling, drive_info=drive_info, recs=recs,
                           methods=methods, designed=designed, trace=trace, settings=settings,
@@ -271,7 +273,8 @@ def design_document(*, req, arm, nominal, outcome, runs, decoupling, drive_info,
             "verdict": {jn: verdict(r["checks"].get(jn) or {}, strict=settings["strict"])
                         for jn in names},
             "final": r["id"] in final_ids,
-            "folder": f"runs/{r['id']}" if store_runs and r["id"] in final_ids else None,
+            "folder": (f"runs/{r['id']}" if store_runs == "all" or (
+                store_runs == "final" and r["id"] in final_ids) else None),
             "factors": r["factors"]})
     met = bool(outcome.get("met"))
     peaks: dict[str, dict] = {}
@@ -319,7 +322,8 @@ def design_document(*, req, arm, nominal, outcome, runs, decoupling, drive_info,
                   "figures": ["figures/envelope.png", "figures/ratings.png",
                               "figures/methods.png"],
                   "trajectories": traj_files, "report": "report.html",
-                  "c": [f"c/{f}" for f in c_files], "runs": "runs/" if store_runs else None},
+                  "c": [f"c/{f}" for f in c_files],
+                  "runs": "runs/" if store_runs != "none" else None},
         "units": {"accuracy": "rad (m for prismatic joints)",
                   "worst_case_error": "rad (m for prismatic joints)", "payload": "kg",
                   "period": "s", "dt": "s", "uncertainty": "fraction"},

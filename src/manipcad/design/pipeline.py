@@ -103,7 +103,7 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
                samples: int = 5, seed: int = 0, makers=None, counterbalance: str = "none",
                period: float = 1e-3, dt: float = 1e-4, max_methods: int = 4,
                max_iterations: int = 3, strict: bool = False, workers: int | None = None,
-               scheduler: str | None = None, progress=False, store_runs: bool = True,
+               scheduler: str | None = None, progress=False, store_runs: bool | str = True,
                compare_selection: bool = True, sources: dict | None = None) -> dict:
     """Design the control of a manipulator and verify it over payloads and uncertainty.
 
@@ -127,8 +127,9 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
         strict: an unknown check counts as failed.
         workers, scheduler: the executor (:func:`manipcad.parallel.run_tasks`).
         progress: a progress bar (True) or a callable given (stage text, fraction).
-        store_runs: store every run of the final design as a result folder under
-            ``out/runs``.
+        store_runs: which runs to store as result folders under ``out/runs``: "final"
+            (or True: the final design's), "all" (every run of the sweep, candidates
+            included; their time series also go into the cache), "none" (or False).
         compare_selection: for each counterweight proposed, report the drive the catalogue
             selection picks without and with it (two selections: seconds on a 7-joint arm).
         sources: {"robot": path, "trajectories": [paths], "requirements": path} for the
@@ -147,6 +148,10 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
     from manipcad.parallel.executor import check_workers
 
     t0 = time.perf_counter()
+    store = {True: "final", False: "none"}.get(store_runs, store_runs)
+    if store not in ("final", "all", "none"):
+        raise InputError("--store-runs", "", f"must be final, all or none, got {store_runs!r}")
+    keep_all = store == "all"
     _check_settings(period, dt, samples, max_methods, max_iterations, counterbalance)
     check_workers(workers, scheduler, "design")
     out = writable_folder(out)
@@ -244,7 +249,8 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
                     for m in labels}
             stage(f"round {it + 1}: sweep", 0.2 + 0.7 * it / max_iterations)
             recs_it = _sweep(docs, plants, trajs, payloads, dt, period, accuracy, designed,
-                             pool, workers, scheduler, cache_dir, progress, results)
+                             pool, workers, scheduler, cache_dir, progress, results,
+                             keep=keep_all)
             _merge(runs_all, recs_it)
             evals = {names[j]: {m: evaluate([r for r in recs_it if r["label"] == labels[m]],
                                             names[j], strict=strict)
@@ -268,7 +274,7 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
                 if mix_label not in docs:
                     recs_mix = _sweep({mix_label: mix}, plants, trajs, payloads, dt, period,
                                       accuracy, designed, pool, workers, scheduler, cache_dir,
-                                      progress, results)
+                                      progress, results, keep=keep_all)
                     _merge(runs_all, recs_mix)
                 else:
                     recs_mix = [r for r in recs_it if r["label"] == mix_label]
@@ -312,11 +318,11 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
                      trajs=trajs, payloads=payloads, dt=dt, period=period, pool=pool,
                      workers=workers, scheduler=scheduler, cache_dir=cache_dir,
                      progress=progress, results=results, runs_all=runs_all, strict=strict)
-        if store_runs:  # the final design's runs again, with their time series
+        if store == "final":  # the final design's runs again, with their time series
             stage("storing the runs", 0.9)
             _sweep({outcome["mix_label"]: outcome["mix"]}, outcome["plants"], trajs, payloads,
                    dt, period, accuracy, designed, pool, workers, scheduler, cache_dir,
-                   progress, results, keep=True)
+                   progress, results, keep=True, stored=True)
     stage("outputs", 0.95)
     doc = write_outputs(out, req=req, arm=state["arm"], nominal=outcome["nominal"],
                         trajectories=trajs, outcome=outcome, runs=runs_all, results=results,
@@ -329,7 +335,7 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
                                   "max_iterations": max_iterations, "strict": strict,
                                   "counterbalance": counterbalance,
                                   "workers": workers, "scheduler": scheduler},
-                        sources=sources or {}, store_runs=store_runs,
+                        sources=sources or {}, store_runs=store,
                         wall=time.perf_counter() - t0, parts_before=parts(arm),
                         stage_times=stage.times)
     stage("done", 1.0)
@@ -456,7 +462,8 @@ def _case_id(label: str, p: dict, ti: int) -> str:
 
 
 def _sweep(docs, plants, trajs, payloads, dt, period, accuracy, designed, pool, workers,
-           scheduler, cache_dir, progress, results, keep: bool = False) -> list[dict]:
+           scheduler, cache_dir, progress, results, keep: bool = False,
+           stored: bool = False) -> list[dict]:
     from manipcad.store.results import record_every_for
 
     tasks, meta = [], []
@@ -484,7 +491,7 @@ def _sweep(docs, plants, trajs, payloads, dt, period, accuracy, designed, pool, 
             results[m["id"]] = (r.get("result"), tasks[len(out)])
         out.append(rec)
     out_counts = getattr(res, "computed", 0), getattr(res, "cached", 0)
-    key = "_stored" if keep else "_counts"
+    key = "_stored" if stored else "_counts"
     results.setdefault(key, [0, 0])
     results[key][0] += out_counts[0]
     results[key][1] += out_counts[1]

@@ -329,3 +329,25 @@ def test_drive_mounts_from_the_robot_file(tmp_path, monkeypatch):
     path.write_text(text + "drive_mounts: {no_such_joint: base}\n")
     with pytest.raises(manipcad.errors.InputError, match="drive_mounts.no_such_joint"):
         manipcad.load_robot(path)
+
+
+def test_power_objective_and_complete_counts(small_catalogue):
+    """objective power: the winner has the least mean electrical power among the feasible
+    candidates (every one evaluated); count_all gives the same choice as the search in
+    objective order, with complete counts (nothing skipped)."""
+    arm = manipcad.load_robot("puma560").without_drives()
+    trajs = [_traj(6, 0.5)]
+    sel = S.select_drives(arm, trajs, joints=[2], objective="power", margin=1.0, dt=DT)
+    c = sel.joints[0]
+    assert c.skipped == 0 and c.chosen.objective > 0
+    ev = S._evaluate_joint(S.candidate_table(False), np.arange(len(small_catalogue)),
+                           [S.sample_motion(S.with_drive_masses(arm, {}), trajs[0], dt=DT,
+                                            payload=0.0)], 2, 0.0, False, "power")
+    assert c.feasible == int(ev.ok.sum())
+    assert c.chosen.objective == pytest.approx(float(np.min(ev.objective[ev.ok])), rel=1e-12)
+    lazy = S.select_drives(arm, trajs, joints=[2], margin=1.0, dt=DT)
+    full = S.select_drives(arm, trajs, joints=[2], margin=1.0, dt=DT, count_all=True)
+    assert lazy.joints[0].chosen.part == full.joints[0].chosen.part
+    assert [a.label for a in lazy.joints[0].alternatives] == [
+        a.label for a in full.joints[0].alternatives]
+    assert full.joints[0].skipped == 0 and full.joints[0].feasible >= lazy.joints[0].feasible

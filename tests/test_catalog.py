@@ -115,8 +115,8 @@ def test_compatibility_tables_match_the_files():
     """Every (motor, gear) line of the three compatibility files, with Faulhaber's
     ``PREFIX*`` patterns expanded over its gearbox keys, and nothing else."""
     want = set()
-    for maker, gfile in (("maxon", "maxon"), ("faulhaber", "faulhaber"), ("Tmotor_AK", "Tmotor_AK")):
-        keys = list(_csv(f"{gfile}_gearboxes.csv").index)
+    for maker in ("maxon", "faulhaber", "Tmotor_AK"):
+        keys = list(_csv(f"{maker}_gearboxes.csv").index)
         for line in (DATA / "mgdb" / f"{maker}_compatibility.csv").read_text().splitlines():
             motor, *gears = [x for x in line.split(",") if x]
             for g in gears:
@@ -136,7 +136,9 @@ def test_adapter_rule_by_brute_force():
     got = set(zip(got.motor, got.gear, strict=True))
     want = set()
     for mn, mr in m.iterrows():
-        peak = mr.peak_torque if not math.isnan(mr.peak_torque) else mr.k_m * mr.rated_voltage / mr.R
+        peak = mr.peak_torque
+        if math.isnan(peak):
+            peak = mr.k_m * mr.rated_voltage / mr.R
         for gn, gr in g.iterrows():
             lim = gr.max_momentary_torque
             lim = gr.max_intermittent_torque if math.isnan(lim) else lim

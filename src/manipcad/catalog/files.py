@@ -357,4 +357,5 @@ def compose_gears(gears: list[GearSpec]) -> tuple[dict[str, Any], float | None]:
     return out, stiffness
 
 
-__all__ = ["MotorSpec", "GearSpec", "compose_gears", "part_names", "part_file", "with_assumptions", "PARTS", "MGDB_PREFIXES"]
+__all__ = ["MotorSpec", "GearSpec", "compose_gears", "part_names", "part_file",
+           "with_assumptions", "PARTS", "MGDB_PREFIXES"]

@@ -223,7 +223,8 @@ def _mgdb_gear(row: dict[str, str], file: str) -> dict[str, Any]:
     return {
         "name": key, "kind": "gear", "maker": row["manufacturer"], "model": row["ID"],
         "type": row["type"], "origin": "mgdb", "key": key,
-        "source": mgdb_source(file, key) + _unreadable(row), "confidence": "", "ratio": _num(row["ratio"]), "direction": _num(row["direction"]),
+        "source": mgdb_source(file, key) + _unreadable(row), "confidence": "",
+        "ratio": _num(row["ratio"]), "direction": _num(row["direction"]),
         "stages": _num(row["stages"]), "J": _num(row["inertia"]),
         "efficiency": _num(row["efficiency"]),
         "max_continuous_torque": _rating(_num(row["max_cont_torque"])),
@@ -314,6 +315,7 @@ def _sheet_gears() -> list[dict[str, Any]]:
         eta = e.get("efficiency_at_rated_torque")
         efficiency = math.nan if not isinstance(eta, dict) else float(eta["value"])
         stages = 1.0
+        derived["stages"] = "1: a strain-wave gear is one stage (wave generator, flexspline)"
         rows.append({
             "name": name, "kind": "gear", "maker": "Harmonic Drive",
             "model": ident, "type": "harmonic", "origin": "sheet", "key": ident,
@@ -621,6 +623,7 @@ def load_gear(name: str, base_dir: Path | None = None) -> GearSpec:
 # --------------------------------------------------------------------------- gear chains
 
 
-__all__ = ["tables", "build", "Tables", "library_part", "load_motor", "load_gear", "row_spec", "spec_row", "MOTOR_UNITS",
+__all__ = ["tables", "build", "Tables", "library_part", "load_motor", "load_gear", "row_spec",
+           "spec_row", "MOTOR_UNITS",
            "GEAR_UNITS", "MGDB_COMMIT", "MGDB_FILES", "read_csv", "mgdb_source", "slug",
            "data_hash"]

@@ -361,6 +361,12 @@ def test_simulate_reports_the_undersized_elbow(undersized):
     assert json.loads(none.output) == []
     sat = _cli("ws", "list", "--ws", ws, "--where", "check_saturation[elbow]>0.5", "--json")
     assert [i["name"] for i in json.loads(sat.output)] == ["small"]
+    other = _cli("ws", "list", "--ws", ws, "--where", "verdict!=fail", "--json")
+    assert json.loads(other.output) == []
+    waist = _cli("ws", "list", "--ws", ws, "--where", "verdict[waist]!=fail", "--json")
+    assert [i["name"] for i in json.loads(waist.output)] == ["small"]
+    bad = _cli("ws", "list", "--ws", ws, "--where", "verdict=maybe")
+    assert bad.exit_code == 2 and "verdict takes" in bad.output
 
 
 def test_verify_reports_the_undersized_elbow(undersized):

@@ -151,6 +151,7 @@ def closed_loop_plant(robot, use_generated: bool):
     from manipcad.codegen import simulation_kernels
     from manipcad.drives.params import joint_referred_terms, pack_drives, state_offsets
     from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR
+    from manipcad.sim.events import no_events
     from manipcad.sim.pickup import no_pickup
 
     dtable = pack_drives(robot.drives, None, order=3)
@@ -160,7 +161,8 @@ def closed_loop_plant(robot, use_generated: bool):
     assert gen[0] == use_generated
     limits = np.tile([-np.inf, np.inf], (robot.n, 1))
     return Plant(rtable, np.array(robot.table), np.asarray(robot.gravity, float), dtable,
-                 state_offsets(dtable), True, False, limits, *gen, no_pickup())
+                 state_offsets(dtable), True, False, limits, *gen, no_pickup(),
+                 no_events(robot.n, 2 * robot.n + int(state_offsets(dtable)[-1])))
 
 
 def per_state(fn, *args, **kwargs):

@@ -188,6 +188,7 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
     from manipcad.drives.params import joint_referred_terms, pack_drives, state_offsets
     from manipcad.dynamics.aba import ABA_WORK, aba_one
     from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR
+    from manipcad.sim.events import no_events
     from manipcad.sim.loop import Plant, _rates, regulator_update
     from manipcad.sim.pickup import no_pickup
 
@@ -274,7 +275,8 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
     rparam[:, PID_KP], rparam[:, PID_KD], rparam[:, PID_ULIM] = KP, KD, U_LIMIT
     plant = Plant(rtable, np.ascontiguousarray(robot.table), g, dtable, off, True, False,
                   np.tile([-np.inf, np.inf], (robot.n, 1)),
-                  *simulation_kernels(robot, rtable, use_generated=False), no_pickup())
+                  *simulation_kernels(robot, rtable, use_generated=False), no_pickup(),
+                  no_events(robot.n, 2 * robot.n + int(off[-1])))
 
     def per_call(fn, *args):
         fn(10, *args)  # compile

@@ -27,7 +27,10 @@ T_END = 0.75
 
 @pytest.fixture(scope="module")
 def arm():
-    return manipcad.load_robot("cylindrical")
+    """The Fig. 2 arm on lossless gears, as the pickup study runs it (its regulators do
+    not model the gears' losses the simulated plant has)."""
+    a = manipcad.load_robot("cylindrical")
+    return a.replace(drives=tuple(d.replace(efficiency=1.0) for d in a.drives))
 
 
 @pytest.fixture(scope="module")

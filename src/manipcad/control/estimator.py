@@ -18,7 +18,9 @@ Per period T (sample s, time s·T):
 
 1. the joint torques from the currents, τ_j = i_r·k_m·(i_j + ν_j)
    (:func:`manipcad.drives.dc.rigid_joint_torque`; ν: an optional simulated current
-   noise, A);
+   noise, A); through a gear of efficiency η < 1 (window mean below) the part that
+   reaches the gear's input passes only η of it (1/η braking), as the simulated plant
+   and the sizing take it (:func:`manipcad.drives.gear.gear_factor`);
 2. the mean acceleration over the two periods about the previous sample,
    q̈_{s−1} = (q̇_s − q̇_{s−2})/(2T) (no accelerometer; exact for that mean), and the
    joint torques averaged over the same window by the trapezoid rule,
@@ -44,8 +46,9 @@ import numba as nb
 import numpy as np
 
 from manipcad.control.signals import S_I, S_Q, S_QD
-from manipcad.drives.dc import rigid_joint_torque
-from manipcad.drives.params import pack_drives
+from manipcad.drives.dc import dry_friction, rigid_joint_torque
+from manipcad.drives.gear import gear_factor
+from manipcad.drives.params import P_J, P_KV, P_RATIO, pack_drives
 from manipcad.dynamics.rls import OnlinePayloadEstimator, payload_rls_step
 from manipcad.dynamics.rnea import RNEA_WORK
 from manipcad.errors import ManipcadError
@@ -57,9 +60,10 @@ from manipcad.model.robot import COL_COM, COL_IC, COL_MASS, Robot, combine_bodie
 #: [samples taken, 1 + the step last sampled (0: none)]; ``hist`` (5, n): q, q̇, τ of
 #: the previous sample, q̇ and τ of the one before; ``log`` (M,): m̂ after each sample,
 #: kg; ``noise`` (M, n): current noise, A
+#: ``eta`` (n,): the gears' efficiency (1: none or unknown)
 Estimator = namedtuple(
     "Estimator", "on steps feed state aux hist log noise dtable table0 table_unit gravity "
-                 "sel w vmin lam info_min drives body cp base scratch")
+                 "sel w vmin lam info_min drives body cp base scratch eta")
 
 #: what the component reads and what it gives
 NEEDS = ("q", "q_dot", "i")
@@ -104,6 +108,8 @@ def estimator_update(est, sig, ctable, Ts):
         for j in range(n):
             qdd[j] = (sig[j, S_QD] - h[3, j]) / (2.0 * Ts)
             h[4, j] = 0.25 * (h[4, j] + 2.0 * h[2, j] + tau[j])  # τ̄ of the window
+            if est.eta[j] < 1.0:
+                h[4, j] = _through_gear(h[4, j], qdd[j], h[1, j], est.eta[j], est.dtable[j])
         payload_rls_step(est.state, est.table0, est.table_unit, est.gravity, h[0], h[1], qdd,
                          h[4], est.sel, est.w, est.vmin, est.lam, est.info_min, est.drives,
                          zero_fext, work, tmp, tau0, gunit, y, gs, ws)
@@ -122,6 +128,18 @@ def estimator_update(est, sig, ctable, Ts):
     return m
 
 
+@nb.njit(cache=True)
+def _through_gear(tau, qdd, qd, eta, p):
+    """The drive torque τ (N·m, N; i_r·k_m·i) as the lossless drive model the estimate
+    fits would need it: the gear passes only g·T of the torque T that reaches its input
+    (τ less the rotor's inertia and the motor's friction, D), g = 1/f with the plant's and
+    the sizing's factor f (:func:`manipcad.drives.gear.gear_factor`); so D + g·T."""
+    r = p[P_RATIO]
+    D = p[P_J] * r * r * qdd + p[P_KV] * r * r * qd + r * dry_friction(r * qd, p)
+    T = tau - D
+    return D + T / gear_factor(eta, T, qd)
+
+
 def no_estimator() -> Estimator:
     """The component of a run without an estimator: ``on`` false, every array empty.
 
@@ -135,7 +153,7 @@ def no_estimator() -> Estimator:
     f2 = np.zeros((0, 0))
     return Estimator(
         False, 1, False, f1, np.zeros(0, dtype=np.int64), f2, f1, f2, f2, f2, f2, f1,
-        np.zeros(0, dtype=np.int64), f1, f1, 1.0, 0.0, False, 0, f1, f1, _scratch(0, 0))
+        np.zeros(0, dtype=np.int64), f1, f1, 1.0, 0.0, False, 0, f1, f1, _scratch(0, 0), f1)
 
 
 def _own(a) -> np.ndarray:
@@ -267,7 +285,9 @@ class PayloadEstimator:
             _own(c.table_unit), _own(c.gravity), _own(c.sel), _own(c.w), _own(c.vmin),
             float(c.lam), float(c.info_min), bool(c.drives),
             int(body), np.ascontiguousarray(self.com_in_body),
-            np.ascontiguousarray(ctable[body], dtype=float).copy(), _scratch(n, c.sel.size))
+            np.ascontiguousarray(ctable[body], dtype=float).copy(), _scratch(n, c.sel.size),
+            np.array([1.0 if d is None or math.isnan(d.efficiency) else float(d.efficiency)
+                      for d in self.robot.drives]))
 
     def realization_complexity(self) -> dict:
         """Operations per period, counted by running :func:`estimator_update`'s own source

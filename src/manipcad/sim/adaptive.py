@@ -51,12 +51,21 @@ from manipcad.analysis.realtime import components_one  # noqa: F401  (loaded wit
 from manipcad.drives.dc import armature_current_phis, armature_current_poly, phis
 from manipcad.drives.params import KIND_RIGID, P_J, P_KIND, P_KM, P_L, P_R, P_RATIO
 from manipcad.sim.borrow import borrowed, keep
+from manipcad.sim.events import (
+    bracket_next,
+    bracket_start,
+    crossing,
+    event_values,
+    release_edge,
+    switch,
+)
 from manipcad.sim.loop import (
     _rates,
     _torques,
     check_state,
     sample_due,
     scratch,
+    settle,
     write_record,
 )
 
@@ -186,6 +195,32 @@ def _phi_table(plant, c, h, n, ph):
 
 
 @nb.njit(cache=True)
+def _stages(plant, x, xs, U, dist, n, scr, Ks, tab, h, exact, ph, st0):
+    """The stages st0 .. S-1 of a step of h s of the pair ``tab`` from x into Ks (Ks[0]
+    given when st0 is 1), the last at the new solution xs; with ``exact`` the rigid
+    drives' currents by the exact formula (``ph``: the φ table of h). The one stepping
+    code of the error-controlled integrator (its steps and the steps of θ·h that locate
+    an event inside one)."""
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scr
+    S = tab.c.shape[0]
+    nx = x.shape[0]
+    me = 2 * n if exact else nx
+    for st in range(st0, S):
+        if st == 0:
+            for j in range(nx):
+                xs[j] = x[j]
+        else:
+            for j in range(me):
+                acc = 0.0
+                for l in range(st):
+                    acc += tab.a[st, l] * Ks[l, j]
+                xs[j] = x[j] + h * acc
+            if exact:
+                _currents(plant, x, xs, U, tab.c[st] * h, n, ph[st])
+        _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, Ks, st, fext, awork, tmp)
+
+
+@nb.njit(cache=True)
 def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits,
                  stride, hold, tab, rtol, atol, stats, exact):
     """Integrate from step k0 to k0+K (times k·dt, s) with error control; see the module.
@@ -224,8 +259,8 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
     # linked in, and a wrapper around the integration cost 6.6 s more of compile
     plant, ctrl, ref, rec, work, tab, stats, bare = borrowed(
         (plant, ctrl, ref, rec, work, tab, stats, own))
-    Ks, xs, xr, Kd, ph, noph, sc = bare
-    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = sc
+    Ks, xs, xr, Kd, ph, noph, scr = bare
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scr
     x = work.x
     m = 2 * n
     U = work.U
@@ -274,6 +309,15 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
         # stage loop, so that the right-hand side is written (inlined) once
         st0 = 1 if reuse and have else 0
         have = True
+        hyb = plant.ev.on
+        if hyb and st0 == 0:
+            # stick-slip friction, gear losses: the rates at x with consistent modes, and
+            # the event values there (manipcad.sim.events); a carried first stage is
+            # consistent already (the margins, as q̈, do not depend on U then)
+            settle(plant, x, U, dist, n, scr, Ks, t0)
+            event_values(plant, x, n, plant.ev.e0)
+            stats[3] += 1
+            st0 = 1
         s = 0.0
         while s < T:
             hs = h
@@ -284,20 +328,7 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
             if exact and hs != hph:
                 _phi_table(plant, tab.c, hs, n, ph)
                 hph = hs
-            for st in range(st0, S):
-                if st == 0:
-                    for j in range(nx):
-                        xs[j] = x[j]
-                else:
-                    for j in range(me):
-                        acc = 0.0
-                        for l in range(st):
-                            acc += tab.a[st, l] * Ks[l, j]
-                        xs[j] = x[j] + hs * acc
-                    if exact:
-                        _currents(plant, x, xs, U, tab.c[st] * hs, n, ph[st])
-                _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, Ks, st, fext,
-                       awork, tmp)
+            _stages(plant, x, xs, U, dist, n, scr, Ks, tab, hs, exact, ph, st0)
             stats[3] += S - st0
             st0 = 1
             # xs is now the new solution (last stage = b weights); the error of q, q̇
@@ -325,6 +356,46 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
             stats[1] += 1
             if err > 1.0:
                 stats[4] += 1
+            event = False
+            hfull = hs
+            if hyb:
+                ev = plant.ev
+                event_values(plant, xs, n, ev.e1)
+                if release_edge(plant, n, ev.e0, ev.e1, t0 + s):
+                    # a stuck joint on its band's edge at the step's start breaks away
+                    # there: the step again from x
+                    stats[1] -= 1
+                    settle(plant, x, U, dist, n, scr, Ks, t0 + s)
+                    stats[3] += 1
+                    event_values(plant, x, n, ev.e0)
+                    continue
+                fhi = crossing(ev.e0, ev.e1)
+                if fhi < 0.0:
+                    # an event inside the step: the step cut at the first crossing (the
+                    # Illinois method on the fraction θ of the step, each try a step of
+                    # θ·hs with the same pair)
+                    event = True
+                    il = ev.il
+                    th = bracket_start(il, fhi)
+                    while th > 0.0:
+                        if exact:
+                            _phi_table(plant, tab.c, th * hs, n, ph)
+                        _stages(plant, x, xs, U, dist, n, scr, Ks, tab, th * hs, exact, ph, 1)
+                        stats[3] += S - 1
+                        event_values(plant, xs, n, ev.e1)
+                        th = bracket_next(il, crossing(ev.e0, ev.e1))
+                    ev.count[1] += int(il[5])
+                    if il[4] == 0.0:
+                        if exact:
+                            _phi_table(plant, tab.c, il[2] * hs, n, ph)
+                        _stages(plant, x, xs, U, dist, n, scr, Ks, tab, il[2] * hs, exact, ph,
+                                1)
+                        stats[3] += S - 1
+                        event_values(plant, xs, n, ev.e1)
+                    hfull = hs
+                    hs = il[2] * hs
+                    hph = hs if exact else hph
+                    final = False
             # kept samples strictly inside this step: interpolate
             while True:
                 kk = work.rec[0] * every
@@ -351,8 +422,19 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
                 Ks[0, j] = Ks[S - 1, j]
             s = T if final else s + hs
             fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err ** expo))
-            # a step cut short to end on the sample instant keeps the longer proposal
-            h = max(h, hs * fac, hmin) if final else max(hs * fac, hmin)
+            # a step cut short to end on the sample instant keeps the longer proposal (cut
+            # at an event: the proposal of the whole step)
+            h = max(h, hs * fac, hmin) if final else max(hfull * fac, hmin)
+            if hyb:
+                ev = plant.ev
+                if event:
+                    switch(plant, x, n, ev.e0, ev.e1, t0 + s)
+                    settle(plant, x, U, dist, n, scr, Ks, t0 + s)
+                    stats[3] += 1
+                    event_values(plant, x, n, ev.e0)
+                else:
+                    for j in range(n):
+                        ev.e0[j] = ev.e1[j]
             kt = k + int(round(s / dt))
             status, joint = check_state(plant, work, x, Ks[0], t0 + s, stop_at_limits)
             if status:

@@ -66,6 +66,17 @@ from manipcad.dynamics.crba import CRBA_WORK
 from manipcad.dynamics.rnea import RNEA_WORK
 from manipcad.rk4 import rk4_stage, rk4_update
 from manipcad.sim.borrow import address, borrowed, keep, row
+from manipcad.sim.events import (
+    MAX_EVENTS,
+    bracket_next,
+    bracket_start,
+    crossing,
+    event_values,
+    hybrid_rates,
+    release_edge,
+    release_worst,
+    switch,
+)
 
 #: divergence: joint speeds beyond this (rad/s or m/s) count as a runaway
 MAX_SPEED = 1.0e4
@@ -76,9 +87,11 @@ regulator_update = dispatch()
 #: m/s², packed drives (n, NPAR), drive-state offsets (n+1,), drives on, any elastic drive,
 #: joint limits (n, 2) rad or m (±inf: none); with ``gen`` the robot's generated C-ABI
 #: kernels (manipcad.codegen.simulation_kernels) replace the general ones: forward
-#: dynamics on rtable, links' mass matrix and moment components on ctable
+#: dynamics on rtable, links' mass matrix and moment components on ctable; ``ev`` the
+#: stick-slip friction and gear losses (:class:`manipcad.sim.events.Events`; ``ev.on``
+#: false: the plain forward dynamics, sign(q̇) friction where the table has any)
 Plant = namedtuple("Plant", "rtable ctable g dtable off use_drives generic_drives limits "
-                            "gen gen_fd gen_mass gen_comp pick")
+                            "gen gen_fd gen_mass gen_comp pick ev")
 #: a payload picked up at step ``step`` (-1: none): the plant's body table becomes ``rtable``
 #: (with the drive terms) and, with ``model``, the regulators' model table ``ctable``;
 #: ``done`` (1,) marks it done
@@ -141,7 +154,9 @@ def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work, 
     _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st)
     for j in range(n):
         K4[st, j] = qd[j]
-    if plant.gen:
+    if plant.ev.on:
+        hybrid_rates(plant, q, qd, tau, dist, qdd, fext, work, tmp)
+    elif plant.gen:
         if plant.gen_fd(address(q), address(qd), address(tau), address(qdd)) >= 0:
             for j in range(n):  # H not positive definite: the run stops as diverged
                 qdd[j] = math.nan
@@ -221,6 +236,17 @@ def write_record(plant, rec, row, t, x, U, tau):
         rec.i[row, j] = (_current(plant.dtable, plant.off, x, 2 * n, U[j], x[n + j], j)
                          if plant.use_drives else math.nan)
         rec.tau[row, j] = tau[j]
+
+
+@nb.njit(cache=True, inline="always")
+def keep_sample(plant, rec, work, t, every, x, U, tau):
+    """Record the state x at t s (U, torques tau) when a kept sample is due (every
+    ``every`` steps; ``work.rec``: next row, steps to the next sample)."""
+    if work.rec[1] == 0:
+        work.rec[1] = every
+        write_record(plant, rec, work.rec[0], t, x, U, tau)
+        work.rec[0] += 1
+    work.rec[1] -= 1
 
 
 @nb.njit(cache=True, inline="always")
@@ -357,24 +383,118 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
         sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait)
         for r in range(R):
             wait[r] -= 1
+        hyb = plant.ev.on
+        dist = row(ref.dist, kr)
         # the four RK4 stages (manipcad.rk4) with U held and the disturbance at the
-        # step's start
+        # step's start; with stick-slip friction or gear losses (plant.ev) the first
+        # with consistent modes, the step's events located (hybrid_step)
         for st in range(4):
-            rk4_stage(x, K4, st, dt, xs)
-            _rates(xs, U, row(ref.dist, kr), n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext,
-                   awork, tmp)
-            if st != 0:
-                continue
-            if work.rec[1] == 0:
-                work.rec[1] = every
-                write_record(plant, rec, work.rec[0], k * dt, x, U, tau)
-                work.rec[0] += 1
-            work.rec[1] -= 1
+            if hyb:
+                if st != 0:
+                    break
+                settle(plant, x, U, dist, n, scr, K4, k * dt)
+            else:
+                rk4_stage(x, K4, st, dt, xs)
+                _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, awork,
+                       tmp)
+                if st != 0:
+                    continue
+            keep_sample(plant, rec, work, k * dt, every, x, U, tau)
             if last and kr == K:
                 return 0, k, -1
             status, joint = check_state(plant, work, x, row(K4, 0), k * dt, stop_at_limits)
             if status:
                 return status, k, joint
-        rk4_update(x, K4, dt, x)
+        if hyb:
+            hybrid_step(plant, x, U, dist, k * dt, dt, n, scr, K4, xs, plant.ev.xe)
+        else:
+            rk4_update(x, K4, dt, x)
     keep(own)
     return 0, k0 + K, -1
+
+
+@nb.njit(cache=True)
+def hybrid_at(xs, U, dist, n, plant, sc, K, st):
+    """The hybrid plant's right-hand side at xs into row ``st`` of K (the stuck joints'
+    margins into ``plant.ev.marg``): :func:`_rates` with ``plant.ev.on``, one compiled copy
+    for the event code of both integrators."""
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = sc
+    _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K, st)
+    for j in range(n):
+        K[st, j] = qd[j]
+    hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork, tmp)
+    for j in range(n):
+        K[st, n + j] = qdd[j]
+
+
+@nb.njit(cache=True)
+def settle(plant, x, U, dist, n, sc, K, t):
+    """The rates at x (time t s) into K[0] with consistent modes: while a stuck joint
+    cannot be held, release the one furthest beyond its band and solve again
+    (:func:`manipcad.sim.events.release_worst`)."""
+    for _ in range(n + 1):
+        hybrid_at(x, U, dist, n, plant, sc, K, 0)
+        if not release_worst(plant, t):
+            return
+
+
+@nb.njit(cache=True)
+def _rk4_sub(plant, x, U, dist, n, sc, K, h, xs, xn, e1):
+    """An RK4 step of h s from x (K[0] its rates) into xn, the modes held; the event
+    values at xn into e1 (the rates at xn computed for the stuck joints' margins)."""
+    ev = plant.ev
+    for st in range(1, 4):
+        rk4_stage(x, K, st, h, xs)
+        hybrid_at(xs, U, dist, n, plant, sc, K, st)
+    rk4_update(x, K, h, xn)
+    for j in range(n):
+        if ev.mode[j] == 0.0 and ev.marg[j] < math.inf:
+            hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, 0)
+            break
+    event_values(plant, xn, n, e1)
+
+
+@nb.njit(cache=True)
+def hybrid_step(plant, x, U, dist, t, dt, n, sc, K, xs, xn):
+    """One RK4 step of dt s from x at t s (K[0]: its settled rates) with the events located.
+
+    A step that crosses an event (a slipping joint's d·q̇ reaching 0, a stuck joint's margin
+    below 0: :mod:`manipcad.sim.events`) is cut at it: the fraction θ of the step where
+    the first crossing happens is found by the Illinois method on RK4 steps of θ·h from
+    the step's start (to 1e-12 of the step), the modes switched there, and the rest of the
+    step integrated from that state; the regulators' sample instants stay on the grid.
+    """
+    ev = plant.ev
+    e0 = ev.e0
+    e1 = ev.e1
+    h = dt
+    for _ in range(MAX_EVENTS):
+        event_values(plant, x, n, e0)
+        _rk4_sub(plant, x, U, dist, n, sc, K, h, xs, xn, e1)
+        if release_edge(plant, n, e0, e1, t):
+            settle(plant, x, U, dist, n, sc, K, t)
+            continue
+        fhi = crossing(e0, e1)
+        if fhi >= 0.0:
+            break
+        il = ev.il
+        th = bracket_start(il, fhi)
+        while th > 0.0:
+            _rk4_sub(plant, x, U, dist, n, sc, K, h * th, xs, xn, e1)
+            th = bracket_next(il, crossing(e0, e1))
+        hi = il[2]
+        ev.count[1] += int(il[5])
+        if il[4] == 0.0:
+            _rk4_sub(plant, x, U, dist, n, sc, K, h * hi, xs, xn, e1)
+        for j in range(x.shape[0]):
+            x[j] = xn[j]
+        t += h * hi
+        switch(plant, x, n, e0, e1, t)
+        h = h * (1.0 - hi)
+        settle(plant, x, U, dist, n, sc, K, t)
+        if h <= 0.0:
+            return
+    else:   # too many events in one step: the rest taken as it is
+        _rk4_sub(plant, x, U, dist, n, sc, K, h, xs, xn, e1)
+    for j in range(x.shape[0]):
+        x[j] = xn[j]

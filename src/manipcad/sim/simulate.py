@@ -80,6 +80,9 @@ class SimulationResult:
             unit, verdict}}}`` (:meth:`manipcad.sim.checks.RunChecks.to_dict`), once a
             caller has made them (``manipcad simulate``, ``verify``); else None. Saved in
             metrics.json.
+        events: (E, 3) the located stick-slip switches of the lossy joints (dry friction
+            or gear losses, :mod:`manipcad.sim.events`): time (s), joint index, new mode
+            (+1 or -1 slipping that way, 0 stuck); None without lossy joints.
     """
 
     t: np.ndarray
@@ -97,6 +100,7 @@ class SimulationResult:
     joint_types: tuple[str, ...] = ()
     payload_estimate: np.ndarray | None = None
     checks: dict | None = None
+    events: np.ndarray | None = None
 
     @property
     def units(self) -> dict[str, str]:
@@ -380,7 +384,8 @@ def simulate(
     plant = Plant(rtable, ctable, np.asarray(robot.gravity, float),
                   dtable, off, bool(drives), generic, wide, *gen,
                   pk.no_pickup() if picked is None else
-                  pk.pickup_part(picked[0], picked[1], dtable, model_payload == "true"))
+                  pk.pickup_part(picked[0], picked[1], dtable, model_payload == "true"),
+                  _events(robot, dtable, rtable, bool(drives), x_qd, len(x0)))
     est = pk.estimator_part(estimator, robot, dt, K, ctable, feed=model_payload == "online",
                             drives=bool(drives))
     ctrl, described = _pack_regulators(robot, regulators, dt, est)
@@ -422,6 +427,8 @@ def simulate(
         u=rec.u[:kept], current=rec.i[:kept], tau=rec.tau[:kept],
         joint_names=robot.joint_names, joint_types=tuple(robot.joint_types), robot=robot.name,
         payload_estimate=None if estimator is None else pk.estimate_series(est, dt),
+        events=(plant.ev.log[:min(int(plant.ev.count[0]), len(plant.ev.log))].copy()
+                if plant.ev.on else None),
         settings={"dt": dt, "t_end": t_end, "drives": bool(drives), "order": order,
                   "regulators": described, "generated": bool(gen[0]),
                   "integrator": integrator,
@@ -736,6 +743,17 @@ def _extremes(a):
         if v > out[1, j]:
             out[1, j] = v
     return out
+
+
+def _events(robot: Robot, dtable, rtable, drives: bool, qd0, nx: int):
+    """The plant's stick-slip friction and gear losses (:mod:`manipcad.sim.events`): the
+    rigid drives' joint-referred dry friction and gear efficiencies."""
+    from manipcad.sim.events import events_part, friction_table
+
+    kinds = dtable[:, P_KIND].astype(np.int64)
+    rigid = drives & ((kinds == KIND_RIGID) | (kinds == KIND_RIGID_STATIC))
+    eta = np.array([1.0 if d is None else float(d.efficiency) for d in robot.drives])
+    return events_part(friction_table(dtable, rtable, eta, rigid), qd0, nx)
 
 
 def _drive_initial_state(dtable, off, q, qd) -> np.ndarray:

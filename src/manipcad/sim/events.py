@@ -1,0 +1,396 @@
+"""Stick–slip friction and gear losses in the simulated plant: modes, constrained
+forward dynamics and the events both integrators locate.
+
+Every joint whose rigid drive has dry friction (|i_r|·M_f, joint side) or a gear
+efficiency η < 1 takes part (a *lossy* joint). Each has a mode, ``mode[j]``:
+
+* ``+1`` / ``-1``: slipping in that direction: the kinetic friction of that
+  direction opposes it, whatever the sign q̇ takes inside a step (the sign is a
+  mode, switched at located events, never ``sign(q̇)`` of a stage);
+* ``0``: stuck: q̇_j = q̈_j = 0, the friction holds whatever torque the motion of the
+  others and the drive ask of it, up to the static friction (M_s = M_f: the data
+  give no separate static value).
+
+Forward dynamics (:func:`hybrid_rates`): the multibody forward dynamics with the
+drive terms (the generated kernels or the articulated-body method) gives q̈₀ of
+H_d·q̈ = τ + τ_dist − c − f (H_d = H + diag(J·i_r²)); then, when a joint is stuck
+or a gear has losses, with the mass matrix H_d:
+
+* the gear passes g·T to the joint, T = τ_m − J·i_r²·q̈ − k_v·i_r²·q̇ − F the
+  torque at its input, g = 1/f with f of :func:`manipcad.drives.gear.gear_factor`
+  (the sizing's formula): row j becomes (H q̈ + c − τ_dist)_j = g_j·T_j, i.e. H_d's
+  diagonal gains (g_j − 1)·J·i_r² and the right side
+  (g_j − 1)·(τ_m − k_v·i_r²·q̇ − F);
+  g's mode (motoring or braking) is found from T at q̈₀ and checked (at most three
+  rounds);
+* the stuck joints' rows and columns are taken out (q̈_S = 0) and the free joints'
+  system solved by Cholesky; each stuck joint's holding torque P = (H q̈ + c −
+  τ_dist)_s is checked against the loads its drive can hold at rest
+  (:func:`manipcad.drives.gear.holding_band`): the margin
+  ``min(P − lo, hi − P)`` (N·m or N) goes to ``marg[s]`` and the way it would
+  break away to ``dirn[s]``.
+
+Events (located by the integrators, :mod:`manipcad.sim.loop` and
+:mod:`manipcad.sim.adaptive`): a slipping joint's d·q̇_j reaching zero (it stops:
+stuck, or turned back at once when it cannot be held) and a stuck joint's margin
+falling below zero (it breaks away in ``dirn``). Several stuck joints are coupled
+through H_d; when several cannot be held, the one furthest beyond its band is
+released first and the rest solved again (:func:`settle`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numba as nb
+import numpy as np
+
+from manipcad.drives.gear import gear_factor, holding_band
+from manipcad.dynamics.aba import aba_one
+from manipcad.dynamics.crba import CRBA_WORK, crba_one
+from manipcad.dynamics.forward_crba import cholesky_solve
+from manipcad.model.robot import COL_BV, COL_JR
+from manipcad.sim.borrow import address
+
+#: columns of :attr:`Events.fric` (joint side, N·m or N; η -): kinetic friction against
+#: positive and negative motion, static friction against positive and negative motion,
+#: gear efficiency
+FK_POS, FK_NEG, FS_POS, FS_NEG, F_ETA = range(5)
+
+#: the hybrid plant's part of :class:`manipcad.sim.loop.Plant`: ``on`` (any lossy joint),
+#: ``fric`` (n, 5) (see FK_POS..F_ETA), ``mode`` (n,) (+1, -1 slipping, 0 stuck; carried
+#: from chunk to chunk), ``marg`` and ``dirn`` (n,) the stuck joints' margins (N·m, N;
+#: +inf for the others) and break-away directions of the last right-hand side, ``e0``,
+#: ``e1`` (n,) event values, ``xe`` (nx,) and ``Ke`` (1, nx) a state and its rates, and
+#: scratch: ``tf``, ``b``, ``rhs``, ``frj``, ``gv`` (n,), ``A``, ``M`` (n, n), ``cw``
+#: (n, CRBA_WORK), ``ctmp`` (8, 3); ``count`` (2,): mode switches, rounds of location;
+#: ``log`` (LOG, 3): the first LOG switches' time (s), joint and new mode
+#: ``il`` (8,) the bracket of the event being located (:func:`bracket_start`)
+Events = namedtuple("Events", "on fric mode marg dirn e0 e1 xe Ke tf b rhs frj gv A M cw "
+                              "ctmp count log il")
+
+#: mode switches kept in :attr:`Events.log` (the rest are counted only)
+LOG = 100000
+
+#: most events located within one step of the fixed-step integrator (or one step of the
+#: adaptive one); beyond, the rest of the step is taken as it is
+MAX_EVENTS = 24
+
+
+def events_part(fric: np.ndarray, qd0: np.ndarray, nx: int) -> Events:
+    """The :class:`Events` of a run: ``fric`` (n, 5) (see :data:`FK_POS`), the initial
+    joint speeds ``qd0`` (rad/s, m/s) set the modes (a lossy joint at rest starts
+    stuck), ``nx`` the state's length.
+
+    Example:
+        >>> import numpy as np
+        >>> from manipcad.sim.events import events_part
+        >>> ev = events_part(np.array([[1.0, 1.0, 1.0, 1.0, 1.0], [0, 0, 0, 0, 0.9],
+        ...                            [0, 0, 0, 0, 1.0]]), np.array([0.0, -2.0, 3.0]), 9)
+        >>> bool(ev.on), ev.mode.tolist()
+        (True, [0.0, -1.0, 0.0])
+    """
+    fric = np.ascontiguousarray(fric, dtype=float)
+    n = fric.shape[0]
+    lossy = np.array([is_lossy(fric, j) for j in range(n)], dtype=bool)
+    mode = np.where(lossy, np.sign(np.asarray(qd0, dtype=float)), 0.0)
+    return Events(bool(lossy.any()), fric, mode.astype(float), np.full(n, math.inf),
+                  np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(nx), np.zeros((1, nx)),
+                  np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.ones(n),
+                  np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, CRBA_WORK)),
+                  np.zeros((8, 3)), np.zeros(2, dtype=np.int64),
+                  np.empty((LOG if lossy.any() else 0, 3)), np.zeros(8))
+
+
+def friction_table(dtable: np.ndarray, rtable: np.ndarray, efficiency, kinds) -> np.ndarray:
+    """(n, 5) :data:`FK_POS`..:data:`F_ETA` of the rigid drives: the joint-referred dry
+    friction of the body table's drive columns (static = kinetic: no separate data), and
+    the gears' efficiency (1 where unknown, nan, as the sizing takes it, or for the elastic
+    kinds, whose friction is on the motor's own states).
+
+    Args:
+        dtable: (n, NPAR) packed drives; rtable: the body table with the drive terms.
+        efficiency: (n,) the drives' η (nan: unknown).
+        kinds: (n,) bool, the joints with a rigid drive.
+    """
+    from manipcad.model.robot import COL_FCN, COL_FCP
+
+    n = rtable.shape[0]
+    out = np.zeros((n, 5))
+    out[:, FK_POS] = rtable[:, COL_FCP]
+    out[:, FK_NEG] = rtable[:, COL_FCN]
+    out[:, FS_POS] = rtable[:, COL_FCP]
+    out[:, FS_NEG] = rtable[:, COL_FCN]
+    eta = np.where(np.isnan(efficiency), 1.0, np.asarray(efficiency, dtype=float))
+    out[:, F_ETA] = np.where(kinds, eta, 1.0)
+    return out
+
+
+@nb.njit(cache=True)
+def is_lossy(fric, j):
+    """Whether joint j takes part in the hybrid model (dry friction or η < 1)."""
+    return fric[j, FK_POS] > 0.0 or fric[j, FK_NEG] > 0.0 or fric[j, F_ETA] < 1.0
+
+
+@nb.njit(cache=True, inline="always")
+def _dry(fric, j, s):
+    """The kinetic dry friction of joint j for motion of sign s (0: none), N·m or N."""
+    if s > 0.0:
+        return fric[j, FK_POS]
+    if s < 0.0:
+        return -fric[j, FK_NEG]
+    return 0.0
+
+
+@nb.njit(cache=True)
+def hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork, tmp):
+    """q̈ (into ``qdd``) of the hybrid plant at q, q̇ with the drives' joint torques ``tau``
+    (disturbance ``dist`` included), N·m or N; the stuck joints' margins into
+    ``plant.ev.marg`` (module docstring). Returns False when H is not positive definite
+    (q̈ NaN)."""
+    ev = plant.ev
+    fric = ev.fric
+    mode = ev.mode
+    tf = ev.tf
+    n = q.shape[0]
+    stuck = False
+    geared = False
+    for j in range(n):
+        tf[j] = tau[j]
+        ev.marg[j] = math.inf
+        if not is_lossy(fric, j):
+            continue
+        d = mode[j]
+        if d == 0.0:
+            stuck = True
+            continue
+        if fric[j, F_ETA] < 1.0:
+            geared = True
+        s = qd[j]
+        sg = 1.0 if s > 0.0 else (-1.0 if s < 0.0 else 0.0)
+        if sg != d:  # the kernel's friction is sign(q̇)'s: the mode's instead
+            tf[j] = tau[j] + _dry(fric, j, sg) - _dry(fric, j, d)
+    if plant.gen:
+        if plant.gen_fd(address(q), address(qd), address(tf), address(qdd)) >= 0:
+            for j in range(n):
+                qdd[j] = math.nan
+            return False
+    elif not aba_one(plant.rtable, plant.g, q, qd, tf, fext, False, True, awork, tmp, qdd):
+        return False
+    if stuck or geared:
+        return _constrained(plant, q, qd, tau, dist, qdd)
+    return True
+
+
+@nb.njit(cache=True)
+def _constrained(plant, q, qd, tau, dist, qdd):
+    """q̈₀ in ``qdd`` made the hybrid plant's: gear factors and stuck joints (module
+    docstring)."""
+    ev = plant.ev
+    fric = ev.fric
+    mode = ev.mode
+    rt = plant.rtable
+    n = q.shape[0]
+    A = ev.A
+    M = ev.M
+    b = ev.b
+    rhs = ev.rhs
+    frj = ev.frj
+    gv = ev.gv
+    if plant.gen:
+        plant.gen_mass(address(q), address(A))
+        for j in range(n):
+            A[j, j] += rt[j, COL_JR]
+    else:
+        crba_one(rt, q, True, ev.cw, ev.ctmp, A)
+    for i in range(n):
+        s = 0.0
+        for k in range(n):
+            s += A[i, k] * qdd[k]
+        b[i] = s
+    for j in range(n):
+        d = mode[j] if is_lossy(fric, j) else qd[j]
+        frj[j] = rt[j, COL_BV] * qd[j] + _dry(fric, j, d)
+        gv[j] = 1.0
+    for it in range(3):
+        changed = False
+        for j in range(n):
+            if mode[j] != 0.0 and fric[j, F_ETA] < 1.0 and is_lossy(fric, j):
+                T = tau[j] - dist[j] - rt[j, COL_JR] * qdd[j] - frj[j]
+                g = 1.0 / gear_factor(fric[j, F_ETA], T, mode[j])
+                if g != gv[j]:
+                    gv[j] = g
+                    changed = True
+        if it > 0 and not changed:
+            break
+        for i in range(n):
+            stuck_i = mode[i] == 0.0 and is_lossy(fric, i)
+            for k in range(n):
+                M[i, k] = 0.0 if stuck_i or (mode[k] == 0.0 and is_lossy(fric, k)) \
+                    else A[i, k]
+            if stuck_i:
+                M[i, i] = 1.0
+                rhs[i] = 0.0
+            else:
+                M[i, i] += (gv[i] - 1.0) * rt[i, COL_JR]
+                rhs[i] = b[i] + (gv[i] - 1.0) * (tau[i] - dist[i] - frj[i])
+        if not cholesky_solve(M, rhs, qdd):
+            for j in range(n):
+                qdd[j] = math.nan
+            return False
+    for s_ in range(n):
+        if mode[s_] != 0.0 or not is_lossy(fric, s_):
+            continue
+        P = tau[s_] - dist[s_] - b[s_]
+        for k in range(n):
+            P += A[s_, k] * qdd[k]
+        lo, hi = holding_band(fric[s_, F_ETA], tau[s_] - dist[s_], fric[s_, FS_POS],
+                              fric[s_, FS_NEG])
+        ev.marg[s_] = min(P - lo, hi - P)
+        ev.dirn[s_] = 1.0 if P - lo < hi - P else -1.0
+    return True
+
+
+@nb.njit(cache=True)
+def _log(ev, t, j):
+    """Keep the switch of joint j at t s (its new mode) in ``ev.log``."""
+    c = ev.count[0]
+    if c < ev.log.shape[0]:
+        ev.log[c, 0] = t
+        ev.log[c, 1] = j
+        ev.log[c, 2] = ev.mode[j]
+    ev.count[0] = c + 1
+
+
+@nb.njit(cache=True)
+def release_worst(plant, t):
+    """Release the stuck joint furthest beyond its holding band (the last right-hand
+    side's margins) in its break-away direction, at t s; whether one was."""
+    ev = plant.ev
+    worst = -1
+    wm = 0.0
+    for j in range(ev.mode.shape[0]):
+        if ev.mode[j] == 0.0 and is_lossy(ev.fric, j) and ev.marg[j] < wm:
+            worst = j
+            wm = ev.marg[j]
+    if worst < 0:
+        return False
+    ev.mode[worst] = ev.dirn[worst]
+    _log(ev, t, worst)
+    return True
+
+
+@nb.njit(cache=True)
+def event_values(plant, x, n, e):
+    """The event functions at state x into ``e`` (n,): d·q̇_j of a slipping lossy joint
+    (rad/s, m/s), the margin of a stuck one (N·m, N; of the last right-hand side, which
+    must be x's), 0 for the others."""
+    ev = plant.ev
+    for j in range(n):
+        if not is_lossy(ev.fric, j):
+            e[j] = 0.0
+        elif ev.mode[j] != 0.0:
+            e[j] = ev.mode[j] * x[n + j]
+        else:
+            e[j] = ev.marg[j]
+
+
+@nb.njit(cache=True)
+def crossing(e0, e1):
+    """The earliest-crossing measure min_j e1_j/e0_j over the events positive at the
+    start (1.0 when there is none): below zero when one crossed."""
+    phi = 1.0
+    for j in range(e0.shape[0]):
+        if e0[j] > 0.0:
+            r = e1[j] / e0[j]
+            if r < phi:
+                phi = r
+    return phi
+
+
+@nb.njit(cache=True)
+def release_edge(plant, n, e0, e1, t):
+    """Release, at t s, the stuck joints that sat on the edge of their holding band at
+    a step's start (margin e0 = 0) and are past it at its end (e1 < 0): their break-away
+    is at the start (the measure of :func:`crossing` cannot see it). Their direction is
+    the end's (``dirn`` of the last right-hand side, at the step's end). Whether one was;
+    the caller then takes the step again."""
+    ev = plant.ev
+    any_ = False
+    for j in range(n):
+        if (ev.mode[j] == 0.0 and is_lossy(ev.fric, j) and e0[j] <= 0.0
+                and e1[j] < 0.0):
+            ev.mode[j] = ev.dirn[j]
+            _log(ev, t, j)
+            any_ = True
+    return any_
+
+
+@nb.njit(cache=True)
+def switch(plant, x, n, e0, e1, t):
+    """Switch the modes of the joints whose events crossed (e0 > 0 >= e1): a slipping joint
+    stops (stuck, q̇_j = 0 exactly; :func:`release_worst` turns it back if it cannot be
+    held), a stuck one breaks away (``dirn``, of the last right-hand side at x); t: the
+    time, s."""
+    ev = plant.ev
+    for j in range(n):
+        if e0[j] > 0.0 and e1[j] <= 0.0 and is_lossy(ev.fric, j):
+            if ev.mode[j] != 0.0:
+                ev.mode[j] = 0.0
+                x[n + j] = 0.0
+            else:
+                ev.mode[j] = ev.dirn[j]
+            _log(ev, t, j)
+
+
+@nb.njit(cache=True)
+def _theta(il):
+    """The next fraction to try of the bracket ``il`` (regula falsi), or -1 when located
+    (to 1e-12 of the step, or after 60 rounds)."""
+    lo, flo, hi, fhi = il[0], il[1], il[2], il[3]
+    if hi - lo <= 1e-12 or fhi == 0.0 or il[5] >= 60:
+        return -1.0
+    th = hi - fhi * (hi - lo) / (fhi - flo)
+    if not (lo < th < hi):
+        th = 0.5 * (lo + hi)
+    il[6] = th
+    return th
+
+
+@nb.njit(cache=True)
+def bracket_start(il, fhi):
+    """Start locating the first crossing in a step whose end has the measure ``fhi`` < 0
+    (:func:`crossing`; 1 at the start): the first fraction θ of the step to try.
+
+    The Illinois method on the fraction θ in (0, 1]: the caller integrates from the
+    step's start over θ·h, gives :func:`crossing` there to :func:`bracket_next`, and
+    stops at -1; ``il[2]`` is then the located fraction (the crossing just past), and
+    ``il[4]`` is 1 when the caller's last sub-step ended there.
+    """
+    il[0], il[1], il[2], il[3], il[4], il[5], il[7] = 0.0, 1.0, 1.0, fhi, 1.0, 0.0, 0.0
+    return _theta(il)
+
+
+@nb.njit(cache=True)
+def bracket_next(il, f):
+    """Take the crossing measure ``f`` at the fraction last given; the next fraction, or
+    -1 when located (:func:`bracket_start`)."""
+    th = il[6]
+    il[5] += 1.0
+    if f <= 0.0:
+        il[2], il[3], il[4] = th, f, 1.0
+        if il[7] == -1.0:
+            il[1] *= 0.5
+        il[7] = -1.0
+    else:
+        il[0], il[1], il[4] = th, f, 0.0
+        if il[7] == 1.0:
+            il[3] *= 0.5
+        il[7] = 1.0
+    return _theta(il)
+
+
+def no_events(n: int, nx: int) -> Events:
+    """The :class:`Events` of a plant without lossy joints (``on`` false)."""
+    return events_part(np.tile([0.0, 0.0, 0.0, 0.0, 1.0], (n, 1)), np.zeros(n), nx)

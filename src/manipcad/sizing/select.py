@@ -17,8 +17,8 @@ the payload range, and the feasible candidate with the least objective wins:
 A candidate is feasible when every check passes with the margin: ``margin``
 M means required·M <= rating for every rating, i.e. a check margin (1 -
 required/rating) of at least 1 - 1/M; ``margin=1.0`` is exactly the limits
-``size`` applies; the default :data:`DEFAULT_MARGIN` = 1.1 keeps 10 % of every
-rating in reserve. A check that cannot be made ("unknown": a rating or the
+``size`` applies; the default :data:`DEFAULT_MARGIN` = 1.1 asks every rating
+to be at least 1.1 × the need. A check that cannot be made ("unknown": a rating or the
 gear efficiency the catalogue does not give) makes a candidate infeasible
 unless ``allow_unknown`` (``size --allow-unknown``'s reading). "n/a" (a gear
 check of a direct drive) passes.

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 import yaml
 
-from manipcad.errors import InputError, ManipcadWarning, ModelError
+from manipcad.errors import InertiaWarning, InputError, ManipcadWarning, ModelError
 from manipcad.model import dh
 from manipcad.model.load import catalog_names, load_robot
-from manipcad.model.robot import Robot
+from manipcad.model.robot import Robot, inertia_notes
 from manipcad.model.yaml_robot import (
     CONSTANTS,
     evaluate,
@@ -607,14 +607,28 @@ def test_motor_by_path_relative_to_robot_file(tmp_path):
 # ------------------------------------------------------------- warnings / valid edge cases
 
 
-def test_puma_link1_triangle_inequality_warns():
-    with warnings.catch_warnings(record=True) as rec:
-        warnings.simplefilter("always")
+def test_puma_inertias_are_noted_once_not_warned_at_every_load():
+    """The PUMA 560's published link 1 and 3 tensors break the triangle inequality; the
+    catalog file notes it, so loading is silent, and inertia_notes names both links."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ManipcadWarning)
         robot = load_yaml_robot(CATALOG / "robots" / "puma560.yaml")
-    msgs = [str(w.message) for w in rec if issubclass(w.category, ManipcadWarning)]
-    assert any("puma560.yaml: joints[0].link.inertia: " in m and "triangle inequality" in m
-               for m in msgs), msgs
     assert robot.mass[0] == 0 and robot.inertia[0, 2, 2] == pytest.approx(0.35)
+    notes = inertia_notes(robot)
+    assert [n.split(" ")[0] for n in notes] == ["joints[0].link.inertia", "joints[2].link.inertia"]
+    assert all("triangle inequality" in n for n in notes)
+
+
+def test_a_note_silences_only_its_own_tensor(tmp_path):
+    doc = base_doc()
+    doc["joints"][0]["link"]["inertia"] = {"ixx": 0.0, "iyy": 0.1, "izz": 0.0,
+                                           "note": "published as is"}
+    doc["joints"][1]["link"]["inertia"] = {"ixx": 0.0, "iyy": 0.1, "izz": 0.0}
+    path = write(tmp_path, doc)
+    with pytest.warns(InertiaWarning) as rec:
+        robot = load_yaml_robot(path)
+    assert ["joints[1].link.inertia" in str(w.message) for w in rec] == [True]
+    assert len(inertia_notes(robot)) == 2
 
 
 def test_triangle_inequality_warning_names_file_and_field(tmp_path):

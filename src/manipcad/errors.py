@@ -59,4 +59,12 @@ class InputError(ManipcadError):
 
 class ManipcadWarning(UserWarning):
     """Input that is usable but questionable, e.g. an inertia tensor that is positive
-    semi-definite but breaks the triangle inequality (the published PUMA 560 link 1)."""
+    semi-definite but breaks the triangle inequality (:class:`InertiaWarning`)."""
+
+
+class InertiaWarning(ManipcadWarning):
+    """A link's inertia tensor is positive semi-definite but its principal moments
+    break the triangle inequality (I1 + I2 >= I3): no rigid body has it. Loaded as
+    given; a robot file that keeps such published data on purpose says so in the
+    tensor's ``note`` and loads without this warning
+    (:func:`manipcad.model.robot.inertia_notes` lists them for ``robots show``)."""

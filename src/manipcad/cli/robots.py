@@ -23,6 +23,7 @@ from rich.table import Table
 from manipcad.cli.app import app, console, guarded
 from manipcad.errors import ManipcadWarning
 from manipcad.fileio import json_safe
+from manipcad.model.robot import loader_notes
 from manipcad.model.tree_file import save_robot
 
 robots_app = typer.Typer(
@@ -184,7 +185,7 @@ def show(
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ManipcadWarning)
         robot = load_robot(name_or_file)
-    notes = [str(w.message) for w in caught if issubclass(w.category, ManipcadWarning)]
+    notes = loader_notes(caught, robot)
 
     if as_json:
         data = robot_summary(robot)

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba.extending import register_jitable
 
-from manipcad.errors import ModelError
+from manipcad.errors import InertiaWarning, ManipcadWarning, ModelError
 from manipcad.model.html import robot_html
 
 #: where a drive's own mass can sit (Robot.drive_mounts): on the link before its joint,
@@ -628,6 +628,57 @@ def _check_finite(robot: Robot) -> None:
             i = int(bad[0])
             raise ModelError(f"joint {robot.joint_names[i]!r}: {key[:-7]} limit must be > 0 "
                              f"(inf: none), got {a[i]}", field=key)
+
+
+def triangle_breach(I: np.ndarray) -> np.ndarray | None:
+    """The principal moments (kg·m², ascending) of an inertia tensor that breaks the
+    triangle inequality I1 + I2 >= I3 (no rigid body has it), else None.
+
+    Args:
+        I: (3, 3) symmetric inertia tensor about the centre of mass, kg·m²,
+            positive semi-definite.
+
+    Example:
+        >>> triangle_breach(np.diag([0.0, 0.35, 0.0]))
+        array([0.  , 0.  , 0.35])
+        >>> triangle_breach(np.diag([0.2, 0.2, 0.35])) is None
+        True
+    """
+    eig = np.linalg.eigvalsh(I)
+    tol = 1e-12 * max(1.0, float(np.abs(I).max()))
+    return eig if eig[0] + eig[1] < eig[2] - tol - 1e-9 * float(eig[2]) else None
+
+
+def triangle_message(eig: np.ndarray) -> str:
+    """The words for principal moments that break the triangle inequality."""
+    return (f"principal moments {np.array2string(eig, precision=6)} kg·m² break the "
+            "triangle inequality (I1 + I2 >= I3), so no rigid body has them; loaded as given")
+
+
+def inertia_notes(robot: Robot) -> list[str]:
+    """One line per link whose inertia breaks the triangle inequality (published data
+    sometimes do: the PUMA 560's links 1 and 3), for ``manipcad robots show``.
+
+    Example:
+        >>> import manipcad
+        >>> [n.split(":")[0] for n in inertia_notes(manipcad.load_robot("puma560"))]
+        ['joints[0].link.inertia (link1)', 'joints[2].link.inertia (link3)']
+    """
+    out = []
+    for i in range(robot.n):
+        eig = triangle_breach(robot.inertia[i])
+        if eig is not None:
+            out.append(f"joints[{i}].link.inertia ({robot.link_names[i]}): "
+                       f"{triangle_message(eig)}")
+    return out
+
+
+def loader_notes(caught, robot: Robot) -> list[str]:
+    """What to tell about a loaded robot's data: the loader's warnings (``caught``, from
+    ``warnings.catch_warnings(record=True)``) but the inertia ones, then
+    :func:`inertia_notes` (each link once, whether its file noted it or not)."""
+    return [str(w.message) for w in caught if issubclass(w.category, ManipcadWarning)
+            and not issubclass(w.category, InertiaWarning)] + inertia_notes(robot)
 
 
 @register_jitable

@@ -79,9 +79,16 @@ from pathlib import Path
 
 import numpy as np
 
-from manipcad.errors import InputError, ManipcadWarning, ModelError
+from manipcad.errors import InertiaWarning, InputError, ManipcadWarning, ModelError
 from manipcad.fileio import read_bytes, scan_xml
-from manipcad.model.robot import PRISMATIC, REVOLUTE, Robot, combine_bodies
+from manipcad.model.robot import (
+    PRISMATIC,
+    REVOLUTE,
+    Robot,
+    combine_bodies,
+    triangle_breach,
+    triangle_message,
+)
 
 MOVABLE = {"revolute": REVOLUTE, "continuous": REVOLUTE, "prismatic": PRISMATIC}
 SUPPORTED_TYPES = ("revolute", "continuous", "prismatic", "fixed")
@@ -296,12 +303,10 @@ def _read_inertial(link: ET.Element, name: str, source: str) -> _Inertial:
     if eig[0] < -tol:
         raise InputError(source, f"{where}.inertia", "tensor is not positive semi-definite "
                          f"(eigenvalues {np.array2string(eig, precision=6)} kg·m²)")
-    if eig[0] + eig[1] < eig[2] - tol - 1e-9 * float(eig[2]):
-        warnings.warn(
-            f"{source}: {where}.inertia: principal moments "
-            f"{np.array2string(eig, precision=6)} kg·m² break the triangle inequality "
-            "(I1 + I2 >= I3), so no rigid body has them; loaded as given",
-            ManipcadWarning, stacklevel=4)
+    breach = triangle_breach(I_local)
+    if breach is not None:
+        warnings.warn(f"{source}: {where}.inertia: {triangle_message(breach)}",
+                      InertiaWarning, stacklevel=4)
     return _Inertial(mass, p, R @ I_local @ R.T)
 
 

@@ -77,9 +77,16 @@ from manipcad.catalog import compose_drive
 from manipcad.catalog.files import GearSpec, MotorSpec, compose_gears
 from manipcad.catalog.files import part_names as _catalog_names  # noqa: F401  (callers)
 from manipcad.catalog.library import load_gear, load_motor
-from manipcad.errors import InputError, ManipcadWarning, ModelError
+from manipcad.errors import InertiaWarning, InputError, ModelError
 from manipcad.model import dh
-from manipcad.model.robot import PRISMATIC, REVOLUTE, Drive, Robot
+from manipcad.model.robot import (
+    PRISMATIC,
+    REVOLUTE,
+    Drive,
+    Robot,
+    triangle_breach,
+    triangle_message,
+)
 from manipcad.schema import CONSTANTS, Friction, Num, OptNum, evaluate, problem
 from manipcad.schema import to_float as _to_float
 
@@ -143,6 +150,9 @@ class InertiaSpec(_Spec):
     ixy: Num = 0.0
     ixz: Num = 0.0
     iyz: Num = 0.0
+
+    #: why a tensor that breaks the triangle inequality is kept as published (no warning)
+    note: str = ""
 
     def matrix(self) -> np.ndarray:
         """The symmetric (3, 3) tensor, kg·m²."""
@@ -448,12 +458,10 @@ def _check_link(link: LinkSpec, label: str, where: str) -> tuple[float, np.ndarr
         raise InputError(label, f"{where}.inertia",
                          "inertia tensor is not positive semi-definite: principal moments "
                          f"{np.array2string(eig, precision=6)} kg·m² (one is negative)")
-    if eig[0] + eig[1] < eig[2] - tol:
-        warnings.warn(
-            f"{label}: {where}.inertia: principal moments "
-            f"{np.array2string(eig, precision=6)} kg·m² break the triangle inequality "
-            "(I1 + I2 >= I3), so no rigid body has them; loaded as given",
-            ManipcadWarning, stacklevel=4)
+    breach = triangle_breach(I)
+    if breach is not None and not link.inertia.note:
+        warnings.warn(f"{label}: {where}.inertia: {triangle_message(breach)}",
+                      InertiaWarning, stacklevel=4)
     return float(link.mass), c, I
 
 

@@ -27,6 +27,7 @@ import numpy as np
 
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.kinematics.forward import stick_points, tool_pose
+from manipcad.model.robot import loader_notes
 from manipcad.model.tree_file import save_robot
 from manipcad.report.projection import VIEW, project
 from manipcad.workspace import Workspace, check_name
@@ -106,7 +107,7 @@ def load_robot_ref(ws: Workspace, ref: str):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ManipcadWarning)
         robot = load_robot(source)
-    return robot, [str(w.message) for w in caught if issubclass(w.category, ManipcadWarning)]
+    return robot, loader_notes(caught, robot)
 
 
 def _unit(joint_type: str) -> str:

@@ -475,3 +475,20 @@ def test_store_all_runs(tmp_path):
         res, m = load_result(out / c["folder"])
         assert m["metrics"]["turn"]["max_error"] == pytest.approx(c["max_error"]["turn"],
                                                                   rel=1e-12)
+
+
+def test_next_drive_up_applies_more_torque():
+    """The remedy for a joint no method keeps within its ratings: the first feasible
+    catalogue drive that can apply more joint torque than the present one."""
+    from manipcad.design.drives import next_drive_up, peak_joint_torque
+
+    arm = with_payload(manipcad.load_robot("examples/two_link.yaml"), 0.5)
+    tr = [quintic([0.0, 0.0], [0.6, -0.8], 2.0)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        new, label = next_drive_up(arm, 0, tr, [0.0])
+        assert new is not None, label
+        assert peak_joint_torque(new.drives[0]) > peak_joint_torque(arm.drives[0])
+        assert new.drives[1] == arm.drives[1]
+        again, label2 = next_drive_up(arm, 0, tr, [0.0], tried={label})
+    assert again is None or label2 != label

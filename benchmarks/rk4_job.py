@@ -1,7 +1,7 @@
 """The PUMA PD job on the fixed-step RK4 path (dt 1e-4, PD every step), for a before/after.
 
 Runs whatever manipcad is first on PYTHONPATH, so two versions can be alternated in
-separate processes (docs/performance.md, "The fixed-step path before and after")::
+separate processes (docs/performance.md, "Closed-loop simulator")::
 
     git worktree add /tmp/before d1c455b        # the commit before the regulator registry
     for i in 1 2 3; do

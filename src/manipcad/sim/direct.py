@@ -7,7 +7,7 @@ and fields of a named tuple); a value numba cannot fingerprint — a tuple holdi
 compiled C callback (:class:`numba.core.ccallback.CFunc`), as the simulator's
 :class:`~manipcad.sim.loop.Plant` holds the robot's generated kernels — is typed in
 Python instead, some 7 µs per array field: about 0.1 ms of every
-:func:`manipcad.simulate` call for the Plant alone (docs/performance.md, session 6).
+:func:`manipcad.simulate` call for the Plant alone (docs/performance.md).
 
 :class:`DirectCall` keeps, per *key* of the arguments, the entry point of the
 specialization the dispatcher chose for them, and calls it directly when the

@@ -17,7 +17,7 @@ The compiled core takes four named structures (numba-typed namedtuples):
 - :class:`Record`: the kept samples; and :class:`Work`, the state carried from one
   chunk of steps to the next (so memory follows the kept samples, not the steps).
 
-Speed (docs/performance.md, issue 14 session 5): :func:`run` makes every array it
+Speed (docs/performance.md): :func:`run` makes every array it
 touches in the step loop one without an owner (:func:`manipcad.sim.borrow.borrowed`), and
 the functions called every step (sampling and signals, the regulators' dispatch,
 recording, divergence checks) are inlined into it (``inline="always"``, numba IR): a call

@@ -690,7 +690,7 @@ def _packed_drives(robot: Robot, drives: bool, transmissions, order):
     Packed once per robot, ``drives`` and ``order`` when the drives' own transmissions
     serve (``transmissions`` None), and kept on the robot as its :attr:`Robot.table` is
     (a Robot and its Drives are frozen): 0.05-0.1 ms of every :func:`simulate` call
-    (docs/performance.md, session 6).
+    (docs/performance.md).
     """
     key = (drives, order)
     cache = (robot.__dict__.setdefault("_sim_drives", {})

@@ -65,7 +65,7 @@ uses a robot's generated kernels when some process has generated them, which
 agree to about 1e-8 but not bit for bit, and a cell's result must not depend on
 what another process left in the kernel cache.
 
-Files: ``claims.json`` (the layout of issue 13: rows over the load ratio,
+Files: ``claims.json`` (rows over the load ratio,
 columns over the speed scale), ``claims.png`` (one heat map per claim, the
 threshold as a contour, saturated cells hatched) and ``report.html``.
 """

@@ -15,7 +15,7 @@ each factor drawn uniformly from [1 − x, 1 + x] (``numpy.random.default_rng`` 
 where). The regulators keep their nominal designs (gains, drive constants, load
 ranges); the signals the adaptive methods read (H_ii, c_i, Q_i) are computed by
 the simulator from the arm simulated, i.e. a perfect measurement of the true
-arm (the online estimate of the payload is issue 13's ``study pickup``).
+arm (the online estimate of the payload is ``study pickup``).
 
 Every sample is one task of :func:`manipcad.parallel.run_tasks` (Dask; ``workers=1``
 serial), cached under ``out_dir/cache`` by a hash of its inputs, so more samples

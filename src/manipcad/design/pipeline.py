@@ -220,6 +220,7 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
     cache_dir = out / "cache"
     outcome: dict[str, Any] = {}
     with ExitStack() as stack:
+        stage("cluster", 0.12)
         pool = _pool(stack, workers, scheduler)
         for it in range(max_iterations):
             arm = state["arm"]

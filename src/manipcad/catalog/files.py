@@ -21,7 +21,7 @@ from importlib.abc import Traversable
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from manipcad import fileio
 from manipcad.errors import InputError
@@ -75,6 +75,15 @@ class MotorSpec(_Spec):
     no_load_current: OptNum = None
     stall_current: OptNum = None
     mass: OptNum = None
+
+    @field_validator("R", "k_m")
+    @classmethod
+    def _positive(cls, v: float) -> float:
+        """R Ω and k_m N·m/A are > 0 (nan: unknown): a motor of R = 0 draws infinite
+        current, one of k_m = 0 makes no torque."""
+        if not (math.isnan(v) or v > 0):
+            raise ValueError("must be > 0 (nan: unknown)")
+        return v
 
     def drive_fields(self) -> dict[str, Any]:
         """The :class:`~manipcad.model.robot.Drive` fields this motor sets (SI;

@@ -491,7 +491,11 @@ def build_drive(spec: DriveSpec, label: str, where: str, base_dir: Path | None =
                 raise InputError(label, sub, f"unknown gear {g!r}; "
                                  + exc.reason.removeprefix("unknown gear; ")) from None
         gear_name = " + ".join(spec.gear)
-    fields, gear_stiffness = compose_drive(motor, gears)
+    try:
+        fields, gear_stiffness = compose_drive(motor, gears)
+    except (OverflowError, ZeroDivisionError) as exc:
+        raise InputError(label, f"{where}.gear", f"the gear chain ({len(gears)} gears) "
+                         f"cannot be composed: its ratios' product overflows ({exc})") from None
     explicit = spec.model_dump(exclude={"motor", "gear", "motor_name", "gear_name",
                                         "elasticity", "assumed"}, exclude_none=True)
     if explicit.get("efficiency") == "unknown":

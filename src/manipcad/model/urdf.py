@@ -381,6 +381,7 @@ def _build(root: ET.Element, source: str, default_name: str,
         raise InputError(source, "", "no <link> elements")
 
     joints: list[_Joint] = []
+    mimics: list[tuple[str, ET.Element]] = []
     seen: set[str] = set()
     parent_joint: dict[str, _Joint] = {}  # child link -> the joint carrying it
     for i, el in enumerate(root.findall("joint")):
@@ -407,8 +408,15 @@ def _build(root: ET.Element, source: str, default_name: str,
             j.kind = "fixed"
         mimic = el.find("mimic")
         if mimic is not None and j.kind in MOVABLE:
-            _warn_mimic(source, j.name, mimic)
+            mimics.append((j.name, mimic))
         joints.append(j)
+    names = {j.name for j in joints}
+    for follower, mimic in mimics:
+        leader = mimic.get("joint")
+        if leader not in names:
+            raise InputError(source, f"joint {follower!r}.mimic", f"mimics joint {leader!r}, "
+                             "which the file does not have")
+        _warn_mimic(source, follower, mimic)
 
     if lock:
         raise InputError(source, f"lock.{next(iter(lock))}", "no joint of that name; joints "

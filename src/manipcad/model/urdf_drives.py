@@ -131,9 +131,15 @@ def build_urdf_robot(spec: UrdfRobotSpec, label: str, base_dir: Path) -> Robot:
     urdf = Path(spec.urdf)
     if not urdf.is_absolute():
         urdf = base_dir / urdf
-    if not urdf.is_file():
+    if not (urdf.exists() or urdf.is_symlink()):
         raise InputError(label, "urdf", f"no such file {str(urdf)!r} (a path relative to "
                          "this robot file)")
+    from manipcad.fileio import check_readable
+
+    try:  # a directory, a FIFO, a device: say what it is (a FIFO is never opened)
+        check_readable(urdf)
+    except InputError as exc:
+        raise InputError(label, "urdf", f"{str(urdf)!r} {exc.reason}") from None
     try:
         body = load_urdf(urdf, lock=dict(spec.lock))
     except InputError as exc:

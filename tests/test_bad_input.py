@@ -474,3 +474,69 @@ def test_names_that_look_like_numbers_read_back(tmp_path):
     save_regulators(regs, tmp_path / "regs.yaml")
     again = load_regulators(str(tmp_path / "regs.yaml"), back)
     assert [r.joint_names for r in again] == [("1e0",), ("1e3",)]
+
+
+# --------------------------------------------------------------------------- tracebacks
+
+def _two_link(tmp_path, old: str, new: str, name: str = "arm.yaml") -> Path:
+    p = tmp_path / name
+    text = (EXAMPLES / "two_link.yaml").read_text()
+    assert old in text
+    p.write_text(text.replace(old, new))
+    return p
+
+
+@pytest.mark.parametrize("old,new,field", [
+    ("ratio: 50 ", "ratio: 1e200", "joints[1].drive.ratio"),
+    ("gear: maxon_gp42c_43", "gear: [" + ", ".join(["maxon_gp42c_43"] * 100) + "]",
+     "joints[0].drive.gear"),
+    ("k_m: 0.0538 ", "k_m: 0 ", "joints[1].drive.k_m"),
+    ("k_u: 2.0 ", "k_u: 0 ", "joints[0].drive.k_u"),
+], ids=["ratio_1e200", "100_gears", "k_m_0", "k_u_0"])
+def test_drive_values_that_overflow_or_cannot_act(tmp_path, old, new, field):
+    p = _two_link(tmp_path, old, new)
+    res, out = cli("robots", "show", p)
+    fails_cleanly(res, out, str(p), field)
+    assert "unexpected" not in out
+
+
+def test_motor_file_refuses_zero_resistance(tmp_path):
+    from manipcad.catalog.library import load_motor
+
+    src = Path(__file__).resolve().parents[1] / "src/manipcad/catalog/data/parts/motors"
+    text = (src / "maxon_re40_148867.yaml").read_text()
+    p = tmp_path / "m.yaml"
+    p.write_text(text.replace("\nR: 0.299 ", "\nR: 0 "))
+    with pytest.raises(InputError, match="R: must be > 0"):
+        load_motor(str(p))
+
+
+URDF = """<robot name="g"><link name="base"/><link name="f1"/><link name="f2"/>
+<joint name="j1" type="prismatic"><parent link="base"/><child link="f1"/>
+  <limit lower="0" upper="0.04"/></joint>
+<joint name="j2" type="prismatic"><parent link="base"/><child link="f2"/>
+  <limit lower="0" upper="0.04"/><mimic joint="LEADER" multiplier="1" offset="0"/></joint>
+</robot>"""
+
+
+def test_urdf_key_naming_a_folder_fifo_or_device_says_what_it_is(tmp_path):
+    from manipcad.model.load import load_robot
+
+    os.mkfifo(tmp_path / "pipe.urdf")
+    (tmp_path / "folder.urdf").mkdir()
+    for target, what in (("folder.urdf", "is a directory"), ("pipe.urdf", "is a FIFO"),
+                         ("/dev/zero", "is a character device")):
+        p = tmp_path / "arm.yaml"
+        p.write_text(f"name: arm\nurdf: {target}\ndrives: {{}}\n")
+        with pytest.raises(InputError, match=what) as err:
+            load_robot(str(p))
+        assert err.value.field == "urdf" and "no such file" not in str(err.value)
+
+
+def test_urdf_mimic_of_a_missing_joint_refused():
+    from manipcad.model.urdf import robot_from_urdf_string
+
+    with pytest.raises(InputError, match="mimics joint 'nope', which the file does not have"):
+        robot_from_urdf_string(URDF.replace("LEADER", "nope"))
+    with pytest.warns(Warning, match="'j2' mimics 'j1'"):
+        assert robot_from_urdf_string(URDF.replace("LEADER", "j1")).n == 2

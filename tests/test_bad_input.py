@@ -540,3 +540,9 @@ def test_urdf_mimic_of_a_missing_joint_refused():
         robot_from_urdf_string(URDF.replace("LEADER", "nope"))
     with pytest.warns(Warning, match="'j2' mimics 'j1'"):
         assert robot_from_urdf_string(URDF.replace("LEADER", "j1")).n == 2
+
+
+def test_echoed_user_text_keeps_emoji_codes(tmp_path):
+    res, out = cli("size", "puma560", "--trajectory", tmp_path / ":fire:0:100:10.yaml")
+    fails_cleanly(res, out, ":fire:0:100:10.yaml")
+    assert "🔥" not in out and "💯" not in out

@@ -23,8 +23,8 @@ app = typer.Typer(
     add_completion=True,  # --install-completion / --show-completion (bash, zsh, fish)
     pretty_exceptions_enable=False,
 )
-console = Console()
-err_console = Console(stderr=True)
+console = Console(emoji=False)  # ":fire:" in a file name or "0:100:10" stays text
+err_console = Console(stderr=True, emoji=False)
 
 
 def _version(value: bool) -> None:

@@ -546,3 +546,23 @@ def test_echoed_user_text_keeps_emoji_codes(tmp_path):
     res, out = cli("size", "puma560", "--trajectory", tmp_path / ":fire:0:100:10.yaml")
     fails_cleanly(res, out, ":fire:0:100:10.yaml")
     assert "🔥" not in out and "💯" not in out
+
+
+# --------------------------------------------------------------------------- new user
+
+def test_synthesize_ws_prints_a_command_that_runs(tmp_path):
+    import re
+    import shlex
+
+    from manipcad.workspace import Workspace
+
+    ws = Workspace.init(tmp_path / "ws")
+    ws.add(move(tmp_path))
+    res, out = cli("synthesize", "puma560", "--method", "pid", "--all", "--out", "g",
+                   "--ws", ws.root)
+    assert res.exit_code == 0, out
+    cmd = re.search(r"run it: manipcad (simulate .*?)\)\s*$", out, re.S)[1]
+    args = shlex.split(cmd.replace("\n", " ").replace("TRAJECTORY.yaml", "move"))
+    assert "--ws" in args
+    res, out = cli(*args, "--t-end", "0.002", "--out", "r1")
+    assert res.exit_code == 0, out

@@ -245,8 +245,12 @@ def synthesize(
         style = "green" if coupled.reached else "red"
         console.print(f"[{style}]{coupled.why}[/]", highlight=False, soft_wrap=True)
     if out is not None:
-        console.print(f"wrote {out} (run it: manipcad simulate {robot} -t TRAJECTORY.yaml "
-                      f"-r {out})", highlight=False, soft_wrap=True)
+        import shlex
+
+        run = (f"-r {shlex.quote(out.stem)} --ws {shlex.quote(str(space.root))}"
+               if space is not None else f"-r {shlex.quote(str(out))}")
+        console.print(f"wrote {out} (run it: manipcad simulate {shlex.quote(robot)} "
+                      f"-t TRAJECTORY.yaml {run})", highlight=False, soft_wrap=True)
     if coupled is not None and not coupled.reached:
         raise typer.Exit(1)
 

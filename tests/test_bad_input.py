@@ -566,3 +566,13 @@ def test_synthesize_ws_prints_a_command_that_runs(tmp_path):
     assert "--ws" in args
     res, out = cli(*args, "--t-end", "0.002", "--out", "r1")
     assert res.exit_code == 0, out
+
+
+def test_robots_show_takes_ws(tmp_path):
+    from manipcad.workspace import Workspace
+
+    ws = Workspace.init(tmp_path / "ws")
+    ws.add(EXAMPLES / "two_link.yaml", name="arm2")
+    res, out = cli("robots", "show", "arm2", "--ws", ws.root, "--json")
+    assert res.exit_code == 0, out
+    assert '"shoulder"' in out

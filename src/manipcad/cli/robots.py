@@ -178,13 +178,17 @@ def show(
         "drives or tree form, docs/robot-files.md) or a .urdf file.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
     = False,
+    ws: Annotated[Path | None, typer.Option(
+        "--ws", help="Workspace: the robot may be its item name.")] = None,
 ) -> None:
     """Show a robot: joints (type, parent, limits, mass, drive) and totals, SI units."""
     from manipcad.model.load import load_robot
+    from manipcad.workspace import Workspace, resolve_input
 
+    space = Workspace(ws) if ws is not None else None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ManipcadWarning)
-        robot = load_robot(name_or_file)
+        robot = load_robot(resolve_input("robot", name_or_file, space))
     notes = loader_notes(caught, robot)
 
     if as_json:

@@ -40,11 +40,11 @@ The checks (docs/checks.md gives each formula, limit and the source of the ratin
 Example:
     >>> import manipcad
     >>> from manipcad.sim.checks import run_checks
-    >>> from manipcad.trajectories import quintic
+    >>> from manipcad.control import load_regulators
     >>> arm = manipcad.load_robot("cylindrical")
-    >>> move = quintic([0.0, 0.1, 0.1], [0.2, 0.15, 0.15], 0.2)
-    >>> regs = manipcad.synthesize(arm, "all", "lqr", period=1e-3)
-    >>> res = manipcad.simulate(arm, t_end=0.2, dt=1e-4, trajectory=move, regulators=regs)
+    >>> laws = manipcad.load_trajectory("examples/fig3_laws.yaml")
+    >>> regs = load_regulators("examples/pid_cylindrical.yaml", arm)
+    >>> res = manipcad.simulate(arm, t_end=0.1, dt=1e-4, trajectory=laws, regulators=regs)
     >>> checks = run_checks(res, arm, accuracy=1.0)
     >>> checks["turn"]["tracking"].verdict, checks.verdict in ("pass", "fail", "unknown")
     ('pass', True)

@@ -355,3 +355,34 @@ def test_lqr_is_designed_for_its_period(arm):
     cont[LQ_TAB:LQ_TAB + 3] = lqr_gains(d, H, 0.0, reg.design["weights"])
     bad = manipcad.Regulator(method="lqr", joints=(0,), period=1e-3, params=cont)
     assert max(spectral_radius(bad, d, lo), spectral_radius(bad, d, hi)) > 1.0
+
+
+def test_computed_torque_full_exports_as_a_mimo_system_of_its_joints(puma):
+    """The export of the spanning law: one discrete static system, 7 signals per joint
+    and H(q) in, U per joint out, equal to the law in closed form (τ = H·v + c + Q +
+    J·i_r²·v + k_v·i_r²·q̇, U = (R·τ/(k_m·i_r) + k_w·i_r·q̇)/k_u) with the coupling."""
+    from manipcad.control import to_control
+    from manipcad.control.computed_torque_full import EXPORT_SIGNALS
+
+    reg = synthesize(puma, "all", "computed_torque_full", period=1e-3, friction=False)
+    sys_ = to_control(reg)
+    n = puma.n
+    assert (sys_.ninputs, sys_.noutputs, sys_.nstates, sys_.dt) == (7 * n + n * n, n, 0, 1e-3)
+    assert sys_.input_labels[:7] == [f"{s}[waist]" for s in EXPORT_SIGNALS]
+    assert sys_.input_labels[7 * n] == "H[waist,waist]"
+    rng = np.random.default_rng(3)
+    sig = rng.uniform(-0.05, 0.05, (n, 7))       # small: no amplifier limit reached
+    A = rng.uniform(-0.3, 0.3, (n, n))
+    H = A @ A.T + np.eye(n)
+    U = np.asarray(sys_.output(0.0, [], np.concatenate([sig.ravel(), H.ravel()]))).ravel()
+    q_ref, qd_ref, qdd_ref, q, qd, c, g = sig.T
+    kp, kd = reg.design["kp"], reg.design["kd"]
+    v = qdd_ref + kd * (qd_ref - qd) + kp * (q_ref - q)
+    for k, d in enumerate(puma.drives):
+        tau = H[k] @ v + c[k] + g[k] + d.J * d.ratio**2 * v[k] + d.k_v * d.ratio**2 * qd[k]
+        want = (d.R * tau / (d.k_m * d.ratio) + d.k_w * d.ratio * qd[k]) / d.k_u
+        assert U[k] == pytest.approx(want, rel=1e-12, abs=1e-12)
+    H2 = H.copy()
+    H2[0, 1] = H2[1, 0] = H[0, 1] + 0.1           # the coupling reaches the output
+    U2 = np.asarray(sys_.output(0.0, [], np.concatenate([sig.ravel(), H2.ravel()]))).ravel()
+    assert U2[0] != pytest.approx(U[0], rel=1e-9)

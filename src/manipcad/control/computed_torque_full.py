@@ -20,6 +20,8 @@ from manipcad.control.method import Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import (
     NPARAM,
+    NSIG,
+    NSTATE,
     S_CI,
     S_Q,
     S_QD,
@@ -27,6 +29,7 @@ from manipcad.control.signals import (
     S_QDREF,
     S_QI,
     S_QREF,
+    SIGNALS,
 )
 from manipcad.drives.dc import clip, dry_friction
 from manipcad.drives.params import NPAR, P_J, P_KV, P_RATIO, pack_drive
@@ -68,6 +71,52 @@ def computed_torque_full_update(p, s, sig, H, joints, nj, Ts, U):
         o = CTF_DRV + a * NPAR
         U[ja] = clip(joint_torque_to_input(tau, sig[ja, S_QD], p[o:o + NPAR]),
                      p[CTF_ULIM0 + a])
+
+
+#: the signals each joint's row gives the law, in the order of the export's inputs
+EXPORT_SIGNALS = ("q_ref", "q_dot_ref", "q_ddot_ref", "q", "q_dot", "c_i", "Q_i")
+
+
+def export_computed_torque_full(reg: Regulator) -> ct.NonlinearIOSystem:
+    """``computed_torque_full`` as a python-control system: a discrete-time (period
+    ``reg.period``, s) static MIMO nonlinear I/O system over all its joints, whose
+    output calls the very compiled law the simulator runs.
+
+    Inputs: for each joint k (in ``reg.joint_names`` order) the signals of
+    :data:`EXPORT_SIGNALS` labelled ``"q_ref[k]"``, ... (units as in
+    :data:`~manipcad.control.signals.SIGNALS`), then the inertia matrix H(q) of those
+    joints, ``"H[a,b]"`` row by row, kg·m² (kg on a prismatic joint). Outputs: the
+    amplifier inputs ``"U[k]"``, V. No state.
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.control import to_control
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> sys_ = to_control(manipcad.synthesize(arm, "all", "computed_torque_full"))
+        >>> sys_.ninputs, sys_.noutputs, sys_.nstates, sys_.dt
+        (30, 3, 0, 0.001)
+    """
+    nj = len(reg.joints)
+    names = list(reg.joint_names) or [str(j) for j in reg.joints]
+    inputs = [f"{s}[{k}]" for k in names for s in EXPORT_SIGNALS]
+    inputs += [f"H[{a},{b}]" for a in names for b in names]
+    cols = [SIGNALS[s][0] for s in EXPORT_SIGNALS]
+    p = np.ascontiguousarray(reg.params, dtype=float)
+    Ts = float(reg.period)
+    local = np.arange(nj, dtype=np.int64)
+
+    def output(t, x, u, params):
+        u = np.asarray(u, dtype=float)
+        sig = np.zeros((nj, NSIG))
+        sig[:, 0] = t
+        sig[:, cols] = u[:nj * len(cols)].reshape(nj, len(cols))
+        H = np.ascontiguousarray(u[nj * len(cols):].reshape(nj, nj))
+        U = np.zeros(nj)
+        computed_torque_full_update(p, np.zeros(NSTATE), sig, H, local, nj, Ts, U)
+        return U
+
+    return ct.nlsys(None, output, inputs=inputs, outputs=[f"U[{k}]" for k in names],
+                    dt=Ts, name=f"computed_torque_full_{'_'.join(names)}")
 
 
 def synthesize_computed_torque_full(robot: Robot, joints="all", *, spec=None,
@@ -135,5 +184,5 @@ METHOD = Method(
     update=computed_torque_full_update, section="baseline",
     summary="centralized inverse dynamics H(q)·v + c + Q over all joints (Drake's "
             "InverseDynamicsController)",
-    fields=FIELDS, spans=True, drive_blocks="per_joint",
+    fields=FIELDS, spans=True, drive_blocks="per_joint", export=export_computed_torque_full,
     joint_fields={"u_limit_V": CTF_ULIM0}, drive_base=CTF_DRV)

@@ -576,3 +576,10 @@ def test_robots_show_takes_ws(tmp_path):
     res, out = cli("robots", "show", "arm2", "--ws", ws.root, "--json")
     assert res.exit_code == 0, out
     assert '"shoulder"' in out
+
+
+def test_simulate_summary_says_every_n_steps(tmp_path):
+    res, out = cli("simulate", "puma560", "--trajectory", move(tmp_path), "--regulator",
+                   EXAMPLES / "pid_puma.yaml", "--out", tmp_path / "r", "--t-end", "0.02")
+    assert res.exit_code == 0, out
+    assert "one sample every 10 steps" in out and "10. step" not in out

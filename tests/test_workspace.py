@@ -20,9 +20,9 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
+from manipcad.catalog.files import PARTS
 from manipcad.cli import app
 from manipcad.errors import InputError, ManipcadWarning
-from manipcad.catalog.files import PARTS
 from manipcad.model.load import CATALOG
 from manipcad.sim.simulate import SimulationResult
 from manipcad.workspace import Workspace, parse_where, resolve_input

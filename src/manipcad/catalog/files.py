@@ -39,6 +39,17 @@ _MOTOR_DRIVE_FIELD: dict[str, str] = {}
 class _Spec(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
+    # every part's provenance (the fields motors and gears share, first in both)
+    source: str = Field(min_length=1)
+    description: str = ""
+    order_number: str = ""
+    name: str = ""
+    maker: str = ""
+    key: str = ""
+    confidence: str = ""
+    assumed: dict[str, str] = {}
+    derived: dict[str, str] = {}
+
 
 class MotorSpec(_Spec):
     """A catalog DC servo motor (motor side, SI units): rotor inertia J kg·m²,
@@ -50,15 +61,6 @@ class MotorSpec(_Spec):
     ``assumed`` maps a field to why its value is assumed rather than printed,
     ``derived`` a field to how it was computed from printed values."""
 
-    source: str = Field(min_length=1)
-    description: str = ""
-    order_number: str = ""
-    name: str = ""
-    maker: str = ""
-    key: str = ""
-    confidence: str = ""
-    assumed: dict[str, str] = {}
-    derived: dict[str, str] = {}
     J: Num
     R: Num
     L: Num
@@ -129,15 +131,6 @@ class GearSpec(_Spec):
     unknown without an assumption. ``efficiency_basis`` says which
     ("printed", "printed maximum", "assumed", "unknown")."""
 
-    source: str = Field(min_length=1)
-    description: str = ""
-    order_number: str = ""
-    name: str = ""
-    maker: str = ""
-    key: str = ""
-    confidence: str = ""
-    assumed: dict[str, str] = {}
-    derived: dict[str, str] = {}
     type: Literal["planetary", "harmonic", "spur", "koaxdrive", "ball_screw", "rack_pinion",
                   "belt"]
     ratio: Num

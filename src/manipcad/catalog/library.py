@@ -595,28 +595,26 @@ def load_motor(name: str, base_dir: Path | None = None) -> MotorSpec:
         >>> load_motor("MM_597974").k_m   # N·m/A, maxon 597974 from the MGDB
         0.136
     """
-    path = _resolve("motors", name, base_dir)
-    if path is None:
-        spec = None if name.endswith((".yaml", ".yml")) else library_part(name)
-        if not isinstance(spec, MotorSpec):
-            raise _unknown("motors", name)
-        return spec
-    spec = _load_spec("motors", str(path))
-    assert isinstance(spec, MotorSpec)
-    return spec
+    return _load_part("motors", MotorSpec, name, base_dir)
 
 
 def load_gear(name: str, base_dir: Path | None = None) -> GearSpec:
     """A gear (transmission) by name (built-in file or any gear of ``manipcad
     catalog list``) or .yaml path. Raises :class:`InputError`."""
-    path = _resolve("gears", name, base_dir)
+    return _load_part("gears", GearSpec, name, base_dir)
+
+
+def _load_part(kind: str, cls: type, name: str, base_dir: Path | None):
+    """A part of ``kind`` ("motors" or "gears", of class ``cls``) by file name or path,
+    else by library name; :class:`InputError` when it is neither."""
+    path = _resolve(kind, name, base_dir)
     if path is None:
         spec = None if name.endswith((".yaml", ".yml")) else library_part(name)
-        if not isinstance(spec, GearSpec):
-            raise _unknown("gears", name)
+        if not isinstance(spec, cls):
+            raise _unknown(kind, name)
         return spec
-    spec = _load_spec("gears", str(path))
-    assert isinstance(spec, GearSpec)
+    spec = _load_spec(kind, str(path))
+    assert isinstance(spec, cls)
     return spec
 
 

@@ -30,8 +30,8 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "fig3_laws.yaml"
 def arm():
     """The Fig. 2 arm with lossless gears (η = 1): the drive model section 3.1 derives laws
     (1), (3)-(5) for. The simulated plant applies the gears' efficiency (1/η motoring, η
-    braking), which these laws do not model yet: with the arm's own gears (η 0.75, 0.81,
-    0.95) law (3) no longer gives the nominal model exactly (docs/simulation.md)."""
+    braking); law (3) models it (control/ace_de.py), ACE (1) and the ASVS (4)-(5) do not
+    (docs/simulation.md), so the tests of the printed laws run on the model they assume."""
     arm = manipcad.load_robot("cylindrical")
     return arm.replace(drives=[d.replace(efficiency=1.0) for d in arm.drives])
 

@@ -16,6 +16,14 @@ simulator supplies H_ii, the velocity torque c_i and gravity Q_i; the law takes
 h_i = Ḣ_ii (the momentum split), Ḣ_ii, Ḧ_ii and ṁ_f by backward differences,
 m_f = M_f·sgn ω_m + (c_i − Ḣ_ii·q̇ + Q_i)/i_r, and q̈ from the measured armature
 current through the shaft equation (no accelerometer).
+
+Gear losses: the gear of efficiency η passes the load P = H_ii·q̈ + h_i·q̇ + c_i − Ḣ_ii·q̇
++ Q_i to the motor as f·P/i_r, f = 1/η while the motor drives or holds the load and η
+while the load drives it back (:func:`manipcad.drives.gear.gear_factor`, the plant's and
+the sizing's formula). The law's load terms H*, h*, their rates and the load torque in
+m_f are multiplied by the same f, so the drive is made nominal in either power flow;
+f is chosen from the sign of P·q̇ with q̈ from the current (tried with 1/η, taken again
+with η if the power flows back). The paper's drive model has no gear losses (η = 1).
 """
 
 from __future__ import annotations
@@ -53,17 +61,19 @@ from manipcad.control.method import Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_I, S_QD, S_QI
 from manipcad.drives.dc import clip, dry_friction
+from manipcad.drives.gear import gear_factor
 from manipcad.drives.laws import law3_voltage, nominal_tf
 from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO, P_WEPS
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Drive, Robot
 
 # nominal inertia J_n (kg·m², motor side), compensate dry friction (1/0), compensate the
-# measured load torque (1/0)
-AD_JN, AD_FRIC, AD_TORQUE = 21, 22, 23
+# measured load torque (1/0), the gear efficiency the law assumes η (-)
+AD_JN, AD_FRIC, AD_TORQUE, AD_ETA = 21, 22, 23, 24
 FIELDS = {"kp_V_per_rad": R_KP, "kd_V_s_per_rad": R_KD, "kfv_V_s_per_rad": R_KFV,
           "kfa_V_s2_per_rad": R_KFA, "u_limit_V": R_ULIM, "J_n_kgm2": AD_JN,
-          "friction_compensation": AD_FRIC, "load_torque_compensation": AD_TORQUE}
+          "friction_compensation": AD_FRIC, "load_torque_compensation": AD_TORQUE,
+          "gear_efficiency": AD_ETA}
 
 
 @nb.njit(cache=True)
@@ -72,7 +82,8 @@ def ace_de_update(p, s, sig, j, Ts):
 
     H* = H_ii/i_r², h* = Ḣ*/… (the momentum split h_i = Ḣ_ii), m_f = M_f·sgn ω_m +
     (c_i − Ḣ_ii·q̇_i + Q_i)/i_r; q̈ from the measured current by the shaft equation
-    i_r·q̈ = (k_m·i − (h*+k_v)·ω_m − m_f)/(J+H*). Returns U_k, V.
+    i_r·q̈ = (k_m·i − (f·h*+k_v)·ω_m − m_f)/(J+f·H*), the load terms multiplied by the gear
+    factor f (1/η or η with the power flow, module docstring). Returns U_k, V.
     """
     r = p[P_RATIO]
     r2 = r * r
@@ -83,17 +94,20 @@ def ace_de_update(p, s, sig, j, Ts):
     if p[AD_TORQUE] != 0.0:
         # the velocity torque less the part written as h_i·q̇, plus gravity
         tau = sig[j, S_CI] - Hd * qd + sig[j, S_QI]
-    md = torque_rate(tau / r, s, Ts)
-    Hs = H / r2
-    hs = Hd / r2
-    hsd = Hdd / r2
     w = r * qd
-    mf = tau / r
-    if p[AD_FRIC] != 0.0:
-        mf += dry_friction(w, p)
-    qdd = (p[P_KM] * sig[j, S_I] - (hs + p[P_KV]) * w - mf) / ((p[P_J] + Hs) * r)
+    fric = dry_friction(w, p) if p[AD_FRIC] != 0.0 else 0.0
+    eta = p[AD_ETA]
+    f = 1.0 / eta
+    qdd = (p[P_KM] * sig[j, S_I] - (f * Hd / r2 + p[P_KV]) * w - f * tau / r - fric) / (
+        (p[P_J] + f * H / r2) * r)
+    if gear_factor(eta, H * qdd + Hd * qd + tau, qd) != f:
+        f = eta
+        qdd = (p[P_KM] * sig[j, S_I] - (f * Hd / r2 + p[P_KV]) * w - f * tau / r - fric) / (
+            (p[P_J] + f * H / r2) * r)
+    md = torque_rate(f * tau / r, s, Ts)
     U = sce_output(p, sig, j)
-    Uk = law3_voltage(U, qd, qdd, Hs, hs, hs, hsd, mf, md, p[AD_JN], p)
+    Uk = law3_voltage(U, qd, qdd, f * H / r2, f * Hd / r2, f * Hd / r2, f * Hdd / r2,
+                      f * tau / r + fric, md, p[AD_JN], p)
     return clip(Uk, p[R_ULIM])
 
 
@@ -203,8 +217,9 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
             ω_n >= the bandwidth whose nominal loop keeps |q* − q| below it on
             ``reference`` is taken ("unreachable accuracy" if none is).
         period: control period, s.
-        J_n: nominal inertia, kg·m² motor side (default J + H*_max, the largest
-            load, which keeps the gain ρ = (J+H*)/J_n <= 1 and the amplifier linear).
+        J_n: nominal inertia, kg·m² motor side (default J + H*_max/η, the largest
+            load through the gear motoring, which keeps the gain ρ = (J+f·H*)/J_n <= 1
+            and the amplifier linear).
         load_range: (H_min, H_max) joint side, kg·m² (default: over the joint limits).
         order: 3 (the law's inductance terms) or 2 (L neglected); match ``simulate(order=)``.
         feedforward: add the nominal model's velocity/acceleration feed-forward to the SCE.
@@ -232,7 +247,9 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
                             f"armature inductance L > 0 (got {d.L}); use order=2")
     Hmin, Hmax = inertia_range(robot, j, load_range)
     r2 = d.ratio ** 2
-    Jn = d.J + Hmax / r2 if J_n is None else float(J_n)
+    # the gear's efficiency the law models (an unknown one: none, η = 1)
+    eta = float(d.efficiency) if math.isfinite(d.efficiency) else 1.0
+    Jn = d.J + Hmax / (eta * r2) if J_n is None else float(J_n)
     if not (math.isfinite(Jn) and Jn > 0):
         raise ManipcadError(f"nominal inertia J_n must be > 0 kg·m², got {Jn}")
     wn, zeta = parse_spec(spec, bandwidth=DEFAULT_BANDWIDTH, damping=DEFAULT_DAMPING,
@@ -244,20 +261,22 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     sce = design_sce(d, plant, T, Jn, order, wn, zeta, period, e_max, ref,
                      feedforward=feedforward, what=f"ace_de on {robot.joint_names[j]!r}")
     p = sce.params
-    p[AD_JN], p[AD_FRIC], p[AD_TORQUE] = Jn, float(friction), float(load_torque)
+    p[AD_JN], p[AD_FRIC], p[AD_TORQUE], p[AD_ETA] = Jn, float(friction), float(load_torque), eta
     if friction_zone is None:
         friction_zone = 2.0 * max(d.M_f) * period / (d.J + Hmin / r2)
     if not (math.isfinite(friction_zone) and friction_zone >= 0):
         raise ManipcadError(f"friction_zone must be >= 0 rad/s, got {friction_zone}")
     # the law's own friction model (the simulated drive keeps its own)
     p[P_WEPS] = max(p[P_WEPS], friction_zone)
-    rho = ((d.J + Hmin / r2) / Jn, (d.J + Hmax / r2) / Jn)
+    rho = ((d.J + eta * Hmin / r2) / Jn, (d.J + Hmax / (eta * r2)) / Jn)
     name = robot.joint_names[j]
     law = (f"ace_de ({name}): {sce.law()} (SCE, "
            f"ω_n = {sce.bandwidth:g} rad/s, ζ = {zeta:g} on the nominal model); law (3): "
            f"U_k = L(Ḣ*+h*+k_v)/(k_m k_u)·i_r·q̈ "
            f"+ [k_w/k_u·(1−ρ) + (R(h*+k_v)+L·ḣ*)/(k_m k_u)]·i_r·q̇ "
            f"+ R/(k_m k_u)·m_f + L/(k_m k_u)·ṁ_f + ρ·U with ρ = (J+H*)/J_n, J_n = {Jn:.6g} kg·m², "
+           f"H*, h* and the load torque in m_f times f = 1/η or η with the power flow, "
+           f"η = {eta:g}, "
            f"R = {d.R:g} Ω, L = {d.L if order == 3 else 0.0:g} H, k_m = {d.k_m:g} N·m/A, "
            f"k_w = {d.k_w:g} V·s/rad, k_u = {d.k_u:g}, k_v = {d.k_v:g} N·m·s/rad, "
            f"i_r = {d.ratio:g}; h_i = Ḣ_ii; H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m² "

@@ -92,7 +92,7 @@ def export_computed_torque_full(reg: Regulator) -> ct.NonlinearIOSystem:
         >>> import manipcad
         >>> from manipcad.control import to_control
         >>> arm = manipcad.load_robot("cylindrical")
-        >>> sys_ = to_control(manipcad.synthesize(arm, "all", "computed_torque_full"))
+        >>> sys_ = to_control(manipcad.synthesize(arm, "all", "computed_torque_full", period=1e-3))
         >>> sys_.ninputs, sys_.noutputs, sys_.nstates, sys_.dt
         (30, 3, 0, 0.001)
     """

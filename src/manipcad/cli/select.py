@@ -63,8 +63,8 @@ def select(
     out: Annotated[Path, typer.Option(
         "--out", "-o", help="The robot file to write, with the chosen drives (tree form).")],
     payload: Annotated[float | None, typer.Option(
-        "--payload", help="Payload mass on the last link, kg (added to any payload the "
-        "robot file gives).")] = None,
+        "--payload", help="Payload mass, kg, at the robot's tool point (added to any "
+        "payload the robot file gives).")] = None,
     payload_range: Annotated[str | None, typer.Option(
         "--payload-range", help="LO,HI: payload masses, kg; both ends are checked.")] = None,
     objective: Annotated[str, typer.Option(

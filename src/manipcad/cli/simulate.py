@@ -160,7 +160,7 @@ def simulate(
         "--no-drives", help="Rigid body only: regulator outputs are joint torques (N·m, N).")]
     = False,
     payload: Annotated[float | None, typer.Option(
-        "--payload", help="Payload mass at the last link's origin, kg.")] = None,
+        "--payload", help="Payload mass at the robot's tool point, kg.")] = None,
     force: Annotated[bool, typer.Option(
         "--force", help="Replace a non-empty result folder (only once the new one is "
         "complete).")] = False,

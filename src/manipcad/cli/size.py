@@ -60,7 +60,7 @@ def size(
     = None,
     dt: Annotated[float, typer.Option("--dt", help="Sampling step, s.")] = 1e-3,
     payload: Annotated[float | None, typer.Option(
-        "--payload", help="Payload mass on the last link, kg (at its frame origin; a "
+        "--payload", help="Payload mass, kg: a point mass at the robot's tool point (a "
         "payload with a centre of mass on a named link goes in the robot file).")] = None,
     t_end: Annotated[float | None, typer.Option(
         "--t-end", help="End of the run, s (default the trajectory's duration).")] = None,

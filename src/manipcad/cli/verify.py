@@ -86,7 +86,7 @@ def verify(
         "--requirements", help="A requirements file: its accuracy is the accuracy asked.")]
     = None,
     payload: Annotated[float | None, typer.Option(
-        "--payload", help="Payload mass at the last link's origin, kg.")] = None,
+        "--payload", help="Payload mass at the robot's tool point, kg.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Simulate the robot with the regulators; check every rating, the accuracy asked and

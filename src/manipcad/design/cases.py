@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError
+from manipcad.model.payload import apply_payload
 from manipcad.model.robot import Robot
 
 #: the parameter groups perturbed, in the order of :func:`signs`
@@ -74,10 +75,7 @@ def with_payload(robot: Robot, mass: float) -> Robot:
         >>> round(float(with_payload(arm, 2.0).mass[-1] - arm.mass[-1]), 9)
         2.0
     """
-    if mass <= 0:
-        return robot
-    return robot.with_payload(float(mass), np.asarray(robot.tool_p, dtype=float),
-                              link=robot.n - 1)
+    return robot if mass <= 0 else apply_payload(robot, float(mass))[0]
 
 
 def signs(robot: Robot, sample: int, seed: int = 0) -> dict[str, np.ndarray]:

@@ -11,8 +11,8 @@ within its drive's ratings: the joint's feasible catalogue candidates in the ord
 the objective (the selection's choice and its alternatives), the first whose
 joint-side peak torque is larger than the present drive's.
 
-The selection puts a payload at the last link's origin (as ``size --payload``); the
-verification sweep puts it at the tool point.
+The selection and the verification sweep both put a payload at the tool point
+(:func:`manipcad.model.payload.apply_payload`, as ``size --payload``).
 """
 
 from __future__ import annotations

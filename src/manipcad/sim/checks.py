@@ -60,6 +60,7 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import ManipcadError
+from manipcad.model.payload import apply_payload
 from manipcad.model.robot import PRISMATIC, Robot
 from manipcad.sizing.limits import (
     FAIL,
@@ -344,9 +345,7 @@ def run_checks(result, robot: Robot, *, accuracy=None, payload=None,
         raise ManipcadError(f"max_chatter must be > 0 reversals/s, got {max_chatter!r}")
     acc = _per_joint(accuracy, names, "accuracy")
     if payload is not None:
-        from manipcad.sim.simulate import _with_payload
-
-        robot = _with_payload(robot, payload)
+        robot = apply_payload(robot, payload)[0]
     n, t = robot.n, np.asarray(result.t, dtype=float)
     drives = robot.drives
     use_drives = bool((result.settings or {}).get("drives", True)) and robot.has_drives

@@ -24,6 +24,7 @@ from manipcad.drives.params import (
     state_offsets,
 )
 from manipcad.errors import ManipcadError, ManipcadWarning
+from manipcad.model.payload import apply_payload
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot
 from manipcad.sim import adaptive as _adaptive
 from manipcad.sim import loop as _loop
@@ -234,8 +235,9 @@ def simulate(
             lists as ``synthesize(robot, "all", ...)`` gives, or one); joints no regulator
             controls get U = 0.
         q0, qd0: initial state (default: the reference at t = 0, zero speed).
-        payload: None, a mass in kg (at the last link's origin), or a dict
-            ``{"mass": kg, "com": [x, y, z] m}`` on the last link.
+        payload: None, a mass in kg (a point mass at the tool point), or a dict
+            ``{"mass": kg, "com": [x, y, z] m, "inertia", "link"}``
+            (:func:`manipcad.model.payload.apply_payload`).
         drives: True: the DC drives' electrical and mechanical dynamics;
             False: the passive rigid body driven by regulator torques only.
         disturbance: extra joint torques, N·m or N: an (n,) constant or a
@@ -320,7 +322,7 @@ def simulate(
         raise ManipcadError(f"dt must be in (0, t_end], got {dt}")
     if int(record_every) < 1:
         raise ManipcadError(f"record_every must be >= 1, got {record_every}")
-    robot = _with_payload(robot, payload)
+    robot = apply_payload(robot, payload)[0]
     # the payload picked up mid-run, the online estimator and what the model knows
     from manipcad.sim import pickup as pk
 
@@ -618,19 +620,6 @@ def _vec(x, n: int, name: str) -> np.ndarray:
     if a.shape != (n,) or not np.isfinite(a).all():
         raise ManipcadError(f"{name} must be a finite vector of shape ({n},), got {a.shape}")
     return a.copy()
-
-
-def _with_payload(robot: Robot, payload) -> Robot:
-    if payload is None:
-        return robot
-    if isinstance(payload, dict):
-        unknown = set(payload) - {"mass", "com", "inertia", "link"}
-        if unknown or "mass" not in payload:
-            raise ManipcadError("payload must be a mass or a dict with 'mass' and optional "
-                                f"'com', 'inertia', 'link'; got keys {sorted(payload)}")
-        return robot.with_payload(payload["mass"], payload.get("com", (0, 0, 0)),
-                                  payload.get("inertia"), link=payload.get("link", -1))
-    return robot.with_payload(float(payload))
 
 
 def _reference(trajectory, t: np.ndarray, n: int):

@@ -26,7 +26,6 @@ smooth motion on either side of it (docs/sizing.md).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,6 +33,7 @@ import numpy as np
 
 from manipcad.dynamics.api import inverse_dynamics
 from manipcad.errors import InputError, ManipcadError
+from manipcad.model.payload import apply_payload
 from manipcad.model.robot import Robot
 from manipcad.trajectories.base import Trajectory
 
@@ -90,51 +90,6 @@ def time_grid(t_end: float, dt: float) -> np.ndarray:
     """
     steps = max(1, math.ceil(t_end / dt - 1e-9))
     return np.linspace(0.0, t_end, steps + 1)
-
-
-def apply_payload(robot: Robot, payload: Any) -> tuple[Robot, float]:
-    """The robot carrying ``payload`` on its last link, and the payload mass (kg).
-
-    Args:
-        robot: the robot.
-        payload: None; a mass in kg; or a mapping with ``mass`` (kg) and
-            optionally ``com`` (m, in the last link's body frame), ``inertia``
-            ((3, 3) about the payload's centre of mass, kg·m²) and ``link``
-            (joint index or name of the carrying link, default the last).
-
-    Raises:
-        InputError: a payload that is not a number or such a mapping, or an
-            unknown key; ModelError for a negative mass or a bad link.
-    """
-    if payload is None:
-        return robot, 0.0
-    if isinstance(payload, bool):
-        raise InputError("payload", "", f"expected a mass in kg or a mapping, got {payload!r}")
-    if isinstance(payload, int | float | np.integer | np.floating):
-        fields: dict[str, Any] = {"mass": float(payload)}
-    elif isinstance(payload, Mapping):
-        fields = dict(payload)
-        unknown = set(fields) - {"mass", "com", "inertia", "link"}
-        if unknown:
-            raise InputError("payload", sorted(unknown)[0],
-                             "unknown key (expected mass, com, inertia, link)")
-        if "mass" not in fields:
-            raise InputError("payload", "mass", "missing (kg)")
-    else:
-        raise InputError("payload", "", f"expected a mass in kg or a mapping with mass and com, "
-                         f"got {type(payload).__name__}")
-    try:
-        mass = float(fields["mass"])
-        com = np.asarray(fields.get("com", (0.0, 0.0, 0.0)), dtype=float)
-    except (TypeError, ValueError):
-        raise InputError("payload", "", "mass must be a number (kg) and com three numbers "
-                         "(m)") from None
-    if com.shape != (3,) or not np.all(np.isfinite(com)):
-        raise InputError("payload", "com", f"expected 3 finite numbers (m), got {com.tolist()}")
-    if not math.isfinite(mass) or mass < 0:
-        raise InputError("payload", "mass", f"must be a finite number >= 0 kg, got {mass}")
-    loaded = robot.with_payload(mass, com, fields.get("inertia"), link=fields.get("link", -1))
-    return loaded, mass
 
 
 def _check_args(robot: Robot, trajectory: Trajectory, t_end: float | None,
@@ -197,7 +152,8 @@ def sample_motion(robot: Robot, trajectory: Trajectory, *, t_end: float | None =
         t_end: end of the grid, s (default the trajectory's duration; beyond it
             the trajectory holds at rest).
         dt: largest grid step, s.
-        payload: see :func:`apply_payload`.
+        payload: see :func:`manipcad.model.payload.apply_payload` (a mass alone sits
+            at the tool point).
 
     Returns:
         :class:`SampledMotion`.

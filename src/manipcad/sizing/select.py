@@ -960,7 +960,7 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
             The selected joints' drives are replaced; the others keep theirs.
         trajectories: one or more trajectories of ``robot.n`` joints.
         payload: a payload mass on the last link, kg (added to any payload the
-            robot already carries; at the last link's origin, as ``size --payload``).
+            robot already carries; at the tool point, as ``size --payload``).
         payload_range: (LO, HI) kg: both ends are checked. Give one of the two or neither.
         objective: "mass" (default), "rotor_inertia" or "power" (:data:`OBJECTIVES`).
         margin: M >= 1: every rating at least M × what the motion needs

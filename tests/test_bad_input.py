@@ -542,6 +542,68 @@ def test_urdf_mimic_of_a_missing_joint_refused():
         assert robot_from_urdf_string(URDF.replace("LEADER", "j1")).n == 2
 
 
+def test_divergence_names_the_drive_whose_inductance_the_step_cannot_resolve(tmp_path):
+    """A tiny L on the elbow blew up the elbow's current, and the speed check caught the
+    shoulder first: the message names the elbow's drive, L/R and a step that works."""
+    import manipcad
+    from manipcad.sim import simulate
+    from manipcad.sim.simulate import SimulationDiverged
+
+    arm = manipcad.load_robot(str(_two_link(tmp_path, "L: 0.51e-3 ", "L: 1e-9 ")))
+    with pytest.raises(SimulationDiverged) as err:
+        simulate(arm, t_end=0.01, dt=1e-4)
+    msg = str(err.value)
+    assert msg.index("joint 'elbow''s drive") < msg.index("'shoulder'"), msg
+    assert "L/R = 1e-09 H / 2.45 Ω = 4.08e-10 s" in msg and "dt <= 4.1e-10 s" in msg
+    assert "L: 0 for joint 'elbow'" in msg
+    # the step the message gives runs that mode stably (a 20-step run)
+    assert np.isfinite(simulate(arm, t_end=8e-9, dt=4e-10).current).all()
+
+
+@pytest.mark.parametrize("address,words", [
+    ("http://x", ["tcp://HOST:PORT or HOST:PORT", "'http://x'"]),
+    ("x", ["tcp://HOST:PORT or HOST:PORT"]),
+    ("tcp://127.0.0.1:99999", ["tcp://HOST:PORT"]),
+    ("tcp://127.0.0.1:1", ["cannot connect to tcp://127.0.0.1:1", "connection refused"]),
+    ("tcp://x.invalid:8786", ["unknown host 'x.invalid'"]),
+])
+def test_scheduler_address_checked_up_front(tmp_path, address, words):
+    """--scheduler http://x waited 20 s, then an unexpected ValueError and a traceback of
+    the failed client's close; now the form is checked, then a short connect."""
+    import time
+
+    t0 = time.monotonic()
+    res, out = cli("study", "claims", "--scheduler", address, "--out", tmp_path / "c")
+    fails_cleanly(res, out, "--scheduler", *words)
+    assert "unexpected" not in out and not (tmp_path / "c").exists()
+    assert time.monotonic() - t0 < 10.0
+
+
+def test_scheduler_that_is_not_dask_refused():
+    """A server that answers with something else (here garbage bytes) is not handed to a
+    Dask client (which read it as a frame of exabytes)."""
+    import socket
+    import threading
+
+    from manipcad.parallel import Pool
+
+    srv = socket.create_server(("127.0.0.1", 0))
+    port = srv.getsockname()[1]
+
+    def answer():
+        for _ in range(2):  # the plain connect, then the identity request
+            conn, _ = srv.accept()
+            conn.sendall(b"\xff" * 64)
+            conn.close()
+
+    threading.Thread(target=answer, daemon=True).start()
+    try:
+        with pytest.raises(InputError, match=f"127.0.0.1:{port}: no Dask scheduler answered"):
+            Pool(scheduler=f"127.0.0.1:{port}")
+    finally:
+        srv.close()
+
+
 def test_echoed_user_text_keeps_emoji_codes(tmp_path):
     res, out = cli("size", "puma560", "--trajectory", tmp_path / ":fire:0:100:10.yaml")
     fails_cleanly(res, out, ":fire:0:100:10.yaml")

@@ -26,6 +26,8 @@ import hashlib
 import logging
 import os
 import pickle
+import re
+import socket
 import struct
 import tempfile
 import threading
@@ -39,8 +41,12 @@ import numpy as np
 from manipcad.errors import InputError, ManipcadError
 
 SOURCE = "run_tasks"
-#: how long to try to reach a scheduler given by address, s
-CONNECT_TIMEOUT = 10.0
+#: how long to try to reach a scheduler given by address, s (a plain TCP connect, then
+#: the scheduler's identity, each within this time, before any Dask client is made)
+CONNECT_TIMEOUT = 3.0
+#: a scheduler's address: tcp://HOST:PORT or HOST:PORT (HOST a name, IPv4 or [IPv6])
+_ADDRESS = re.compile(r"(?:tcp://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9]"
+                      r"(?:[A-Za-z0-9._-]*[A-Za-z0-9])?):(?P<port>[0-9]{1,5})")
 
 #: Dask settings of the LocalCluster this module starts (not of a cluster given by
 #: address). A study's tasks keep both cores busy; every periodic chore of the cluster's
@@ -257,9 +263,8 @@ def _run_chunk(func: Callable, batched: bool, common: Mapping[str, Any],
 def _check(workers: Any, scheduler: Any, chunk: Any, tasks: Any) -> tuple[int | None, list]:
     if scheduler is not None and workers is not None:
         raise InputError(SOURCE, "workers", "give either workers or scheduler, not both")
-    if scheduler is not None and (not isinstance(scheduler, str) or "://" not in scheduler):
-        raise InputError(SOURCE, "scheduler", f"expected an address such as "
-                         f"'tcp://127.0.0.1:8786', got {scheduler!r}")
+    if scheduler is not None:
+        scheduler_address(scheduler)
     if workers is not None:
         if isinstance(workers, bool) or not isinstance(workers, int | np.integer) or workers < 1:
             raise InputError(SOURCE, "workers", f"expected a whole number >= 1, got {workers!r}")
@@ -274,22 +279,114 @@ def _check(workers: Any, scheduler: Any, chunk: Any, tasks: Any) -> tuple[int | 
     return workers, items
 
 
+def scheduler_address(scheduler: Any) -> tuple[str, int]:
+    """(host, port) of a Dask scheduler's address, checked for its form only.
+
+    Args:
+        scheduler: ``"tcp://HOST:PORT"`` or ``"HOST:PORT"``; HOST a name, an IPv4
+            address or a bracketed IPv6 address, PORT 1 to 65535. From Python also the
+            ``"inproc://..."`` address of a cluster in this process
+            (``LocalCluster(processes=False).scheduler_address``).
+
+    Returns:
+        (host, port), the host without brackets ((address, 0) for ``inproc://``).
+
+    Raises:
+        InputError: (field ``scheduler``) any other text (another scheme such as
+            ``http://``, no port, a port out of range, spaces).
+
+    Example:
+        >>> scheduler_address("tcp://127.0.0.1:8786"), scheduler_address("node7:8786")
+        (('127.0.0.1', 8786), ('node7', 8786))
+    """
+    if isinstance(scheduler, str) and scheduler.startswith("inproc://") and len(scheduler) > 9:
+        return scheduler, 0
+    m = _ADDRESS.fullmatch(scheduler) if isinstance(scheduler, str) else None
+    if m is None or not 1 <= int(m["port"]) <= 65535:
+        raise InputError(SOURCE, "scheduler", "expected a Dask scheduler's address "
+                         f"tcp://HOST:PORT or HOST:PORT (e.g. tcp://127.0.0.1:8786), got "
+                         f"{scheduler!r}")
+    return m["host"].strip("[]"), int(m["port"])
+
+
+def _probe_scheduler(scheduler: str, timeout: float | None = None) -> None:
+    """Raise InputError unless a Dask scheduler answers at ``scheduler`` within
+    ``timeout`` s (a TCP connect, then the scheduler's ``identity``).
+
+    Done before a Dask client is made: a client that cannot connect waits for its own
+    timeout and, collected later, prints a traceback of its failed close; a server that
+    is not a scheduler can make it read garbage (a frame length of exabytes).
+    """
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+
+    host, port = scheduler_address(scheduler)
+    if port == 0:  # a cluster in this process: nothing to reach over the network
+        return
+    timeout = CONNECT_TIMEOUT if timeout is None else timeout
+
+    def fail(why: str) -> InputError:
+        return InputError(SOURCE, "scheduler", f"cannot connect to {scheduler}: {why}")
+
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except socket.gaierror as exc:
+        raise fail(f"unknown host {host!r} ({exc.strerror})") from None
+    except TimeoutError:
+        raise fail(f"no answer within {timeout:g} s") from None
+    except ConnectionRefusedError:
+        raise fail("connection refused (no scheduler listens on that port)") from None
+    except OSError as exc:
+        raise fail(exc.strerror or str(exc)) from None
+
+    async def identity():
+        from distributed.comm import connect
+
+        comm = await connect(f"tcp://{host}:{port}" if ":" not in host
+                             else f"tcp://[{host}]:{port}", timeout=timeout)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    def ask():  # in a thread of its own: the caller may be inside an event loop
+        return asyncio.run(asyncio.wait_for(identity(), timeout))
+
+    with ThreadPoolExecutor(1) as ex:
+        try:
+            reply = ex.submit(ask).result()
+        except Exception as exc:  # noqa: BLE001 - whatever the other end sent
+            reply = exc
+    if not (isinstance(reply, dict) and reply.get("type") == "Scheduler"):
+        why = (f"{type(reply).__name__} {reply}".strip() if isinstance(reply, Exception)
+               else "it answered something else")
+        raise fail(f"no Dask scheduler answered within {timeout:g} s ({why})")
+
+
 def check_workers(workers: Any, scheduler: Any, source: str = SOURCE) -> int | None:
-    """``workers`` checked (a whole number >= 1 or None) and not given with ``scheduler``.
+    """``workers`` checked (a whole number >= 1 or None) and not given with ``scheduler``;
+    a ``scheduler`` checked for its form and asked whether it answers (within
+    :data:`CONNECT_TIMEOUT` s), so that a command fails before it starts any work.
 
     Args:
         workers, scheduler: as :func:`run_tasks`.
         source: the name errors give as their source (e.g. a command's name).
 
     Raises:
-        InputError: naming the argument and the reason.
+        InputError: naming the argument and the reason (an address that is not
+            ``tcp://HOST:PORT`` or ``HOST:PORT``, a host that does not resolve, a refused
+            or unanswered connection, a server that is not a Dask scheduler).
 
     Example:
         >>> check_workers(2, None)
         2
     """
     try:
-        return _check(workers, scheduler, 1, [])[0]
+        out = _check(workers, scheduler, 1, [])[0]
+        if scheduler is not None:
+            _probe_scheduler(scheduler)
+        return out
     except InputError as exc:
         if source == SOURCE:
             raise
@@ -565,6 +662,7 @@ def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None, 
     # not entered as context managers: a Pool starts them in another thread, and a
     # client entered there could not be left here (its context variable)
     if scheduler is not None:
+        _probe_scheduler(scheduler)
         try:
             client = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
         except (OSError, TimeoutError) as exc:

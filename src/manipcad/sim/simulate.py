@@ -454,8 +454,11 @@ def simulate(
     if status:
         what = "NaN in the state" if status == 1 else "speed above 1e4 rad/s (m/s)"
         where = f"joint {robot.joint_names[joint]!r}" if joint >= 0 else "a drive state"
-        raise SimulationDiverged(f"simulation diverged at t = {step * dt:.6g} s: {what} "
-                                 f"at {where}", res)
+        seen = f"{what} at {where}"
+        cause = None if adaptive else _electrical_cause(robot, dtable, float(dt))
+        raise SimulationDiverged(f"simulation diverged at t = {step * dt:.6g} s: "
+                                 + (seen if cause is None else
+                                    f"{cause} (the runaway was first seen as {seen})"), res)
     out = []
     excesses = {}
     for j, nm in enumerate(robot.joint_names):
@@ -489,6 +492,59 @@ def simulate(
     return res
 
 
+
+
+#: RK4's stability limit on the negative real axis: a mode x' = -x/T is integrated
+#: stably for dt < RK4_REAL_LIMIT·T (|1 + z + z²/2 + z³/6 + z⁴/24| = 1 at z = -2.785)
+RK4_REAL_LIMIT = 2.785
+
+
+def _electrical_cause(robot: Robot, dtable: np.ndarray, dt: float) -> str | None:
+    """Why a fixed-step RK4 run diverged when a drive's current is the cause, else None.
+
+    A drive whose armature current is a state (inductance L > 0) has the electrical
+    mode di/dt ≈ -(R/L)·i: RK4 is unstable on it for dt > 2.785·L/R and the current
+    blows up first; the torque it makes then throws any joint (often another one)
+    beyond the speed limit. The drive with the smallest time constant among those
+    the step cannot resolve is named, with a step that works.
+
+    Parameters:
+        robot: the simulated robot (joint names).
+        dtable: the packed drives (n, NPAR) the run used (R in Ω, L in H).
+        dt: the RK4 step, s.
+
+    Returns:
+        a sentence naming the joint, its L, R, L/R (s) and a step that works, or None
+        when every drive's electrical mode is within RK4's stability limit.
+
+    Example:
+        >>> import manipcad
+        >>> from manipcad.drives.params import pack_drives
+        >>> arm = manipcad.load_robot("puma560")         # L/R = 0.25 ms to 0.48 ms
+        >>> _electrical_cause(arm, pack_drives(arm.drives), 1e-4) is None
+        True
+        >>> print(_electrical_cause(arm, pack_drives(arm.drives), 2e-3))  # doctest: +ELLIPSIS
+        joint 'wrist_roll''s drive: the step dt = 0.002 s is too large ... use dt <= 0.00025 s, ...
+    """
+    from manipcad.drives.params import KIND_ELASTIC, P_L, P_R
+
+    worst = None
+    for j, nm in enumerate(robot.joint_names):
+        if int(dtable[j, P_KIND]) not in (KIND_RIGID, KIND_ELASTIC):
+            continue
+        L, R = float(dtable[j, P_L]), float(dtable[j, P_R])
+        if not (L > 0.0 and R > 0.0):
+            continue
+        T = L / R
+        if dt > RK4_REAL_LIMIT * T and (worst is None or T < worst[1]):
+            worst = (nm, T, L, R)
+    if worst is None:
+        return None
+    nm, T, L, R = worst
+    return (f"joint {nm!r}'s drive: the step dt = {dt:.3g} s is too large for its electrical "
+            f"time constant L/R = {L:.3g} H / {R:.3g} Ω = {T:.3g} s (RK4 is stable for "
+            f"dt < {RK4_REAL_LIMIT}·L/R = {RK4_REAL_LIMIT * T:.3g} s): use dt <= {T:.2g} s, "
+            f"or L: 0 for joint {nm!r} to neglect the inductance")
 
 
 #: the integrators by name: None for the fixed-step RK4, else (the embedded pair of

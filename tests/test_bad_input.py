@@ -604,6 +604,59 @@ def test_scheduler_that_is_not_dask_refused():
         srv.close()
 
 
+@pytest.mark.parametrize("call,words", [
+    ("inverse_dynamics('puma560', z, z, z)", ["inverse_dynamics: robot", "got str 'puma560'",
+                                             "manipcad.load_robot('puma560')"]),
+    ("inverse_dynamics(None, z, z, z)", ["inverse_dynamics: robot", "got NoneType"]),
+    ("mass_matrix('puma560', z)", ["mass_matrix: robot"]),
+    ("forward_dynamics(None, z, z, z)", ["forward_dynamics: robot"]),
+    ("simulate('puma560', t_end=0.001, dt=1e-4)", ["simulate: robot"]),
+    ("simulate(puma, t_end=0.001, dt=1e-4, payload=(1.0, [0, 0, 0]))",
+     ["payload", "a mass in kg or a mapping", "got tuple"]),
+    ("simulate(puma, t_end=0.001, dt=1e-4, disturbance='5')",
+     ["simulate: disturbance", "(6,) array", "got str '5'"]),
+    ("simulate(puma, t_end=0.001, dt=1e-4, disturbance={'waist': 1.0})",
+     ["simulate: disturbance", "got dict"]),
+    ("puma.with_payload((1.0, 0.1))", ["payload mass must be a number (kg)"]),
+    ("puma.with_payload(1.0, com='abc')", ["payload com must be 3 numbers"]),
+    ("puma.with_payload(1.0, inertia=[1, 2])", ["payload inertia must be a (3, 3) tensor"]),
+], ids=lambda v: v if isinstance(v, str) else "")
+def test_api_names_the_argument_and_what_it_takes(call, words):
+    """The Python API raised AttributeError, TypeError or ValueError from deep inside."""
+    import manipcad
+
+    puma = manipcad.load_robot("puma560")
+    env = {"puma": puma, "z": np.zeros(6), **{k: getattr(manipcad, k) for k in (
+        "inverse_dynamics", "mass_matrix", "forward_dynamics", "simulate")}}
+    with pytest.raises(ManipcadError) as err:
+        eval(call, env)
+    for w in words:
+        assert w in str(err.value), str(err.value)
+
+
+@pytest.mark.parametrize("period", ["1.0e+6", "1.0e+300"])
+def test_regulator_period_longer_than_the_run_named(tmp_path, period):
+    """A huge period was reported as 'record_every = 10000000000 keeps one sample...'
+    (CLI) and ran with a regulator that never acted (API, --every 1)."""
+    import re
+
+    import manipcad
+    from manipcad.control.files import load_regulators
+
+    text = (EXAMPLES / "pid_puma.yaml").read_text()
+    regs = tmp_path / "slow.yaml"
+    regs.write_text(re.sub(r"(?m)^period: \S+", f"period: {period}", text))
+    for extra in ((), ("--every", "1")):
+        res, out = cli("simulate", "puma560", "--trajectory", move(tmp_path), "--regulator",
+                       regs, "--out", tmp_path / "r", *extra)
+        fails_cleanly(res, out, "slow.yaml: period", f"period {float(period):g} s of joint "
+                      "'waist' is longer than the run (0.05 s)")
+        assert "record_every" not in out
+    puma = manipcad.load_robot("puma560")
+    with pytest.raises(ManipcadError, match="period .* of joint 'waist' is longer than the run"):
+        manipcad.simulate(puma, t_end=0.01, dt=1e-4, regulators=load_regulators(str(regs), puma))
+
+
 def test_echoed_user_text_keeps_emoji_codes(tmp_path):
     res, out = cli("size", "puma560", "--trajectory", tmp_path / ":fire:0:100:10.yaml")
     fails_cleanly(res, out, ":fire:0:100:10.yaml")

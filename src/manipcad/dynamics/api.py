@@ -26,7 +26,7 @@ from manipcad.dynamics.crba import crba_batch, crba_batch_parallel
 from manipcad.dynamics.forward_crba import crba_fd_batch, crba_fd_batch_parallel
 from manipcad.dynamics.rnea import rnea_batch, rnea_batch_parallel
 from manipcad.errors import ManipcadError
-from manipcad.model.robot import Robot
+from manipcad.model.robot import Robot, require_robot
 
 _run_rnea = batch_runner(rnea_batch, rnea_batch_parallel, 2)
 _run_crba = batch_runner(crba_batch, crba_batch_parallel, 1)
@@ -40,8 +40,11 @@ def _not_pd(state: int) -> ManipcadError:
                          "a joint moves no mass (add inertia or a drive)")
 
 
-def _generated(robot: Robot, use: bool):
-    """The customized kernels :func:`manipcad.codegen.generate` attached to this robot, or None."""
+def _generated(robot: Robot, use: bool, source: str):
+    """The customized kernels :func:`manipcad.codegen.generate` attached to this robot, or
+    None; anything but a Robot refused naming ``source``'s ``robot`` argument."""
+    if type(robot) is not Robot:
+        require_robot(robot, source)
     return robot.__dict__.get("_generated") if use else None
 
 
@@ -74,7 +77,7 @@ def inverse_dynamics(robot: Robot, q, qd, qdd, *, gravity=None, f_ext=None,
         >>> tau.shape
         (6,)
     """
-    gen = _generated(robot, use_generated)
+    gen = _generated(robot, use_generated, "inverse_dynamics")
     if gen is not None and gravity is None and f_ext is None:
         return gen.inverse_dynamics(q, qd, qdd, drives)
     if gravity is None and f_ext is None and type(q) is np.ndarray and q.ndim == 1:
@@ -110,7 +113,7 @@ def mass_matrix(robot: Robot, q, *, drives: bool = True,
         >>> import numpy as np, manipcad
         >>> H = manipcad.mass_matrix(manipcad.load_robot("puma560"), np.zeros(6))
     """
-    gen = _generated(robot, use_generated)
+    gen = _generated(robot, use_generated, "mass_matrix")
     if gen is not None:
         return gen.mass_matrix(q, drives)
     if type(q) is np.ndarray and q.ndim == 1:
@@ -148,7 +151,7 @@ def forward_dynamics(robot: Robot, q, qd, tau, *, method: str = "aba", gravity=N
         >>> puma = manipcad.load_robot("puma560")
         >>> qdd = manipcad.forward_dynamics(puma, np.zeros(6), np.zeros(6), np.zeros(6))
     """
-    gen = _generated(robot, use_generated)
+    gen = _generated(robot, use_generated, "forward_dynamics")
     if gen is not None and gravity is None and f_ext is None and method in ("aba", "crba"):
         return gen.forward_dynamics(q, qd, tau, drives)
     if (gravity is None and f_ext is None and type(q) is np.ndarray and q.ndim == 1

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba.extending import register_jitable
 
-from manipcad.errors import InertiaWarning, ManipcadWarning, ModelError
+from manipcad.errors import InertiaWarning, InputError, ManipcadWarning, ModelError
 from manipcad.model.html import robot_html
 
 #: where a drive's own mass can sit (Robot.drive_mounts): on the link before its joint,
@@ -569,14 +569,27 @@ class Robot:
                              f"{', '.join(self.joint_names)}")
         else:
             i = self.joint_index(link)
-        m_p = float(mass)
+        try:
+            m_p = float(mass)
+        except (TypeError, ValueError):
+            raise ModelError(f"payload mass must be a number (kg), got {mass!r}",
+                             field="mass") from None
         if not np.isfinite(m_p) or m_p < 0:
-            raise ModelError(f"payload mass must be >= 0 kg, got {mass}")
-        c_p = np.asarray(com, dtype=float).reshape(3)
+            raise ModelError(f"payload mass must be >= 0 kg, got {mass}", field="mass")
+        try:
+            c_p = np.asarray(com, dtype=float).reshape(3)
+        except (TypeError, ValueError):
+            raise ModelError(f"payload com must be 3 numbers (m), got {com!r}",
+                             field="com") from None
         if not np.isfinite(c_p).all():
             raise ModelError(f"payload com must be finite (m), got {c_p}", field="com")
         c_p = R_l @ c_p + p_l
-        I_p = np.zeros((3, 3)) if inertia is None else np.asarray(inertia, float).reshape(3, 3)
+        try:
+            I_p = (np.zeros((3, 3)) if inertia is None
+                   else np.asarray(inertia, float).reshape(3, 3))
+        except (TypeError, ValueError):
+            raise ModelError("payload inertia must be a (3, 3) tensor of numbers, kg·m², got "
+                             f"{inertia!r}"[:200], field="inertia") from None
         if not np.isfinite(I_p).all() or not np.allclose(I_p, I_p.T):
             raise ModelError("payload inertia must be a finite symmetric (3, 3) tensor, "
                              "kg·m²", field="inertia")
@@ -599,6 +612,37 @@ class Robot:
     def __repr__(self) -> str:
         kinds = "".join("R" if t == REVOLUTE else "P" for t in self.joint_types)
         return f"Robot({self.name!r}, n={self.n}, joints={kinds})"
+
+
+def require_robot(robot, source: str) -> Robot:
+    """``robot`` itself when it is a :class:`Robot`, else an InputError naming it.
+
+    The public functions that take a robot call it first, so that a robot's name, None
+    or a file path says what the argument takes instead of raising Python's own
+    AttributeError deep inside.
+
+    Args:
+        robot: the value given as the ``robot`` argument.
+        source: the function's name, named in the error.
+
+    Returns:
+        ``robot``.
+
+    Raises:
+        InputError: (field ``robot``) anything but a Robot, with the way to make one.
+
+    Example:
+        >>> require_robot("puma560", "inverse_dynamics")  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        manipcad.errors.InputError: inverse_dynamics: robot: expected a manipcad Robot ...
+    """
+    if not isinstance(robot, Robot):
+        got = f"{type(robot).__name__} {robot!r}"[:120]
+        raise InputError(source, "robot", "expected a manipcad Robot (a catalog robot or "
+                         "file: manipcad.load_robot('puma560') or "
+                         f"manipcad.load_robot('arm.yaml')), got {got}")
+    return robot
 
 
 def mounts_tuple(mounts: Mapping[str, str] | Sequence[tuple[str, str]]

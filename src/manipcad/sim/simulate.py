@@ -23,9 +23,9 @@ from manipcad.drives.params import (
     pack_drives,
     state_offsets,
 )
-from manipcad.errors import ManipcadError, ManipcadWarning
+from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.model.payload import apply_payload
-from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot
+from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot, require_robot
 from manipcad.sim import adaptive as _adaptive
 from manipcad.sim import loop as _loop
 from manipcad.sim.adaptive import STATS, TABLEAUS
@@ -311,7 +311,7 @@ def simulate(
         >>> res.q.shape
         (101, 3)
     """
-    n = robot.n
+    n = require_robot(robot, "simulate").n
     if joint_limits not in ("warn", "stop", "ignore"):
         raise ManipcadError(f"joint_limits must be 'warn', 'stop' or 'ignore', got "
                             f"{joint_limits!r}")
@@ -390,7 +390,7 @@ def simulate(
                   _events(robot, dtable, rtable, bool(drives), x_qd, len(x0)))
     est = pk.estimator_part(estimator, robot, dt, K, ctable, feed=model_payload == "online",
                             drives=bool(drives))
-    ctrl, described = _pack_regulators(robot, regulators, dt, est)
+    ctrl, described = _pack_regulators(robot, regulators, dt, est, t_end)
     if adaptive:
         pk.check_adaptive(integrator, None if picked is None else picked[1], ctrl, dt)
     if adaptive and generic:
@@ -717,7 +717,15 @@ def _disturbance_source(disturbance, K: int, n: int):
                                     f"({len(t)}, {n}), got {d.shape}")
             return np.ascontiguousarray(d)
         return rows
-    d = np.asarray(disturbance, dtype=float)
+    try:
+        d = None if isinstance(disturbance, str | bytes) else np.asarray(disturbance, float)
+    except (TypeError, ValueError):
+        d = None
+    if d is None:
+        raise InputError("simulate", "disturbance", f"expected joint torques (N·m or N): "
+                         f"an ({n},) array, a ({K + 1}, {n}) array of one row per step, or "
+                         f"a function of the times t (s) returning (len(t), {n}); got "
+                         f"{type(disturbance).__name__} {disturbance!r}"[:300])
     if d.shape not in ((n,), (K + 1, n)) or not np.isfinite(d).all():
         raise ManipcadError(f"disturbance must be finite with shape ({n},) or "
                             f"({K + 1}, {n}), got {d.shape}")
@@ -827,9 +835,10 @@ def _flatten(regulators) -> list[Regulator]:
     return out
 
 
-def _pack_regulators(robot: Robot, regulators, dt: float, est):
+def _pack_regulators(robot: Robot, regulators, dt: float, est, t_end: float):
     """The regulators as a :class:`~manipcad.sim.loop.Control` (parameters packed once)
-    with the compiled estimator ``est`` (:func:`manipcad.sim.pickup.estimator_part`)."""
+    with the compiled estimator ``est`` (:func:`manipcad.sim.pickup.estimator_part`); a
+    period longer than the run (``t_end``, s) is refused naming it."""
     n = robot.n
     regs = _flatten(regulators)
     R = len(regs)
@@ -864,6 +873,8 @@ def _pack_regulators(robot: Robot, regulators, dt: float, est):
             owner[j] = r
             idx.append(j)
         s = reg.period / dt
+        if reg.period > t_end:
+            raise ManipcadError(period_too_long(reg.period, robot.joint_names[idx[0]], t_end))
         if abs(s - round(s)) > 1e-6 * s or round(s) < 1:
             raise ManipcadError(f"regulator period {reg.period:g} s of joint "
                                 f"{robot.joint_names[idx[0]]!r} is not a multiple of "
@@ -877,6 +888,26 @@ def _pack_regulators(robot: Robot, regulators, dt: float, est):
         need_comp = need_comp or any(s_ in MODEL_SIGNALS for s_ in reg.needs)
         described[", ".join(robot.joint_names[j] for j in idx)] = reg.describe()
     return Control(kind, params, state, joints, nj, steps, need_comp, est), described
+
+
+def period_too_long(period: float, joint: str, t_end: float) -> str:
+    """Why a regulator period longer than the run is refused (the message, one line).
+
+    Args:
+        period: the regulator's sample period, s.
+        joint: the (first) joint it controls.
+        t_end: the run's length, s.
+
+    Returns:
+        the sentence naming the period, the joint and the run's length.
+
+    Example:
+        >>> period_too_long(1e6, "waist", 0.05)  # doctest: +ELLIPSIS
+        "regulator period 1e+06 s of joint 'waist' is longer than the run (0.05 s): ..."
+    """
+    return (f"regulator period {period:g} s of joint {joint!r} is longer than the run "
+            f"({t_end:g} s): the regulator would compute its output once, at t = 0, and "
+            "hold it; give the period the regulator runs at (a few ms for a joint loop)")
 
 
 __all__ = ["simulate", "SimulationResult", "SimulationDiverged", "JointLimitExceeded"]

@@ -93,8 +93,8 @@ def plan_run(robot, trajectory, regulator_files: Sequence[str | Path] = (), *, d
     Raises:
         InputError: naming the file or number and the reason: numbers out of range, a
             trajectory for another joint count, a bad regulator file, a joint with two
-            regulators, a trajectory with no end and no ``t_end``, a step longer than
-            the run, drives asked of a robot without them.
+            regulators, a trajectory with no end and no ``t_end``, a step or a regulator
+            period longer than the run, drives asked of a robot without them.
 
     Example:
         >>> import manipcad
@@ -115,9 +115,11 @@ def plan_run(robot, trajectory, regulator_files: Sequence[str | Path] = (), *, d
                          f"{robot.name!r} has {robot.n}")
     regs = []
     owner: dict[int, str] = {}
+    files = []  # the file of each regulator
     for path in regulator_files:
         for reg in load_regulators(path, robot, dt=dt, drives=drives,
                                    allow_other_robot=allow_other_robot):
+            files.append(str(path))
             for j in reg.joints:
                 if j in owner:
                     raise InputError(str(path), "joints", f"joint {robot.joint_names[j]!r} "
@@ -131,6 +133,12 @@ def plan_run(robot, trajectory, regulator_files: Sequence[str | Path] = (), *, d
                              "duration")
     if dt > t_end:
         raise InputError(names["dt"], "", f"{dt:g} s is longer than the run ({t_end:g} s)")
+    for reg, path in zip(regs, files, strict=True):
+        if reg.period > t_end:
+            from manipcad.sim.simulate import period_too_long
+
+            raise InputError(path, "period", period_too_long(
+                reg.period, robot.joint_names[reg.joints[0]], t_end))
     if drives and not robot.has_drives:
         raise InputError(robot_source, "drives", f"the robot has no drives; use "
                          f"{names['drives']}")

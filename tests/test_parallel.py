@@ -283,6 +283,46 @@ def test_forked_process_runs_batches_serially():
         assert p.apply(_threads_usable) is False
 
 
+_LOCK_SCRIPT = """
+import logging, os, sys, threading, time
+from manipcad.parallel import run_tasks
+
+def where(x):
+    logging.getLogger("manipcad.test").warning("worker log line")
+    return os.readlink("/proc/self/fd/2")
+
+if __name__ == "__main__":
+    # the root logger writes into a pipe a thread drains. At each fork the draining pauses
+    # and a thread blocks inside a write to that handler's stream: the stream's buffer lock
+    # is held at the fork (as when the cluster's event loop logs at that instant); after
+    # the fork, in this process, the draining resumes and the write ends.
+    r, w = os.pipe()
+    handler = logging.StreamHandler(open(w, "w", buffering=1))
+    root = logging.getLogger()
+    root.addHandler(handler)
+    root.setLevel(logging.INFO)
+    drain = threading.Event()
+    drain.set()
+
+    def drainer():
+        while True:
+            drain.wait()
+            os.read(r, 1 << 16)
+
+    def hold():
+        drain.clear()
+        time.sleep(0.1)                     # the drainer is waiting
+        threading.Thread(target=lambda: handler.stream.write("x" * (1 << 18)),
+                         daemon=True).start()
+        time.sleep(0.2)                     # the writer blocks, holding the lock
+
+    threading.Thread(target=drainer, daemon=True).start()
+    os.register_at_fork(before=hold, after_in_parent=drain.set)
+    print(run_tasks(where, [{"x": 1}, {"x": 2}], workers=2, progress=False)[0], flush=True)
+    os._exit(0)
+"""
+
+
 _PIPE_SCRIPT = """
 import os, sys
 from manipcad.parallel import run_tasks
@@ -320,3 +360,27 @@ def test_forked_workers_never_block_on_an_undrained_pipe(tmp_path):
     assert proc.returncode == 0, err.decode()[-2000:]
     assert out.decode().strip().splitlines()[-1] == os.devnull
     assert b"worker log line" not in err
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "register_at_fork"), reason="no fork here")
+def test_forked_workers_never_wait_on_a_lock_held_at_the_fork(tmp_path):
+    """A thread of the caller blocked inside a logging handler's write holds that stream's
+    buffer lock; a worker forked then inherited the lock held, and its first log line
+    (Dask's "Start worker at") waited on it for ever: the cluster never started. The
+    forked workers get new stream objects (a pipe's: /dev/null) and the sweep finishes."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "locked.py"
+    script.write_text(_LOCK_SCRIPT)
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    try:
+        out, err = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        pytest.fail("the cluster never started: a forked worker waits on a lock held at "
+                    "the fork")
+    assert proc.returncode == 0, err.decode()[-2000:]
+    assert out.decode().strip().splitlines()[-1] == os.devnull

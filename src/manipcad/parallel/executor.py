@@ -725,30 +725,72 @@ _OFF_PIPES = [0]
 
 
 def _off_pipes_in_child() -> None:
-    """In a forked worker: stdout and stderr that are pipes (or sockets) go to /dev/null.
+    """In a forked worker: fresh output streams, and none that is a pipe.
 
     A forked worker inherits its parent's file descriptors 1 and 2. When they are a pipe
     that nobody drains while the parent waits on the worker (a pytest-xdist worker's, a
     caller's ``subprocess.run(..., stdout=PIPE)`` that reads only at the end), the worker's
     first log line past the pipe's 64 KiB buffer blocks it for good, and with it the
-    sweep. Its errors still reach the caller: Dask sends a task's exception back. A
-    terminal or a file is kept (it never blocks)."""
+    sweep: such a pipe (or socket) becomes /dev/null. Its errors still reach the caller:
+    Dask sends a task's exception back. A terminal or a file is kept (it never blocks).
+
+    A forked worker also inherits the Python stream objects (``sys.stdout``,
+    ``sys.stderr``, every logging handler's stream) with their buffers' locks as they
+    were at the fork: a lock another thread of the parent held then (the cluster's event
+    loop writing a log line) is held in the child for ever, and the worker's first log
+    line waits on it (seen: a LocalCluster's start hung in ``StreamHandler.flush``). So
+    the child gets new stream objects on the same descriptors (a pipe's: /dev/null)."""
     if not _OFF_PIPES[0]:
         return
+    import logging
     import stat
+    import sys
+
+    def blocking(fd: int) -> bool:
+        try:
+            mode = os.fstat(fd).st_mode
+        except OSError:
+            return False
+        return stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode)
 
     try:
         null = os.open(os.devnull, os.O_WRONLY)
         for fd in (1, 2):
-            try:
-                mode = os.fstat(fd).st_mode
-            except OSError:
-                continue
-            if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
+            if blocking(fd):
                 os.dup2(null, fd)
         os.close(null)
     except OSError:
         pass
+    fresh: dict[int, object] = {}
+
+    def renewed(stream):
+        try:
+            fd = stream.fileno()
+        except (AttributeError, OSError, ValueError):
+            return None         # not on a descriptor (a StringIO...): no inherited lock
+        if fd not in fresh:
+            kw = {"encoding": getattr(stream, "encoding", None) or "utf-8",
+                  "errors": "backslashreplace", "buffering": 1}
+            try:
+                fresh[fd] = open(os.devnull, "w", **kw) if blocking(fd) else \
+                    open(fd, "w", closefd=False, **kw)  # noqa: SIM115 - lives with the child
+            except OSError:
+                return None
+        return fresh[fd]
+
+    for name in ("stdout", "stderr"):
+        new = renewed(getattr(sys, name, None))
+        if new is not None:
+            setattr(sys, name, new)
+    for ref in list(getattr(logging, "_handlerList", ())):
+        h = ref()
+        stream = getattr(h, "stream", None)
+        new = None if stream is None else renewed(stream)
+        if new is not None:
+            try:    # not setStream: it would flush the old stream, under the old lock
+                h.stream = new
+            except AttributeError:  # a read-only stream (logging's last resort: sys.stderr)
+                pass
 
 
 class _workers_off_pipes:

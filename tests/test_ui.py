@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -1066,3 +1067,111 @@ def test_drives_page_and_two_tabs_in_the_simulated_user(tmp_path):
     arm = logic.load_robot_ref(logic.open_workspace(tmp_path / "ws"),
                                "robots/puma560-drives")[0]
     assert arm.drives[2].name == "motors/m1" and arm.drives[2].k_m == 0.3
+
+
+def test_a_page_whose_browser_never_connects_ends_quietly(tmp_path):
+    """A plain GET (or a tab left while loading) never connects its websocket; NiceGUI
+    deletes its client after a while, and the page being built must then end cancelled,
+    not read the deleted tab's state (a RuntimeError traceback in the server log)."""
+    from nicegui import Client, ui
+    from starlette.requests import Request
+
+    from manipcad.ui.pages import common
+
+    async def script(user):
+        get = Request({"type": "http", "method": "GET", "path": "/", "headers": [],
+                       "query_string": b""})
+        client = Client(ui.page("/never-connected"), request=get)
+
+        async def build():
+            with client:
+                return await common.connected()
+
+        task = asyncio.create_task(build())
+        await asyncio.sleep(0.05)
+        assert not task.done()                     # waiting for the browser
+        client.delete()                            # what NiceGUI's pruning does
+        with pytest.raises(asyncio.CancelledError):
+            await task
+
+    _simulate_user(tmp_path / "ws", script)
+
+
+def _stored_puma_result(ws, name: str, mass: float, com) -> None:
+    """A stored result of the PUMA carrying ``mass`` kg at ``com`` (last link's frame):
+    a smooth motion with no reversal (each joint speeding up) sampled every 0.5 ms, the
+    joint torques its inverse dynamics needs (drive terms included)."""
+    from manipcad.sim import SimulationResult
+
+    arm = manipcad.load_robot("puma560")
+    t = np.linspace(0.0, 2.0, 4001)
+    a, b = 0.1 * np.arange(1, 7), 0.2 + 0.05 * np.arange(1, 7)
+    q, qd = np.outer(t**2, a) + np.outer(t, b) - 0.5, 2 * np.outer(t, a) + b
+    tau = manipcad.inverse_dynamics(arm.with_payload(mass, com), q, qd,
+                                    np.tile(2 * a, (t.size, 1)))
+    z = np.zeros_like(q)
+    ws.store_result(SimulationResult(t, q, qd, q, qd, z, z + np.nan, tau, arm.joint_names,
+                                     robot=arm.name, joint_types=arm.joint_types),
+                    name=name, plot=False)
+
+
+def test_identification_page_takes_a_stored_result(tmp_path):
+    """The Identification page identifies the payload from a stored simulation result (its
+    recorded q, q̇ and torques): 1.5 kg back from torques made with 1.5 kg; a result of
+    other joints is refused naming them."""
+    from nicegui import ui
+
+    ws = logic.open_workspace(tmp_path / "ws")
+    _stored_puma_result(ws, "loaded", 1.5, [0.0, 0.0, 0.08])
+
+    async def script(user):
+        await _open(user, "/identification")
+        user.find(kind=ui.input, content="centre of mass").clear().type("0, 0, 0.08")
+        assert _field(user, ui.select, "or a stored simulation result").value == "loaded"
+        user.find("Identify from the result").click()
+        await user.should_see("payload mass m_r", retries=100)
+        (lab,) = user.find(kind=ui.label, content="payload mass m_r").elements
+        mass = float(lab.text.split("=")[1].split("±")[0])
+        assert mass == pytest.approx(1.5, rel=1e-3), lab.text
+        with user:
+            from manipcad.ui import pages
+            pages.state()["robot"] = "cylindrical"
+        user.find("Identify from the result").click()
+        assert "are not the robot's" in await _error(user)
+
+    _simulate_user(tmp_path / "ws", script)
+
+
+def test_robots_page_pose_is_within_the_limits_and_notes_show_no_paths(ws, tmp_path):
+    """The Robots page opens each robot at a pose within its joint limits (0 where 0 is
+    within them, else the middle: the Stanford arm's reach 0.3..1.27 m); its notes and error
+    lines name workspace files by their item path and package files as manipcad/...,
+    never an absolute path."""
+    from manipcad.model import catalog_names
+    from manipcad.ui.pages import SERVER
+    from manipcad.ui.pages.common import error_text
+
+    for name in catalog_names():
+        arm = logic.load_robot_ref(ws, name)[0]
+        q = logic.start_pose(arm)
+        lo, hi = arm.limits.T
+        assert np.all((lo <= q) & (q <= hi)), name
+        assert np.all(q[(lo <= 0) & (hi >= 0)] == 0), name
+    stanford = logic.load_robot_ref(ws, "stanford")[0]
+    assert logic.start_pose(stanford)[2] == pytest.approx(np.mean(stanford.limits[2]))
+    mimic = GOOD_URDF.replace(b"</robot>", b"""<link name="tip"><inertial><mass value="1"/>
+      <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+      <joint name="j2" type="revolute"><parent link="arm"/><child link="tip"/>
+      <axis xyz="0 0 1"/><limit lower="0.5" upper="2" effort="10" velocity="1"/>
+      <mimic joint="j1"/></joint></robot>""")
+    logic.add_upload(ws, "mim.urdf", mimic, kind="robots")
+    arm, notes = logic.load_robot_ref(ws, "robots/mim")
+    assert logic.start_pose(arm).tolist() == [0.0, 1.25]
+    assert notes and notes[0].startswith("robots/mim.urdf: joint 'j2' mimics 'j1'"), notes
+    assert not any(str(ws.root.resolve()) in n or str(tmp_path) in n for n in notes)
+    package = Path(manipcad.__file__).resolve().parent
+    SERVER["ws"] = str(ws.root)
+    err = InputError(str(package / "model" / "catalog" / "x.yaml"), "joints[0].mass", "bad")
+    assert error_text(err) == "manipcad/model/catalog/x.yaml: joints[0].mass: bad"
+    err = InputError(str(ws.root / "trajectories" / "m.yaml"), "type", "bad")
+    assert error_text(err) == "trajectories/m.yaml: type: bad"

@@ -6,7 +6,8 @@ pose slider and turned), make a trajectory, get a recommendation and verify it b
 simulation, synthesize the recommended method and a PID, simulate both, see both in
 the results overlay; a bad URDF upload shows its error in the page; a second tab keeps
 its own robot and trajectory; a traversal name gets 400; an upload over the cap
-gets 413; with a token, a request without it gets 401.
+gets 413; with a token, a request without it gets 401. A tour of every page leaves no
+traceback in the server's log (every test reads it).
 Screenshots of every page go to docs/ui/.
 
 A missing browser or Playwright FAILS these tests (``.ci/run`` installs chromium);
@@ -47,9 +48,12 @@ def _start(ws: Path, *extra: str):
     # NiceGUI takes a PYTEST_CURRENT_TEST in its environment for its own test mode
     env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
     env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")
-    proc = subprocess.Popen([sys.executable, "-m", "manipcad", "ui", "--ws", str(ws),
-                             "--port", str(port), *extra], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    log = Path(ws).parent / f"server-{port}.log"      # the server's output, read at the end
+    with open(log, "w") as out:
+        proc = subprocess.Popen([sys.executable, "-m", "manipcad", "ui", "--ws", str(ws),
+                                 "--port", str(port), *extra], env=env,
+                                stdout=out, stderr=subprocess.STDOUT, text=True)
+    proc.log = log
     base = f"http://127.0.0.1:{port}"
     deadline = time.time() + 60
     while time.time() < deadline:
@@ -59,18 +63,23 @@ def _start(ws: Path, *extra: str):
             return proc, base           # the server answers (404 or 401)
         except OSError:
             if proc.poll() is not None:
-                raise AssertionError(f"manipcad ui exited: {proc.stdout.read()}") from None
+                raise AssertionError(f"manipcad ui exited: {log.read_text()}") from None
             time.sleep(0.2)
     proc.kill()
     raise AssertionError("manipcad ui did not answer within 60 s")
 
 
-def _stop(proc) -> None:
+def _stop(proc) -> str:
+    """Stop the server; its log, which must hold no traceback (a page's or a handler's
+    exception that NiceGUI logged)."""
     proc.terminate()
     try:
         proc.wait(timeout=10)
     except subprocess.TimeoutExpired:
         proc.kill()
+    text = proc.log.read_text()
+    assert "Traceback" not in text, text
+    return text
 
 
 @pytest.fixture(scope="module")
@@ -353,6 +362,65 @@ def test_designer_flow(browser, server):
                                                 "buffer": b" " * (MAX_UPLOAD + 100_000)}})
     assert big.status == 413, big.status
     context.close()
+
+
+def _pose_shown(page) -> tuple[list[float], list[float]]:
+    """The pose the Robots page's figure caption names, and the pose its sliders show."""
+    title = page.get_by_test_id("stick-view").locator(".gtitle").text_content()
+    caption = [float(x) for x in title.split("q = [", 1)[1].split("]", 1)[0].split(",")]
+    sliders = [float(page.get_by_test_id(f"pose-{j}").get_attribute("aria-valuenow"))
+               for j in range(len(caption))]
+    return caption, sliders
+
+
+def test_every_page_without_a_traceback(browser, tmp_path):
+    """A tour of every page (and plain GETs that never open a websocket) leaves no
+    traceback in the server's log and no install path on a page; the Robots page draws the
+    pose its sliders show, within the joint limits, and its caption follows them; an upload
+    over the size cap says so; a stored result gives the Identification page its data."""
+    from playwright.sync_api import expect
+    from test_ui import _stored_puma_result
+
+    from manipcad.ui import logic
+    from manipcad.ui.pages.common import MENU
+
+    _stored_puma_result(logic.open_workspace(tmp_path / "ws"), "loaded", 1.5, [0, 0, 0.08])
+    proc, base = _start(tmp_path / "ws")
+    try:
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        for path, _ in MENU:                                # no browser: never connected
+            assert page.request.get(base + path).status == 200
+        _open(page, base + "/robots")
+        _pick(page, "robot-select", "stanford")
+        title = page.get_by_test_id("stick-view").locator(".gtitle")
+        expect(title).to_contain_text("Stanford arm at q")
+        caption, sliders = _pose_shown(page)              # the reach: 0.3..1.27 m
+        assert caption == pytest.approx(sliders, abs=0.005), (caption, sliders)
+        assert caption[2] == pytest.approx(0.79, abs=0.005)
+        _slide(page, "pose-2", 0.9)
+        expect(title).not_to_contain_text(", 0.79,")
+        caption, sliders = _pose_shown(page)
+        assert caption == pytest.approx(sliders, abs=0.005) and caption[2] > 1.0
+        page.get_by_test_id("robot-upload").locator("input[type=file]").set_input_files(
+            files=[{"name": "big.urdf", "mimeType": "application/xml",
+                    "buffer": b" " * (logic.MAX_UPLOAD + 1)}])
+        expect(page.get_by_test_id("error")).to_contain_text("refused: larger than")
+        _pick(page, "robot-select", "puma560")          # the robot of the stored result
+        install = str(ROOT / "src")
+        for path, _ in MENU:
+            _open(page, base + path)
+            page.wait_for_timeout(300)
+            text = page.inner_text("body")
+            assert install not in text and "Traceback" not in text, (path, text)
+        _open(page, base + "/identification")
+        page.locator("input").first.fill("0, 0, 0.08")       # the payload's centre
+        page.get_by_test_id("ident-result-run").click()
+        _see(page, page.get_by_test_id("ident-mass"))
+        shown = page.get_by_test_id("ident-mass").inner_text()     # made with 1.5 kg
+        assert float(shown.split("=")[1].split("±")[0]) == pytest.approx(1.5, rel=1e-3)
+        page.close()
+    finally:
+        _stop(proc)
 
 
 def test_token_required_off_loopback(browser, tmp_path):

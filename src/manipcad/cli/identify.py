@@ -187,18 +187,13 @@ def _load_data(data: str, model):
     """A CSV file (load_torque_data), or a stored result folder (its full-precision arrays)."""
     from pathlib import Path
 
-    from manipcad.dynamics.identification import TorqueData, load_torque_data
+    from manipcad.dynamics.identification import load_torque_data, result_torque_data
 
     if not Path(data).is_dir():
         return load_torque_data(data, model)
     from manipcad.store.results import load_result
 
-    res, _ = load_result(data)
-    if tuple(res.joint_names) != tuple(model.joint_names):
-        raise InputError(data, "joint_names", f"the result's joints {', '.join(res.joint_names)}"
-                         f" are not the robot's ({', '.join(model.joint_names)})")
-    current = res.current if np.all(np.isfinite(res.current)) else None
-    return TorqueData(res.q, res.qd, None, res.tau, data, res.t, current)
+    return result_torque_data(load_result(data)[0], model, data)
 
 
 def _parse_link(text: str | None, robot):

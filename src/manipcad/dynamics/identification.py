@@ -1088,6 +1088,45 @@ class TorqueData:
     current: np.ndarray | None = None
 
 
+def result_torque_data(result, robot: Robot, source: str) -> TorqueData:
+    """The samples of a simulation result (its recorded q, q̇, torques and currents) as
+    measured data for :func:`identify_payload`.
+
+    Args:
+        result: a :class:`manipcad.sim.SimulationResult` (e.g. read back with
+            :func:`manipcad.store.results.load_result`): t (s), q (rad|m), qd, tau (N·m|N),
+            current (A) and its joint names.
+        robot: the robot to identify with; its joints must be the result's.
+        source: the result's name or folder, for messages.
+
+    Returns:
+        :class:`TorqueData` with q, qd, tau and t; the currents when every joint has them
+        (a joint without a drive model records nan), else None; qdd None (differentiated).
+
+    Raises:
+        InputError: the result's joints are not the robot's.
+
+    Example:
+        >>> import numpy as np, manipcad
+        >>> from manipcad.sim import SimulationResult
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> z = np.zeros((3, 3))
+        >>> res = SimulationResult(np.arange(3.0), z, z, z, z, z, z + np.nan, z,
+        ...                        arm.joint_names)
+        >>> d = result_torque_data(res, arm, "r1")
+        >>> d.q.shape, d.current is None
+        ((3, 3), True)
+    """
+    if tuple(result.joint_names) != tuple(robot.joint_names):
+        raise InputError(source, "joint_names", f"the result's joints "
+                         f"{', '.join(result.joint_names)} are not the robot's "
+                         f"({', '.join(robot.joint_names)})")
+    current = np.asarray(result.current)
+    current = current if current.size and np.all(np.isfinite(current)) else None
+    return TorqueData(np.asarray(result.q), np.asarray(result.qd), None,
+                      np.asarray(result.tau), str(source), np.asarray(result.t), current)
+
+
 KINDS = ("q", "qd", "qdd", "tau", "current")
 UNITS = {"q": "rad or m", "qd": "rad/s or m/s", "qdd": "rad/s² or m/s²", "tau": "N·m or N",
          "current": "A"}

@@ -61,6 +61,36 @@ def open_workspace(root: str | Path) -> Workspace:
         return Workspace.init(root)
 
 
+#: the installed package's folder (``.../manipcad``), named ``manipcad/`` on the pages
+_PACKAGE = Path(__file__).resolve().parents[1]
+
+
+def short_paths(text: str, ws_root: str | Path | None = None) -> str:
+    """``text`` for a page: the package's install folder named ``manipcad/...`` and the
+    workspace's files by their name inside it (``robots/arm.urdf``; the page's header
+    names the workspace), so notes and errors show no install path.
+
+    Args:
+        text: a message (a loader's note, an error).
+        ws_root: the workspace folder, or None.
+
+    Example:
+        >>> short_paths(str(_PACKAGE / "model" / "catalog" / "puma560.yaml") + ": note")
+        'manipcad/model/catalog/puma560.yaml: note'
+        >>> short_paths("/home/me/ws/robots/arm.urdf: joint 'j'", "/home/me/ws")
+        "robots/arm.urdf: joint 'j'"
+    """
+    roots = {str(_PACKAGE): "manipcad/"}
+    pkg = Path(__file__).parents[1]                    # as imported (maybe through a link)
+    roots.setdefault(str(pkg), "manipcad/")
+    if ws_root is not None:
+        for r in (Path(ws_root), Path(ws_root).absolute(), Path(ws_root).resolve()):
+            roots.setdefault(str(r), "")
+    for root in sorted(roots, key=len, reverse=True):  # the longest first
+        text = text.replace(root.rstrip("/") + "/", roots[root])
+    return text
+
+
 def robot_choices(ws: Workspace) -> list[str]:
     """The robots a user can pick: the catalog's names, then the workspace's ``robots/NAME``.
 
@@ -83,7 +113,7 @@ def load_robot_ref(ws: Workspace, ref: str):
 
     Returns:
         ``(robot, notes)``: the :class:`~manipcad.model.Robot` and the loader's
-        warnings as strings.
+        warnings as strings (paths as :func:`short_paths` gives them).
 
     Raises:
         InputError: an unknown or unsafe reference; the loader's errors.
@@ -107,7 +137,7 @@ def load_robot_ref(ws: Workspace, ref: str):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ManipcadWarning)
         robot = load_robot(source)
-    return robot, loader_notes(caught, robot)
+    return robot, [short_paths(n, ws.root) for n in loader_notes(caught, robot)]
 
 
 def _unit(joint_type: str) -> str:
@@ -162,6 +192,29 @@ def slider_range(robot, j: int) -> tuple[float, float]:
     lo, hi = (float(x) for x in robot.limits[j])
     wide = 1.0 if robot.joint_types[j] == "prismatic" else float(np.pi)
     return (lo if np.isfinite(lo) else -wide, hi if np.isfinite(hi) else wide)
+
+
+def start_pose(robot) -> np.ndarray:
+    """The pose the Robots page opens at, (n,) rad|m: each joint at 0 where 0 is within
+    its limits, else at the middle of its slider's range (:func:`slider_range`), so the
+    arm is drawn in a pose it can take and the sliders show that pose.
+
+    Example:
+        >>> import manipcad
+        >>> arm = manipcad.load_robot("cylindrical")
+        >>> [float(x) for x in arm.limits[1]], [round(float(x), 3) for x in start_pose(arm)]
+        ([0.0, 0.6], [0.0, 0.0, 0.0])
+        >>> low = arm.replace(limits=np.array([[-1.0, 1.0], [0.1, 0.6], [0.0, 0.5]]))
+        >>> [round(float(x), 3) for x in start_pose(low)]
+        [0.0, 0.35, 0.0]
+    """
+    q = np.zeros(robot.n)
+    for j in range(robot.n):
+        lo, hi = (float(x) for x in robot.limits[j])
+        if not lo <= 0.0 <= hi:
+            a, b = slider_range(robot, j)
+            q[j] = 0.5 * (a + b)
+    return q
 
 
 def tool_position(robot, q: Sequence[float]) -> np.ndarray:
@@ -668,11 +721,7 @@ def identify_upload(robot, filename: str, data: bytes, *, com: Sequence[float] |
     Raises:
         InputError: too big, not .csv, or the loader's error naming the file.
     """
-    from manipcad.dynamics.identification import (
-        check_estimate,
-        identify_payload,
-        load_torque_data,
-    )
+    from manipcad.dynamics.identification import load_torque_data
 
     base = Path(filename or "").name or "upload.csv"
     if len(data) > MAX_UPLOAD:
@@ -689,11 +738,53 @@ def identify_upload(robot, filename: str, data: bytes, *, com: Sequence[float] |
             raise InputError(base, exc.field, exc.reason.replace(str(path), base)) from None
     if d.tau is None and d.current is None:
         raise InputError(base, "", "no tau1.. or current1.. columns")
+    return _identify(robot, d, base, com)
+
+
+def _identify(robot, d, source: str, com: Sequence[float] | None):
+    """:func:`~manipcad.dynamics.identification.identify_payload` on measured data ``d``
+    (a :class:`~manipcad.dynamics.identification.TorqueData`): its torques, else its
+    currents; a nan estimate refused naming ``source``."""
+    from manipcad.dynamics.identification import check_estimate, identify_payload
+
     kw = {"tau": d.tau} if d.tau is not None else {"current": d.current}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
         return check_estimate(identify_payload(robot, d.q, d.qd, d.qdd, t=d.t, com=com, **kw),
-                              base)
+                              source)
+
+
+def identify_result(ws: Workspace, name: str, robot, *, com: Sequence[float] | None = None):
+    """Identify the payload mass from a stored simulation result: its recorded positions,
+    velocities and joint torques are the measured data (``manipcad identify ROBOT --data
+    RESULT``).
+
+    Args:
+        ws: the workspace.
+        name: the result's name (``results/NAME`` or NAME).
+        robot: the robot without the payload; its joints must be the result's.
+        com: the payload's centre of mass in the last link's frame, m (None: its origin).
+
+    Returns:
+        :class:`manipcad.PayloadEstimate` (mass kg with its standard deviation).
+
+    Raises:
+        InputError: no such result, other joints, data that determine no estimate.
+    """
+    from manipcad.dynamics.identification import result_torque_data
+    from manipcad.store.results import load_result
+
+    name = name.removeprefix("results/")
+    check_name(name, "result")
+    folder = ws.resolve("results", name)
+    res, _ = load_result(folder)
+    return _identify(robot, result_torque_data(res, robot, f"results/{name}"),
+                     f"results/{name}", com)
+
+
+def result_names(ws: Workspace) -> list[str]:
+    """The stored simulation results, by name (``ws list results``), for a choice."""
+    return [i.name for i in ws.list("results")]
 
 
 #: files of a study folder the application serves (reports and figures)

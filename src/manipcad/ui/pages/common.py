@@ -53,8 +53,19 @@ def jobs() -> list:
 
 
 async def connected() -> dict[str, Any]:
-    """Wait for the page's websocket (the tab's identity), then its :func:`state`."""
-    await ui.context.client.connected()
+    """Wait for the page's websocket (the tab's identity), then its :func:`state`.
+
+    A page whose browser never connects (a plain HTTP GET, a tab closed or left for
+    another page while loading) is deleted by NiceGUI after a while; its building then
+    ends here, cancelled, with nothing logged (reading the tab's state of a deleted
+    client raised RuntimeError, a traceback in the server log for every such request).
+    """
+    import asyncio
+
+    client = ui.context.client
+    await client.connected()
+    if client.is_deleted or not client.has_socket_connection:
+        raise asyncio.CancelledError
     return state()
 
 
@@ -69,8 +80,10 @@ def robot():
 
 
 def error_text(exc: Exception) -> str:
-    """The one line shown for a failed action: the API's message (file: field: reason)."""
-    return str(exc) if isinstance(exc, ManipcadError) else f"{type(exc).__name__}: {exc}"
+    """The one line shown for a failed action: the API's message (file: field: reason),
+    files named without install or workspace paths (:func:`~manipcad.ui.logic.short_paths`)."""
+    text = str(exc) if isinstance(exc, ManipcadError) else f"{type(exc).__name__}: {exc}"
+    return logic.short_paths(text, SERVER["ws"])
 
 
 def frame(title: str):

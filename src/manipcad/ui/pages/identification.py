@@ -1,5 +1,6 @@
-"""The Identification page: an unknown payload mass from uploaded measured torques
-or currents."""
+"""The Identification page: an unknown payload mass from measured torques or currents,
+uploaded as CSV or taken from a stored simulation result of the workspace (its recorded
+q, q̇ and joint torques, as ``manipcad identify ROBOT --data RESULT``)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from nicegui import ui
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import logic
 from manipcad.ui.pages.common import (
+    SERVER,
     connected,
     error_label,
     frame,
@@ -15,6 +17,7 @@ from manipcad.ui.pages.common import (
     off_loop,
     robot,
     upload_refused,
+    ws,
 )
 
 
@@ -24,23 +27,19 @@ async def page() -> None:
         show, clear = error_label()
         ui.label("Upload measured joint torques or motor currents along a motion (CSV: t, "
                  "q1.., qd1.., qdd1.., tau1.. or current1..; SI units) of the picked "
-                 "robot; get the payload mass with its uncertainty (manipcad identify).")
+                 "robot, or take a stored simulation result's recorded motion and torques; "
+                 "get the payload mass with its uncertainty (manipcad identify).")
         com = ui.input("payload centre of mass x, y, z [m] in the last link's frame",
                        value="0, 0, 0").classes("w-96")
         out = ui.column().classes("w-full")
 
-        async def uploaded(e) -> None:
-            clear()
-            out.clear()
-            try:
-                c = numbers(com.value, "com", "identification form")
-                if len(c) != 3:
-                    raise InputError("identification form", "com", "expected x, y, z")
-                data, arm = await e.file.read(), robot()
-                est = await off_loop(logic.identify_upload, arm, e.file.name, data, com=c)
-            except ManipcadError as exc:
-                show(exc)
-                return
+        def centre() -> list[float]:
+            c = numbers(com.value, "com", "identification form")
+            if len(c) != 3:
+                raise InputError("identification form", "com", "expected x, y, z")
+            return c
+
+        def shown(est) -> None:
             with out:
                 ui.label(f"payload mass m_r = {est.mass:.5g} ± {est.std:.2g} kg "
                          f"({est.samples} samples of {est.signal}, {est.method}; residual "
@@ -53,7 +52,42 @@ async def page() -> None:
                                              est.per_joint_std, strict=True)],
                     row_key="joint").props("dense flat")
 
+        async def uploaded(e) -> None:
+            clear()
+            out.clear()
+            try:
+                c = centre()
+                data, arm = await e.file.read(), robot()
+                est = await off_loop(logic.identify_upload, arm, e.file.name, data, com=c)
+            except ManipcadError as exc:
+                show(exc)
+                return
+            shown(est)
+
         ui.upload(label="Upload measured data (.csv)", auto_upload=True,
                   max_file_size=logic.MAX_UPLOAD, on_upload=uploaded,
                   on_rejected=upload_refused(show, ".csv")) \
             .props("accept=.csv data-testid=ident-upload")
+
+        async def from_result() -> None:
+            clear()
+            out.clear()
+            try:
+                if not stored.value:
+                    raise InputError("identification form", "result", "pick a stored result")
+                c, arm, name, root = centre(), robot(), stored.value, SERVER["ws"]
+                # the workspace opened in the worker thread (its index belongs to it)
+                est = await off_loop(lambda: logic.identify_result(
+                    logic.open_workspace(root), name, arm, com=c))
+            except ManipcadError as exc:
+                show(exc)
+                return
+            shown(est)
+
+        with ui.row().classes("items-center"):
+            names = logic.result_names(ws())
+            stored = ui.select(names, value=names[-1] if names else None,
+                               label="or a stored simulation result").classes("w-64") \
+                .props("data-testid=ident-result")
+            ui.button("Identify from the result", on_click=from_result) \
+                .props("data-testid=ident-result-run")

@@ -1,5 +1,7 @@
 """The Robots page: pick or upload a robot; its joints and drives as a table, the
-arm as a stick figure turned with view sliders and posed with joint sliders."""
+arm as a stick figure turned with view sliders and posed with joint sliders (it opens
+at :func:`~manipcad.ui.logic.start_pose`, a pose within the joint limits, and the
+figure's caption names the pose the sliders show)."""
 
 from __future__ import annotations
 
@@ -62,7 +64,7 @@ async def page() -> None:
                          row_key="joint").props("dense flat data-testid=joints-table")
                 for note in notes:
                     ui.label(f"note: {note}").classes("text-caption text-warning")
-                q = [0.0] * arm.n
+                q = [float(x) for x in logic.start_pose(arm)]   # within the limits
                 view = {"az": round(math.degrees(VIEW[0])),
                         "el": round(math.degrees(VIEW[1]))}   # deg, as shown
                 webgl: list = []          # the interactive WebGL view, once asked for
@@ -135,7 +137,7 @@ async def page() -> None:
                                 q[j] = float(e.value)
                                 redraw()
 
-                            ui.slider(min=lo, max=hi, step=(hi - lo) / 200, value=0.0,
+                            ui.slider(min=lo, max=hi, step=(hi - lo) / 200, value=q[j],
                                       on_change=moved).props(f"label data-testid=pose-{j}")
 
         def picked(e) -> None:

@@ -683,6 +683,41 @@ def test_synthesize_ws_prints_a_command_that_runs(tmp_path):
     assert res.exit_code == 0, out
 
 
+def test_ws_add_of_a_folder_holding_a_bundle_says_how_to_take_it(tmp_path):
+    """``ws export r --to share`` writes share/r/; ``ws add share`` used to file share as a
+    study. It is refused naming the bundle and the command that takes it, which works;
+    ``--kind study`` still files the folder as a study."""
+    from manipcad.workspace import Workspace
+
+    src = Workspace.init(tmp_path / "a")
+    src.add(EXAMPLES / "two_link.yaml", name="arm2")
+    src.export("arm2", tmp_path / "share")
+    ws = Workspace.init(tmp_path / "b")
+    res, out = cli("ws", "add", tmp_path / "share", "--ws", ws.root)
+    fails_cleanly(res, out, "not a study", f"manipcad ws add {tmp_path / 'share' / 'arm2'}")
+    assert ws.list() == []
+    res, out = cli("ws", "add", tmp_path / "share" / "arm2", "--ws", ws.root)
+    assert res.exit_code == 0, out
+    assert [i.ref for i in ws.list()] == ["robots/arm2"]
+    res, out = cli("ws", "add", tmp_path / "share", "--kind", "study", "--ws", ws.root)
+    assert res.exit_code == 0 and ws.find("studies", "share") is not None, out
+
+
+def test_workspace_doc_says_which_commands_take_ws():
+    """docs/workspace.md names the commands that take --ws, each of which does, and no
+    longer says --ws is still to come."""
+    import re
+
+    text = (ROOT / "docs" / "workspace.md").read_text()
+    assert not re.search(r"still to wire|until `?simulate", text, re.I)
+    named = re.search(r"`--ws DIR` is taken by (.*?): their", text, re.S)[1]
+    commands = re.findall(r"`([a-z0-9 ]+)`", named)
+    assert {"simulate", "synthesize", "robots show", "study fig3"} <= set(commands), commands
+    for command in commands:
+        res, out = cli(*command.split(), "--help")
+        assert res.exit_code == 0 and "--ws" in out, (command, out)
+
+
 def test_robots_show_takes_ws(tmp_path):
     from manipcad.workspace import Workspace
 

@@ -90,7 +90,8 @@ def init(folder: Annotated[Path | None, typer.Argument(
 @guarded
 def add(source: Annotated[Path, typer.Argument(
             help="A robot (.yaml, .urdf, MJCF .xml), motor, gear, trajectory or regulator "
-                 "file, a result or study folder, or a bundle from 'ws export'.")],
+                 "file, a result or study folder, or a bundle from 'ws export' (the folder "
+                 "it wrote, TO/NAME).")],
         kind: Annotated[str | None, typer.Option(
             "--kind", help="robot, motor, gear, trajectory, regulator, result or study "
                            "(default: recognized from the content).")] = None,

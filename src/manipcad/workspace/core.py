@@ -25,6 +25,7 @@ import json
 import os
 import re
 import secrets
+import shlex
 import shutil
 import tempfile
 from collections.abc import Iterator, Mapping, Sequence
@@ -428,6 +429,8 @@ class Workspace:
         found = detect_kind(src) if kind is None else kind_of(kind)
         if found == "bundle":
             return self._add_bundle(src, force=force)
+        if found == "studies" and kind is None:
+            _no_bundles_inside(src)
         kind = found
         if (kind in FILE_KINDS) != src.is_file():
             form = "files" if kind in FILE_KINDS else "folders"
@@ -930,6 +933,29 @@ class Workspace:
             raise
         install_folder(tmp, out)
         return out
+
+
+def _no_bundles_inside(folder: Path) -> None:
+    """Refuse to file a folder as a study when it holds bundles made by ``ws export``
+    (``ws export r1 --to share`` writes ``share/r1/``): the user meant to take the
+    bundles, which ``ws add`` does given each bundle folder itself. ``--kind study``
+    files the folder as a study all the same.
+
+    Raises:
+        InputError: naming the bundle folders found and the command that takes them.
+    """
+    found = []
+    for dirpath, dirs, files in os.walk(folder):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        if BUNDLE_MANIFEST in files:
+            found.append(Path(dirpath))
+            dirs[:] = []                       # a bundle's own folders are its items
+    if found:
+        shown = ", ".join(str(p) for p in found[:3]) + (" ..." if len(found) > 3 else "")
+        take = "; ".join(f"manipcad ws add {shlex.quote(str(p))}" for p in found[:3])
+        raise InputError(str(folder), "", f"holds {len(found)} workspace bundle(s) made by "
+                         f"'ws export' ({shown}), not a study; take a bundle with: {take} "
+                         "(or file the folder as a study with --kind study)")
 
 
 def _check_bundle_hash(bundle: Path, p: Path, entry: Mapping[str, Any], k: int) -> None:

@@ -497,9 +497,9 @@ def test_worker_runs_stores_and_cancels(ws):
 
 def test_a_diverged_run_says_where_and_keeps_its_part_only_if_asked(ws):
     """A run that blows up (no regulator, a 2 ms step: the drives' electrical dynamics are
-    unstable under RK4) reports the time and the joint; nothing is stored unless the
-    page's "keep a diverged run's partial result" is ticked, then it is stored marked
-    diverged, up to that time."""
+    unstable under RK4) reports the time and the drive whose step is too large; nothing
+    is stored unless the page's "keep a diverged run's partial result" is ticked, then it
+    is stored marked diverged, up to that time."""
     from manipcad.store.results import load_result
     from manipcad.ui.worker import SimSpec, run_spec
 
@@ -508,9 +508,12 @@ def test_a_diverged_run_says_where_and_keeps_its_part_only_if_asked(ws):
                                   "q_end": [0.3, 0.2, 0.2], "duration": 0.1}, arm)
     logic.save_trajectory_to(ws, traj, "move")
     spec = SimSpec(str(ws.root), "cylindrical", "move", [], t_end=0.1, dt=2e-3, name="blow")
-    with pytest.raises(ManipcadError, match=r"diverged at t = ([0-9.]+) s: .* joint 'lift'; "
-                                            "nothing was stored") as err:
+    with pytest.raises(ManipcadError, match=r"diverged at t = ([0-9.]+) s: joint 'turn''s "
+                       r"drive: the step dt = 0.002 s is too large .*; nothing was stored") \
+            as err:
         run_spec(spec)
+    d = arm.drives[0]                       # RK4 is stable for dt < 2.785·L/R
+    assert 2e-3 > 2.785 * d.L / d.R
     assert ws.list("results") == []
     t_div = float(str(err.value).split("t = ")[1].split(" s")[0])
     spec.save_diverged = True

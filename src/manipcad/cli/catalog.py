@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 from typing import Annotated, Any
 
 import typer
@@ -19,6 +18,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
+from manipcad.cli.options import json_flag, ws_option
 from manipcad.errors import InputError
 from manipcad.fileio import json_safe
 
@@ -69,9 +69,8 @@ def list_parts(
     where: Annotated[str | None, typer.Option(
         "--where", help="A filter over the columns (SI units), e.g. \"k_t > 0.1 and "
         "mass < 1\"; see docs/catalog.md for the columns.")] = None,
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Also list this workspace's motors and gears.")] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON (every column).")] = False,
+    ws: ws_option("Also list this workspace's motors and gears.") = None,
+    as_json: json_flag("Print JSON (every column).") = False,
 ) -> None:
     """List the library's motors and gears (SI units; '-' where the source prints none)."""
     from manipcad import catalog
@@ -100,9 +99,8 @@ def list_parts(
 @guarded
 def show_part(
     name: Annotated[str, typer.Argument(help="A part name of 'manipcad catalog list'.")],
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Look in this workspace's motors and gears too.")] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+    ws: ws_option("Look in this workspace's motors and gears too.") = None,
+    as_json: json_flag("Print JSON.") = False,
 ) -> None:
     """Every field of one part with its unit, its source, and what it mounts on."""
     from manipcad import catalog

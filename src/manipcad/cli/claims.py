@@ -21,6 +21,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from manipcad.cli.app import console, guarded
+from manipcad.cli.options import Scheduler, Workers, dt_option, progress_flag, ws_option
 from manipcad.cli.study import study_app
 
 
@@ -30,23 +31,18 @@ def claims(
     out: Annotated[str, typer.Option(
         "--out", "-o", help="Output folder (created); with --ws the study's NAME in the "
         "workspace.")],
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Workspace: the study folder is stored and indexed there "
-        "(studies/NAME).")] = None,
+    ws: ws_option("Workspace: the study folder is stored and indexed there "
+        "(studies/NAME).") = None,
     arm: Annotated[str, typer.Option(
         "--arm", help="light (the catalog Fig. 2 arm), industrial (+3 kg arm, 2 kg payload, "
         "CSF-20 on the turn), heavy (+5 kg arm, 5 kg payload, extra reach reduction) or a "
         "robot file with joints turn, lift, reach.")] = "light",
     grid: Annotated[str, typer.Option("--grid", help="quick (4 × 4 cells) or full (7 × 7).")]
     = "quick",
-    workers: Annotated[int | None, typer.Option(
-        "--workers", help="Worker processes of a local Dask cluster (default one per core; "
-        "1: serial, no cluster).")] = None,
-    scheduler: Annotated[str | None, typer.Option(
-        "--scheduler", help="Address of a running Dask scheduler, tcp://HOST:PORT.")] = None,
-    dt: Annotated[float, typer.Option("--dt", help="Integration step, s.")] = 1e-4,
-    progress: Annotated[bool, typer.Option(
-        "--progress/--no-progress", help="Show a progress bar of cells done.")] = True,
+    workers: Workers = None,
+    scheduler: Scheduler = None,
+    dt: dt_option() = 1e-4,
+    progress: progress_flag("cells done") = True,
 ) -> None:
     """Claims maps: each claim's measured ratio over speed scale × load ratio; writes
     claims.json, claims.png and report.html into --out."""

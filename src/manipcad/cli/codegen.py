@@ -29,19 +29,20 @@ from rich import box
 from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
+from manipcad.cli.options import RobotArgument, json_flag
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 
 
 @app.command()
 @guarded
 def codegen(
-    robot: Annotated[str, typer.Argument(help="Catalog robot name or robot file (YAML, URDF).")],
+    robot: RobotArgument,
     out: Annotated[str | None, typer.Option(
         "--out", help="Folder to write the code into (created if missing).")] = None,
     lang: Annotated[str, typer.Option("--lang", help="numba or c.")] = "numba",
     stats: Annotated[bool, typer.Option(
         "--stats", help="Print the operation counts of the generated code.")] = False,
-    as_json: Annotated[bool, typer.Option("--json", help="Print the counts as JSON.")] = False,
+    as_json: json_flag("Print the counts as JSON.") = False,
     prefix: Annotated[str | None, typer.Option(
         "--prefix", help="C identifier prefix of the file and function names "
                          "(default: the robot's name).")] = None,

@@ -24,6 +24,7 @@ from rich import box
 from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
+from manipcad.cli.options import RobotArgument, dt_option, json_flag
 from manipcad.errors import ManipcadWarning
 
 STYLE = {"decoupled": "green", "inertial": "yellow", "full": "red"}
@@ -36,15 +37,15 @@ def _pct(x: float) -> str:
 @app.command()
 @guarded
 def coupling(
-    robot: Annotated[str, typer.Argument(help="Catalog robot name or robot file (YAML, URDF).")],
+    robot: RobotArgument,
     trajectory: Annotated[str, typer.Option(
         "--trajectory", "-t", help="Trajectory YAML file (docs/trajectories.md).")],
-    dt: Annotated[float, typer.Option("--dt", help="Sampling step, s.")] = 1e-3,
+    dt: dt_option("Sampling step, s.") = 1e-3,
     threshold: Annotated[float, typer.Option(
         "--threshold", help="Classification threshold, a fraction (0.05 = 5 %).")] = 0.05,
     rotor: Annotated[bool, typer.Option(
         "--rotor", help="Count the rotor inertia J·i_r² as the joint's own inertia.")] = False,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
+    as_json: json_flag() = False,
 ) -> None:
     """Coupling, velocity and gravity constituents next to each joint's own inertia."""
     from manipcad.analysis.coupling import coupling_analysis

@@ -29,6 +29,14 @@ from rich import box
 from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
+from manipcad.cli.options import (
+    Scheduler,
+    Workers,
+    dt_option,
+    progress_flag,
+    strict_flag,
+    ws_option,
+)
 from manipcad.errors import InputError
 
 
@@ -82,30 +90,24 @@ def design(
         "them only.")] = "none",
     period: Annotated[float, typer.Option(
         "--period", help="The regulators' control period, s (a multiple of --dt).")] = 1e-3,
-    dt: Annotated[float, typer.Option("--dt", help="Integration step (RK4), s.")] = 1e-4,
+    dt: dt_option("Integration step (RK4), s.") = 1e-4,
     max_methods: Annotated[int, typer.Option(
         "--max-methods", help="How many of the rules' methods are verified.")] = 4,
     max_iterations: Annotated[int, typer.Option(
         "--max-iterations", help="Rounds of the decision (tighter synthesis, next drive "
         "up) before giving up.")] = 3,
-    strict: Annotated[bool, typer.Option(
-        "--strict", help="A check that is unknown counts as failed.")] = False,
-    workers: Annotated[int | None, typer.Option(
-        "--workers", help="Worker processes of a local Dask cluster (default one per core; "
-        "1: serial).")] = None,
-    scheduler: Annotated[str | None, typer.Option(
-        "--scheduler", help="Address of a running Dask scheduler, tcp://HOST:PORT.")] = None,
-    progress: Annotated[bool, typer.Option(
-        "--progress/--no-progress", help="Show a progress bar of the runs.")] = True,
+    strict: strict_flag() = False,
+    workers: Workers = None,
+    scheduler: Scheduler = None,
+    progress: progress_flag("the runs") = True,
     store_runs: Annotated[str, typer.Option(
         "--store-runs", help="Runs stored as result folders in DESIGN/runs: final (the "
         "chosen design's), all (every run of the sweep; large), none.")] = "final",
     compare_selection: Annotated[bool, typer.Option(
         "--compare-selection/--no-compare-selection", help="For each counterweight "
         "proposed, the drive the catalogue selection picks without and with it.")] = True,
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Workspace: the robot and trajectories may be its item names, and the "
-        "design is stored there as studies/OUT (without the run cache).")] = None,
+    ws: ws_option("Workspace: the robot and trajectories may be its item names, and the "
+        "design is stored there as studies/OUT (without the run cache).") = None,
 ) -> None:
     """The automated design: drives, decoupling, method, regulators, verification, C code."""
     if not (math.isfinite(uncertainty) and 0 <= uncertainty < 100):

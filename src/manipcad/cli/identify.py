@@ -35,6 +35,7 @@ from rich import box
 from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
+from manipcad.cli.options import RobotArgument, json_flag, ws_option
 from manipcad.errors import InputError, ManipcadWarning
 
 
@@ -73,7 +74,7 @@ def parse_joints(text: str | None, robot, option: str = "--joints") -> list[int]
 @app.command()
 @guarded
 def identify(
-    robot: Annotated[str, typer.Argument(help="Catalog robot name or robot file (YAML, URDF).")],
+    robot: RobotArgument,
     data: Annotated[str, typer.Option("--data", help="CSV file of samples: q and tau or "
                                       "current, optionally qd, qdd and t (SI units), or a "
                                       "stored result's timeseries.csv, or a stored result "
@@ -102,9 +103,8 @@ def identify(
     drives: Annotated[bool, typer.Option(
         "--drives/--no-drives", help="The torques include the drive terms (rotor inertia, "
         "friction) of the robot's drives.")] = True,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Workspace: the inputs may be its item names.")] = None,
+    as_json: json_flag() = False,
+    ws: ws_option("Workspace: the inputs may be its item names.") = None,
 ) -> None:
     """Identify an unknown payload mass from measured drive torques or currents."""
     from manipcad.dynamics.identification import (
@@ -184,7 +184,6 @@ def identify(
 
 def _load_data(data: str, model):
     """A CSV file (load_torque_data), or a stored result folder (its full-precision arrays)."""
-    from pathlib import Path
 
     from manipcad.dynamics.identification import load_torque_data, result_torque_data
 

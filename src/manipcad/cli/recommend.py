@@ -31,6 +31,7 @@ from rich import box
 from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
+from manipcad.cli.options import json_flag
 from manipcad.errors import InputError, ManipcadWarning
 
 
@@ -56,7 +57,7 @@ def recommend(
     top: Annotated[int, typer.Option("--top", help="Candidates --verify simulates.")] = 3,
     rules: Annotated[str | None, typer.Option(
         "--rules", help="Another rule file (default: the package's rules.yaml).")] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")] = False,
+    as_json: json_flag() = False,
 ) -> None:
     """Recommend synthesis methods for a drive's requirements, least complexity first."""
     from manipcad.expert import Requirements

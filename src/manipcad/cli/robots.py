@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 import math
 import warnings
-from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
@@ -21,6 +20,7 @@ import typer
 from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
+from manipcad.cli.options import RobotArgument, json_flag, ws_option
 from manipcad.errors import ManipcadWarning
 from manipcad.fileio import json_safe
 from manipcad.model.robot import loader_notes
@@ -45,10 +45,9 @@ def _num(x: float, fmt: str = ".4g") -> str:
 @robots_app.command("list")
 @guarded
 def list_catalog(
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Also list the robots, motors and gears of this workspace (origin "
-        "column).")] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+    ws: ws_option("Also list the robots, motors and gears of this workspace (origin "
+        "column).") = None,
+    as_json: json_flag("Print JSON.") = False,
 ) -> None:
     """List the robots, motors and gears: the built-in catalog (read-only) and, with --ws, the
     workspace's own (SI units)."""
@@ -173,13 +172,9 @@ def robot_summary(robot: Any) -> dict[str, Any]:
 @robots_app.command("show")
 @guarded
 def show(
-    name_or_file: Annotated[str, typer.Argument(
-        help="A catalog robot name (see 'manipcad robots list'), a robot file (DH, URDF + "
-        "drives or tree form, docs/robot-files.md) or a .urdf file.")],
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
-    = False,
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Workspace: the robot may be its item name.")] = None,
+    name_or_file: RobotArgument,
+    as_json: json_flag() = False,
+    ws: ws_option("Workspace: the robot may be its item name.") = None,
 ) -> None:
     """Show a robot: joints (type, parent, limits, mass, drive) and totals, SI units."""
     from manipcad.model.load import load_robot

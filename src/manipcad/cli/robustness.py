@@ -22,6 +22,14 @@ from rich.markup import escape
 from rich.table import Table
 
 from manipcad.cli.app import console, guarded
+from manipcad.cli.options import (
+    Scheduler,
+    Workers,
+    dt_option,
+    payload_option,
+    progress_flag,
+    t_end_option,
+)
 from manipcad.cli.study import study_app
 
 
@@ -43,19 +51,13 @@ def robustness(
     speed_scale: Annotated[float, typer.Option(
         "--speed-scale", help="Speed scale of laws (2) (time-scaled down where the sizing "
         "fails).")] = 1.0,
-    payload: Annotated[float | None, typer.Option(
-        "--payload", help="Nominal payload at the gripper, kg (default: the arm's).")] = None,
+    payload: payload_option("Nominal payload at the gripper, kg (default: the arm's).") = None,
     seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
-    t_end: Annotated[float | None, typer.Option(
-        "--t-end", help="Length of each run, s (default the laws' duration).")] = None,
-    dt: Annotated[float, typer.Option("--dt", help="Integration step, s.")] = 1e-4,
-    workers: Annotated[int | None, typer.Option(
-        "--workers", help="Worker processes of a local Dask cluster (default one per core; "
-        "1: serial, no cluster).")] = None,
-    scheduler: Annotated[str | None, typer.Option(
-        "--scheduler", help="Address of a running Dask scheduler, tcp://HOST:PORT.")] = None,
-    progress: Annotated[bool, typer.Option(
-        "--progress/--no-progress", help="Show a progress bar of samples done.")] = True,
+    t_end: t_end_option("Length of each run, s (default the laws' duration).") = None,
+    dt: dt_option() = 1e-4,
+    workers: Workers = None,
+    scheduler: Scheduler = None,
+    progress: progress_flag("samples done") = True,
 ) -> None:
     """Robustness: each method's max error over arms with link masses, motor constants and
     payload off by up to ±PCT %; writes robustness.json and robustness.png into --out."""

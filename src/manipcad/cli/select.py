@@ -28,6 +28,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
+from manipcad.cli.options import dt_option, force_flag, json_flag, payload_option, ws_option
 from manipcad.errors import InputError
 
 
@@ -62,9 +63,8 @@ def select(
         "trajectory; repeat for several.")],
     out: Annotated[Path, typer.Option(
         "--out", "-o", help="The robot file to write, with the chosen drives (tree form).")],
-    payload: Annotated[float | None, typer.Option(
-        "--payload", help="Payload mass, kg, at the robot's tool point (added to any "
-        "payload the robot file gives).")] = None,
+    payload: payload_option("Payload mass, kg, at the robot's tool point (added to any "
+        "payload the robot file gives).") = None,
     payload_range: Annotated[str | None, typer.Option(
         "--payload-range", help="LO,HI: payload masses, kg; both ends are checked.")] = None,
     objective: Annotated[str, typer.Option(
@@ -85,19 +85,18 @@ def select(
     mount: Annotated[list[str] | None, typer.Option(
         "--mount", help="JOINT=before|base: where that joint's drive mass sits (default "
         "before: on the link before the joint); repeat.")] = None,
-    dt: Annotated[float, typer.Option("--dt", help="Sampling step, s.")] = 1e-3,
+    dt: dt_option("Sampling step, s.") = 1e-3,
     allow_unknown: Annotated[bool, typer.Option(
         "--allow-unknown", help="Accept a candidate with a check that cannot be made "
         "(a rating or the gear efficiency unknown).")] = False,
     count_all: Annotated[bool, typer.Option(
         "--count-all", help="Evaluate every candidate, so that the feasible counts are "
         "complete (else the search stops after the winner and five alternatives).")] = False,
-    as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
-    force: Annotated[bool, typer.Option("--force", help="Replace an existing --out file.")]
+    as_json: json_flag("Print the report as JSON.") = False,
+    force: force_flag("Replace an existing --out file.")
     = False,
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Workspace: the robot and trajectories may be its item names, and its "
-        "motor and gear files join the catalogue.")] = None,
+    ws: ws_option("Workspace: the robot and trajectories may be its item names, and its "
+        "motor and gear files join the catalogue.") = None,
 ) -> None:
     """Choose each joint's motor and gear from the catalogue: the lightest (or least
     inertia, or least power) drive that passes every size check on every trajectory at

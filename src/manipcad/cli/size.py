@@ -31,6 +31,15 @@ from rich.markup import escape
 from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
+from manipcad.cli.options import (
+    RobotArgument,
+    dt_option,
+    json_flag,
+    payload_option,
+    strict_flag,
+    t_end_option,
+    ws_option,
+)
 from manipcad.errors import InputError, ManipcadWarning
 from manipcad.fileio import json_safe
 
@@ -47,33 +56,27 @@ def _fmt(x: float, unit: str = "", fmt: str = ".4g") -> str:
 @app.command("size")
 @guarded
 def size(
-    robot: Annotated[str, typer.Argument(
-        help="A catalog robot name (see 'manipcad robots list'), a robot file (DH, URDF + "
-        "drives or tree form, docs/robot-files.md) or a .urdf file.")],
+    robot: RobotArgument,
     trajectory: Annotated[str, typer.Option(
         "--trajectory", "-t", help="Trajectory YAML file (see docs/trajectories.md) or a "
         "workspace trajectory's name.")],
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of tables.")]
+    as_json: json_flag()
     = False,
     plot: Annotated[Path | None, typer.Option(
         "--plot", help="Write the torque-speed plot to this image file (.png, .pdf, .svg).")]
     = None,
-    dt: Annotated[float, typer.Option("--dt", help="Sampling step, s.")] = 1e-3,
-    payload: Annotated[float | None, typer.Option(
-        "--payload", help="Payload mass, kg: a point mass at the robot's tool point (a "
-        "payload with a centre of mass on a named link goes in the robot file).")] = None,
-    t_end: Annotated[float | None, typer.Option(
-        "--t-end", help="End of the run, s (default the trajectory's duration).")] = None,
+    dt: dt_option("Sampling step, s.") = 1e-3,
+    payload: payload_option("Payload mass, kg: a point mass at the robot's tool point (a "
+        "payload with a centre of mass on a named link goes in the robot file).") = None,
+    t_end: t_end_option("End of the run, s (default the trajectory's duration).") = None,
     allow_unknown: Annotated[bool, typer.Option(
         "--allow-unknown", help="Exit 0 even when a check cannot be made (a rating or the "
         "motor's electrical data unknown); failed checks still exit 1.")] = False,
-    strict: Annotated[bool, typer.Option(
-        "--strict", help="Take assumed values as unknown: a gear efficiency the data sheet "
+    strict: strict_flag("Take assumed values as unknown: a gear efficiency the data sheet "
         "does not print (the library's stated strain-wave assumption, docs/catalog.md) and "
         "any other value a part marks assumed; the checks resting on them are then unknown "
-        "(or fail when they fail even through a lossless gear).")] = False,
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Workspace: the inputs may be its item names.")] = None,
+        "(or fail when they fail even through a lossless gear).") = False,
+    ws: ws_option("Workspace: the inputs may be its item names.") = None,
     ratio_sweep: Annotated[str | None, typer.Option(
         "--ratio-sweep", help="Sweep the gear ratio |i_r| of the --sweep-joint joints over "
         "LO:HI:N (N values spaced evenly in log): feasible range and best ratio.")] = None,

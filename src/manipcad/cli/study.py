@@ -24,6 +24,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
+from manipcad.cli.options import dt_option, t_end_option, ws_option
 
 study_app = typer.Typer(help="Reproduce the paper's experiments (Fig. 3, pickup).",
                         no_args_is_help=True)
@@ -45,12 +46,10 @@ def fig3(
     out: Annotated[str, typer.Option(
         "--out", "-o", help="Output directory (created); with --ws the study's NAME in the "
         "workspace.")],
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Workspace: the study folder is stored and indexed there "
-        "(studies/NAME).")] = None,
-    dt: Annotated[float, typer.Option("--dt", help="Integration step, s.")] = 1e-4,
-    t_end: Annotated[float | None, typer.Option(
-        "--t-end", help="Length of the laws (2) runs, s (default 1.6).")] = None,
+    ws: ws_option("Workspace: the study folder is stored and indexed there "
+        "(studies/NAME).") = None,
+    dt: dt_option() = 1e-4,
+    t_end: t_end_option("Length of the laws (2) runs, s (default 1.6).") = None,
     methods: Annotated[str | None, typer.Option(
         "--methods", help="Comma-separated subset of: none, none_sce, ace_tf, ace_de, lqr, "
                           "lqr_gs, vss, asvs (default all).")] = None,
@@ -135,7 +134,7 @@ def pickup(
     mass: Annotated[float, typer.Option("--mass", help="Payload gripped, kg (> 0).")] = 0.1,
     t_pick: Annotated[float, typer.Option("--t-pick", help="When it is gripped, s.")] = 0.6,
     t_end: Annotated[float, typer.Option("--t-end", help="Length of the run, s.")] = 1.6,
-    dt: Annotated[float, typer.Option("--dt", help="Integration step, s.")] = 1e-4,
+    dt: dt_option() = 1e-4,
     noise: Annotated[float, typer.Option(
         "--noise", help="Std of the current noise the estimator reads, A.")] = 0.02,
     forgetting: Annotated[float | None, typer.Option(

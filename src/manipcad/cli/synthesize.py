@@ -34,6 +34,7 @@ from rich import box
 from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
+from manipcad.cli.options import dt_option, force_flag, json_flag, ws_option
 from manipcad.control import realization_complexity
 from manipcad.errors import InputError
 
@@ -106,16 +107,14 @@ def synthesize(
     rounds: Annotated[int, typer.Option(
         "--rounds", help="With --spec max_error and -t: the most coupled simulations of the "
         "verify-and-tighten loop (0: design on the nominal model only).")] = 6,
-    dt: Annotated[float, typer.Option(
-        "--dt", help="Integration step of those simulations, s.")] = 1e-4,
+    dt: dt_option("Integration step of those simulations, s.") = 1e-4,
     out: Annotated[str | None, typer.Option(
         "--out", "-o", help="Regulator file to write (YAML); with --ws the regulator's NAME "
         "in the workspace.")] = None,
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Workspace: the robot may be its item name, and the regulator file is "
-        "stored and indexed there (regulators/NAME).")] = None,
-    force: Annotated[bool, typer.Option("--force", help="Replace an existing file.")] = False,
-    as_json: Annotated[bool, typer.Option("--json", help="Print the file as JSON.")] = False,
+    ws: ws_option("Workspace: the robot may be its item name, and the regulator file is "
+        "stored and indexed there (regulators/NAME).") = None,
+    force: force_flag("Replace an existing file.") = False,
+    as_json: json_flag("Print the file as JSON.") = False,
     list_methods: Annotated[bool, typer.Option(
         "--list", help="List the methods with their signals, complexity and section.")]
     = False,

@@ -32,6 +32,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
+from manipcad.cli.options import RobotArgument, dt_option, json_flag, payload_option
 from manipcad.errors import InputError, ManipcadWarning
 
 
@@ -69,11 +70,11 @@ def _accuracy(accuracy: float | None, spec: list[str] | None,
 @app.command()
 @guarded
 def verify(
-    robot: Annotated[str, typer.Argument(help="A catalog robot name or a robot file.")],
+    robot: RobotArgument,
     trajectory: Annotated[Path, typer.Option("--trajectory", "-t", help="Trajectory file.")],
     regulator: Annotated[list[Path], typer.Option(
         "--regulator", "-r", help="Regulator file (from manipcad synthesize); repeat.")],
-    dt: Annotated[float, typer.Option("--dt", help="Integration step, s.")] = 1e-4,
+    dt: dt_option() = 1e-4,
     factor: Annotated[float, typer.Option(
         "--factor", help="A promise is exceeded when the error is over it this many times.")]
     = 2.0,
@@ -85,9 +86,8 @@ def verify(
     requirements: Annotated[Path | None, typer.Option(
         "--requirements", help="A requirements file: its accuracy is the accuracy asked.")]
     = None,
-    payload: Annotated[float | None, typer.Option(
-        "--payload", help="Payload mass at the robot's tool point, kg.")] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+    payload: payload_option("Payload mass at the robot's tool point, kg.") = None,
+    as_json: json_flag("Print JSON.") = False,
 ) -> None:
     """Simulate the robot with the regulators; check every rating, the accuracy asked and
     each regulator's promise."""

@@ -30,6 +30,7 @@ from rich import box
 from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
+from manipcad.cli.options import force_flag
 from manipcad.errors import InputError
 
 ws_app = typer.Typer(help="The workspace: add, list, compare and re-run robots, motors, "
@@ -97,8 +98,7 @@ def add(source: Annotated[Path, typer.Argument(
                            "(default: recognized from the content).")] = None,
         name: Annotated[str | None, typer.Option(
             "--name", help="The item's name (default: the file name).")] = None,
-        force: Annotated[bool, typer.Option(
-            "--force", help="Replace an item of the same kind and name.")] = False,
+        force: force_flag("Replace an item of the same kind and name.") = False,
         robot: Annotated[str | None, typer.Option(
             "--robot", help="Check a regulator or Cartesian trajectory against this robot "
                             "(workspace name, catalog name or file).")] = None,

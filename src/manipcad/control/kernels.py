@@ -71,26 +71,26 @@ def sce_output(p, sig, j):
 
 
 @nb.njit(cache=True)
+def _grid_cell(x, x0, dx, n):
+    """The cell of x on the uniform grid x0 + k·dx, k = 0..n-1, clamped to its edges:
+    (index of the cell's lower corner, fraction 0..1 across the cell); (0, 0.0) for n = 1."""
+    if n > 1:
+        f = (x - x0) / dx
+        f = min(max(f, 0.0), n - 1.0)
+        i = min(int(f), n - 2)
+        return i, f - i
+    return 0, 0.0
+
+
+@nb.njit(cache=True)
 def table_lookup(p, base, nH, nV, H0, dH, V0, dV, H, h):
     """Bilinear interpolation in a gain table stored row-major (nH × nV) from ``p[base]``.
 
     The grid is uniform: H_ii = H0 + a·dH (kg·m²), h = V0 + b·dV (N·m·s/rad); the point
     is clamped to the grid's edges. Returns the interpolated gain.
     """
-    if nH > 1:
-        fH = (H - H0) / dH
-        fH = min(max(fH, 0.0), nH - 1.0)
-        iH = min(int(fH), nH - 2)
-        tH = fH - iH
-    else:
-        iH, tH = 0, 0.0
-    if nV > 1:
-        fV = (h - V0) / dV
-        fV = min(max(fV, 0.0), nV - 1.0)
-        iV = min(int(fV), nV - 2)
-        tV = fV - iV
-    else:
-        iV, tV = 0, 0.0
+    iH, tH = _grid_cell(H, H0, dH, nH)
+    iV, tV = _grid_cell(h, V0, dV, nV)
     g00 = p[base + iH * nV + iV]
     g01 = p[base + iH * nV + iV + 1] if nV > 1 else g00
     g10 = p[base + (iH + 1) * nV + iV] if nH > 1 else g00

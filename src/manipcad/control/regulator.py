@@ -121,7 +121,17 @@ def current_limit(drive) -> float:
     lim = [v for v in lim if math.isfinite(v) and v > 0]
     if lim:
         return min(lim)
-    ulim = u_limit(drive)
-    if math.isfinite(ulim) and drive.R > 0:
-        return drive.k_u * ulim / drive.R
-    return math.inf
+    stall = stall_current(drive)
+    return stall if math.isfinite(stall) else math.inf
+
+
+def stall_current(drive) -> float:
+    """The current the voltage bound drives through the winding at rest, k_u·u_limit/R, A
+    (nan without a resistance, inf without a voltage bound).
+
+    Example:
+        >>> from manipcad.model.robot import Drive
+        >>> round(stall_current(Drive(R=1.5, k_u=1.0, u_max=48.0)), 1)
+        32.0
+    """
+    return drive.k_u * u_limit(drive) / drive.R if drive.R > 0 else math.nan

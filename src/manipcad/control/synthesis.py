@@ -16,7 +16,7 @@ import warnings
 from manipcad.control.design import inertia_range
 from manipcad.control.method import Method
 from manipcad.control.registry import method
-from manipcad.control.regulator import current_limit, u_limit
+from manipcad.control.regulator import current_limit, stall_current, u_limit
 from manipcad.control.sampled import check_sampled
 from manipcad.errors import ManipcadError, ManipcadWarning
 from manipcad.model.hashing import robot_hash
@@ -106,7 +106,7 @@ def drive_bounds(drive, reg) -> dict:
             must, and the run checks' ``current_peak`` tells whether a run exceeds it).
     """
     ulim = u_limit(drive)
-    stall = drive.k_u * ulim / drive.R if drive.R > 0 else math.nan
+    stall = stall_current(drive)
     peak = drive.peak_current
     if math.isfinite(stall) and math.isfinite(peak) and stall > 1.05 * peak:
         names = ", ".join(reg.joint_names)

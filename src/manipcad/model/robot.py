@@ -184,6 +184,20 @@ class Drive:
         return float(self.peak_torque) / float(self.k_m)
 
     @property
+    def continuous_current(self) -> float:
+        """The motor's continuous armature current, A: rated_torque/k_m, else (no rated
+        torque) rated_current; nan if unknown.
+
+        Example:
+            >>> Drive(k_m=0.1, rated_torque=0.5).continuous_current, Drive(rated_current=4.9
+            ...                                                             ).continuous_current
+            (5.0, 4.9)
+        """
+        if math.isfinite(float(self.rated_torque)):
+            return float(self.rated_torque) / float(self.k_m)
+        return float(self.rated_current)
+
+    @property
     def has_electrics(self) -> bool:
         """True when R, L, k_m and k_w are all known (the drive can be simulated)."""
         return all(np.isfinite([self.R, self.L, self.k_m, self.k_w]))

@@ -24,9 +24,9 @@ The checks (docs/checks.md gives each formula, limit and the source of the ratin
   period T_s sets (U is held between samples). The limit is ``max_chatter`` reversals
   per second (default 50: a full-amplitude input oscillation of 25 Hz).
 - ``current_rms``, ``current_peak``: RMS and peak armature current against the motor's
-  continuous current (``Drive.rated_torque``/k_m, else ``Drive.rated_current``) and
-  peak current (``Drive.peak_torque``/k_m), A: the sizing's "continuous" and "peak"
-  ratings in amperes.
+  continuous current (``Drive.continuous_current``: rated_torque/k_m, else
+  rated_current) and peak current (``Drive.peak_current``: peak_torque/k_m), A: the
+  sizing's "continuous" and "peak" ratings in amperes.
 - ``speed``, ``gear_continuous``, ``gear_peak``, ``gear_speed``, ``gear_average``,
   ``gear_average_speed``: the same checks ``size`` makes on a trajectory
   (:func:`manipcad.sizing.limits.check_rated`), on the simulated motion: motor speed
@@ -400,10 +400,8 @@ def run_checks(result, robot: Robot, *, accuracy=None, payload=None,
 
     # the motor: current (A), speed; the gear: the sizing's checks on the simulated motion
     rated, geared = rating_table(drives)
-    k_m = np.array([d.k_m if d is not None else np.nan for d in drives])
-    rated_i = np.array([d.rated_current if d is not None else np.nan for d in drives])
-    i_cont = np.where(np.isfinite(rated["continuous"]), rated["continuous"] / k_m, rated_i)
-    i_peak = rated["peak"] / k_m
+    i_cont = np.array([d.continuous_current if d is not None else np.nan for d in drives])
+    i_peak = np.array([d.peak_current if d is not None else np.nan for d in drives])
     cur = np.asarray(result.current, dtype=float)
     i_rms, i_pk = time_rms(cur, t), peak(cur)
     for name, value, limit in (("current_rms", i_rms, i_cont), ("current_peak", i_pk, i_peak)):

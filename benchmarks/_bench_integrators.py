@@ -73,7 +73,7 @@ def _compare(title, run, cases, rounds, t_end):
     print the table and return its figures."""
     for kw in cases.values():  # warm-up (compile or load the cache)
         run(**kw)
-    truth, w_truth = _timed(lambda: run(dt=1e-5, record_every=100))
+    truth, w_truth = _timed(lambda: run(dt=1e-5, every=100))
     rows = {c: {"case": c, "wall": [], "ratios": []} for c in cases}
     for _ in range(rounds):
         base_w = None
@@ -111,7 +111,7 @@ def puma_part(rounds: int, t_end: float) -> dict:
         return [pid(j, kp=KP[j], kd=KD[j], kff=KFF[j], u_limit=U_LIMIT, period=1e-3)
                 for j in range(6)]
 
-    general = dict(dt=1e-4, record_every=10, use_generated=False)
+    general = dict(dt=1e-4, every=10, use_generated=False)
     cases = {"RK4 dt 1e-4": general,
              "adaptive (rtol 1e-6, atol 1e-8)": dict(general, integrator="adaptive",
                                                      rtol=1e-6, atol=1e-8),
@@ -159,11 +159,11 @@ def cylindrical_part(rounds: int, t_end: float) -> dict:
                     return simulate(robot, t_end=t_end, trajectory=traj, regulators=regs,
                                     **kw)
 
-            cases = {"RK4 dt 1e-4": dict(dt=1e-4, record_every=10),
-                     "adaptive": dict(dt=1e-4, record_every=10, integrator="adaptive"),
-                     "adaptive-exact": dict(dt=1e-4, record_every=10,
+            cases = {"RK4 dt 1e-4": dict(dt=1e-4, every=10),
+                     "adaptive": dict(dt=1e-4, every=10, integrator="adaptive"),
+                     "adaptive-exact": dict(dt=1e-4, every=10,
                                             integrator="adaptive-exact"),
-                     "adaptive-exact-bs32": dict(dt=1e-4, record_every=10,
+                     "adaptive-exact-bs32": dict(dt=1e-4, every=10,
                                                  integrator="adaptive-exact-bs32")}
             out[f"{method}, {vname}"] = _compare(
                 f"cylindrical arm, {method} on turn + PID lift + LQR reach at 1 kHz, "
@@ -183,7 +183,7 @@ def _urdf_text() -> str:
 
 def ur5_manipcad(robot, t_end, dt, period, integrator="rk4", record=True, **kw):
     """Our UR5 job; positions every 1 ms (``record``), or only at t_end (rows of nan
-    before, as :func:`ur5_drake`: ``record_every`` the whole run, so the result keeps
+    before, as :func:`ur5_drake`: ``every`` the whole run, so the result keeps
     t = 0 and t_end)."""
     regs = [pid(j, kp=UR5_KP[j], kd=UR5_KD[j], period=period) for j in range(6)]
 
@@ -196,7 +196,7 @@ def ur5_manipcad(robot, t_end, dt, period, integrator="rk4", record=True, **kw):
     every = max(1, int(round(1e-3 / dt))) if record else K
     kw.setdefault("use_generated", False)
     res = simulate(robot, t_end=t_end, dt=dt, trajectory=Hold(), q0=UR5_Q0,
-                   regulators=regs, drives=False, record_every=every,
+                   regulators=regs, drives=False, every=every,
                    integrator=integrator, joint_limits="ignore", **kw)
     q = res.q
     if not record:

@@ -28,7 +28,7 @@ What is timed (``time.perf_counter``, wall clock, per state):
   inductance, PD, dt = 1e-4 s, RK4, 1 s): ``simulate`` with
   ``use_generated=True`` and ``False``, wall time and real-time factor; and,
   labelled as variants (not the benchmark's job), the generated run with the PD
-  sampled every 1 ms, and that with only every 10th step kept (``record_every``);
+  sampled every 1 ms, and that with only every 10th step kept (``every``);
 * generation: ``generate`` of a 7-joint arm (the xArm7 URDF) into an empty
   cache (symbolic work, cse and printing), then the first numba compile of
   its inverse dynamics kernel, then a second ``generate`` (cache hit).
@@ -114,13 +114,13 @@ def loop_aba(table, g, Q, QD, T, OUT):
     """The same loop with the general ABA inlined (what sim/loop.py does today)."""
     n = Q.shape[1]
     q, qd, tau, qdd = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    work, tmp, fext = np.empty((n, ABA_WORK)), np.empty((23, 6)), np.zeros((n, 6))
+    work, fext = np.empty((n, ABA_WORK)), np.zeros((n, 6))
     for k in range(Q.shape[0]):
         for j in range(n):
             q[j] = Q[k, j]
             qd[j] = QD[k, j]
             tau[j] = T[k, j]
-        aba_state(table, g, q, qd, tau, fext, False, True, work, tmp, qdd)
+        aba_state(table, g, q, qd, tau, fext, False, True, work, qdd)
         for j in range(n):
             OUT[k, j] = qdd[j]
 
@@ -135,10 +135,10 @@ def loop_rates(plant, X, U, D, OUT):
     # as in sim/loop.py run: the arrays without owners (no reference counts per state)
     plant, bare = borrowed((plant, own))
     K4, scr = bare
-    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scr
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, comp = scr
     for k in range(X.shape[0]):
         _rates(row(X, k), row(U, k), row(D, k), n, plant, q, qd, xd, dxd, tau, qdd, K4, 0,
-               fext, awork, tmp)
+               fext, awork)
         for j in range(nx):
             OUT[k, j] = K4[0, j]
     keep(own)
@@ -281,7 +281,7 @@ def bench_simulator(rounds: int, rng) -> dict:
         def run() -> float:
             t = time.perf_counter()
             res = simulate(robot, t_end=1.0, dt=DT, trajectory=traj, regulators=regulators,
-                           use_generated=use, record_every=every)
+                           use_generated=use, every=every)
             if regulators is regs and every == 1:
                 used[use] = (res.settings["generated"], res.q[-1])
             return time.perf_counter() - t
@@ -292,7 +292,7 @@ def bench_simulator(rounds: int, rng) -> dict:
     cases = {"simulate, generated kernels": case(True),
              "simulate, general kernels": case(False),
              "(variant) generated, the PD sampled every 1 ms": case(True, regs_1ms),
-             "(variant) generated, PD every 1 ms, record_every=10": case(True, regs_1ms, 10)}
+             "(variant) generated, PD every 1 ms, every=10": case(True, regs_1ms, 10)}
     for f in cases.values():
         f()
     times = interleave(cases, rounds, rng)

@@ -53,7 +53,7 @@ def job(robot, dt: float, integrator: str = "rk4", use_generated: bool = False):
     t0 = time.perf_counter()
     res = simulate(robot, t_end=T_END, dt=dt, trajectory=quintic(Q_START, Q_END, T_MOVE),
                    regulators=regs, integrator=integrator, use_generated=use_generated,
-                   record_every=int(round(KEEP / dt)))
+                   every=int(round(KEEP / dt)))
     return res, time.perf_counter() - t0
 
 

@@ -35,10 +35,9 @@ def _rnea_loop(table, g, Q, QD, QDD, out):
     n = Q.shape[1]
     fext = np.zeros((n, 6))
     work = np.empty((n, RNEA_WORK))
-    tmp = np.empty((6, 3))
     tau = np.empty(n)
     for t in range(Q.shape[0]):
-        rnea_one(table, g, Q[t], QD[t], QDD[t], fext, False, True, work, tmp, tau)
+        rnea_one(table, g, Q[t], QD[t], QDD[t], fext, False, True, work, tau)
         out[t] = tau[0]
 
 

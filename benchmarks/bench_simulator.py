@@ -216,11 +216,10 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
         dxd = np.empty(nx - 2 * n)
         fext = np.zeros((n, 6))
         work = np.empty((n, ABA_WORK))
-        tmp = np.empty((23, 6))
         s = 0.0
         for _ in range(reps):
             x[0] += 1e-12
-            _rates(x, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, 0, fext, work, tmp)
+            _rates(x, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, 0, fext, work)
             s += K4[0, n]
         return s
 
@@ -230,13 +229,12 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
         qdd = np.empty(n)
         fext = np.zeros((n, 6))
         work = np.empty((n, ABA_WORK))
-        tmp = np.empty((23, 6))
         s = 0.0
         q = x[:n].copy()
         qd = x[n:2 * n].copy()
         for _ in range(reps):
             q[0] += 1e-12
-            aba_one(rtable, g, q, qd, tau, fext, False, True, work, tmp, qdd)
+            aba_one(rtable, g, q, qd, tau, fext, False, True, work, qdd)
             s += qdd[0]
         return s
 

@@ -12,7 +12,7 @@ dt = 1e-4 s, along a quintic move of every joint; then the result is stored:
   npz and a CSV of the same arrays), emulated with ``np.savez`` + ``write_csv``;
 * new, every step: ``save_result(..., csv=False)``, float64 compressed npz;
 * new, at the regulator period: the same run recorded every
-  ``record_every_for(dt, periods)`` steps (here 10), as ``--record-every``
+  ``every_for(dt, periods)`` steps (here 10), as ``--record-every``
   or the default of a workspace run would.
 
 Sizes are bytes of the folders' files (metrics.json, inputs and errors.png
@@ -45,7 +45,7 @@ def main() -> None:
     from manipcad.control import load_regulators
     from manipcad.errors import ManipcadWarning
     from manipcad.sim import simulate
-    from manipcad.store.results import record_every_for, result_arrays, save_result, write_csv
+    from manipcad.store.results import every_for, result_arrays, save_result, write_csv
     from manipcad.trajectories import quintic
 
     root = Path(__file__).resolve().parents[1]
@@ -56,14 +56,14 @@ def main() -> None:
     regs = load_regulators(root / "examples" / "pid_puma.yaml", arm, dt=dt)
     q0 = np.array([0.0, 0.5, -0.5, 0.0, 0.3, 0.0])
     traj = quintic(q0, q0 + 0.3, args.t_end)
-    every = record_every_for(dt, [r.period for r in regs])
+    every = every_for(dt, [r.period for r in regs])
     out: dict[str, float] = {"t_end_s": args.t_end, "dt_s": dt, "joints": arm.n,
-                             "record_every": every}
+                             "every": every}
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         full = simulate(arm, t_end=args.t_end, dt=dt, trajectory=traj, regulators=regs)
         kept = simulate(arm, t_end=args.t_end, dt=dt, trajectory=traj, regulators=regs,
-                        record_every=every)
+                        every=every)
         old = tmp / "old"
         save_result(full, old, joint_types=arm.joint_types, csv=False)
         (old / "timeseries.npz").unlink()

@@ -237,7 +237,7 @@ def _prewarm_plant() -> None:
 
     plant, _, _, _, work = _core_arguments("rk4")[:5]
     n, nx = plant.rtable.shape[0], work.x.shape[0]
-    q, qd, _, xd, dxd, tau, _, H, _, _, _, comp = loop.scratch(n, nx)
+    q, qd, _, xd, dxd, tau, _, H, _, _, comp = loop.scratch(n, nx)
     cq, cqd, zero, rwork, cwork, tmp, Hii, hv, qg = comp
     _compile(components_one, plant.ctable, plant.g, cq, cqd, zero, rwork, cwork, tmp, H,
              Hii, hv, qg)

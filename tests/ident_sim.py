@@ -113,7 +113,7 @@ def run(name: str, stops: int = 14, move_time: float = 0.7, dwell: float = 0.5,
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
         res = simulate(robot, t_end=traj.duration, dt=dt, trajectory=traj, regulators=regs,
-                       payload=payload, record_every=every)
+                       payload=payload, every=every)
     noise = np.random.default_rng(seed + 1)
     tau = res.tau + noise.normal(size=res.tau.shape) * NOISE * np.sqrt(np.mean(res.tau**2, 0))
     cur = res.current + noise.normal(size=res.current.shape) * NOISE * np.sqrt(

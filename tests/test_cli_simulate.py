@@ -14,10 +14,10 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
+from manipcad import folders
 from manipcad.cli import app
 from manipcad.errors import InputError
 from manipcad.store import load_result, save_result
-from manipcad.store import results as store
 
 runner = CliRunner()
 ROOT = Path(__file__).resolve().parents[1]
@@ -295,8 +295,8 @@ def test_store_failed_swap_restores_old_folder(tmp_path, small_result, monkeypat
             raise KeyboardInterrupt
         return real_rename(src, dst)
 
-    monkeypatch.setattr(store.os, "rename", flaky)
-    monkeypatch.setattr(store, "exchange", lambda a, b: False)  # the two-rename fallback
+    monkeypatch.setattr(folders.os, "rename", flaky)
+    monkeypatch.setattr(folders, "exchange", lambda a, b: False)  # the two-rename fallback
     with pytest.raises(KeyboardInterrupt):
         save_result(res, out, joint_types=arm.joint_types, force=True)
     assert sorted(os.listdir(out)) == ["keep.txt", "metrics.json"]

@@ -279,7 +279,7 @@ def test_python_control_export_closes_the_same_loop(arm, method):
     traj = quintic([0.0], [0.3], duration=0.2)
     t_end = 0.25
     res = manipcad.simulate(robot, t_end=t_end, dt=T / 20, trajectory=traj, regulators=reg,
-                            record_every=20)
+                            every=20)
     # the plant: x = (q, q̇, i), input U; (H + J r²)·q̈ = r·k_m·i − k_v·r²·q̇
     r, Jq = d.ratio, 0.02 + d.J * d.ratio ** 2
     A = [[0, 1, 0], [0, -d.k_v * r * r / Jq, r * d.k_m / Jq], [0, -d.k_w * r / d.L, -d.R / d.L]]

@@ -386,7 +386,7 @@ def test_cli_no_traceback_in_a_real_process(tmp_path):
 # --------------------------------------------------------------------------- saves
 
 def test_write_folder_whole_or_not_at_all(tmp_path):
-    from manipcad.fileio import write_folder
+    from manipcad.folders import write_folder
 
     out = tmp_path / "study"
     with write_folder(out) as tmp:
@@ -404,7 +404,7 @@ def test_write_folder_whole_or_not_at_all(tmp_path):
 
 
 def test_write_folder_refusals(tmp_path):
-    from manipcad.fileio import write_folder
+    from manipcad.folders import write_folder
 
     f = write(tmp_path, "x", "file")
     with pytest.raises(InputError, match="not a folder"), write_folder(f):
@@ -414,12 +414,12 @@ def test_write_folder_refusals(tmp_path):
 
 
 def test_write_folder_two_rename_fallback_and_restore(tmp_path, monkeypatch):
-    import manipcad.fileio as fio
+    import manipcad.folders as fio
 
     out = tmp_path / "res"
     with fio.write_folder(out) as tmp:
         (tmp / "a").write_text("1")
-    monkeypatch.setattr(fio, "exchange_paths", lambda a, b: False)
+    monkeypatch.setattr(fio, "exchange", lambda a, b: False)
     with fio.write_folder(out) as tmp:
         (tmp / "a").write_text("2")
     assert (out / "a").read_text() == "2"
@@ -430,7 +430,7 @@ def test_write_folder_two_rename_fallback_and_restore(tmp_path, monkeypatch):
     old = tmp_path / f".res.old-{dead}-abcd1234"
     os.rename(out, old)
     (tmp_path / f".res.partial-{dead}-zz").mkdir()
-    assert sorted(fio.clean_folder_leftovers(out)) == [
+    assert sorted(fio.clean_stale(tmp_path, "res")) == [
         f"removed .res.partial-{dead}-zz", f"restored res from .res.old-{dead}-abcd1234"]
     assert (out / "a").read_text() == "2"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
@@ -440,7 +440,7 @@ def _writer(out: Path, ready, when: float) -> None:  # runs in a forked child
     import signal
     import time
 
-    from manipcad.fileio import write_folder
+    from manipcad.folders import write_folder
 
     # the stops of a process started from a shell, whatever this child inherited: one was
     # seen (py-spy, /proc status) writing on 30 s after its SIGINT with SIGINT and SIGQUIT
@@ -466,7 +466,7 @@ def test_kill_during_folder_write(tmp_path, sig):
     import random
     import signal
 
-    from manipcad.fileio import write_folder
+    from manipcad.folders import write_folder
 
     def whole(tag: str) -> None:
         with write_folder(out) as tmp:

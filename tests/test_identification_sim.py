@@ -220,7 +220,7 @@ def test_dithered_stops_reach_two_percent_with_friction():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
         res = simulate(arm, t_end=traj.duration, dt=2e-4, trajectory=traj, regulators=regs,
-                       payload={"mass": 2.0, "com": [0.0, 0.0, 0.0]}, record_every=5)
+                       payload={"mass": 2.0, "com": [0.0, 0.0, 0.0]}, every=5)
         stops = find_stops(res.t, res.q, res.qd)
         est = identify_payload(arm, res.q, res.qd, None, res.tau, t=res.t, method="stops")
     assert sum(s.dither for s in stops) == 6

@@ -295,7 +295,7 @@ def test_reference_of_the_result_is_the_trajectory_at_the_kept_times():
     traj = quintic(np.zeros(6), [0.1, 0.2, 0.0, 0.0, 0.0, 0.0], 0.1)
     for every in (1, 3):
         res = simulate(robot, t_end=0.05, dt=1e-4, trajectory=traj, regulators=regs,
-                       record_every=every)
+                       every=every)
         q, qd, _ = traj.sample(res.t)
         assert len(res.t) == 500 // every + 1
         assert np.array_equal(res.q_ref, q) and np.array_equal(res.qd_ref, qd)
@@ -494,3 +494,12 @@ def test_joint_beyond_its_limits_is_never_silent():
     with w.catch_warnings():
         w.simplefilter("error")
         simulate(_slider(), t_end=0.5, dt=1e-3, q0=[0.0], drives=False, joint_limits="ignore")
+
+
+def test_old_record_stride_keyword_is_refused_by_its_new_name():
+    arm = manipcad.load_robot("cylindrical")
+    with pytest.raises(ManipcadError, match="'record_every' is now called 'every'"):
+        simulate(arm, t_end=0.01, dt=1e-3, drives=False, record_every=2)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'recrd'"):
+        simulate(arm, t_end=0.01, dt=1e-3, drives=False, recrd=2)
+    assert simulate(arm, t_end=0.01, dt=1e-3, drives=False, every=2).t.shape == (6,)

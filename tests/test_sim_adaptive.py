@@ -112,7 +112,7 @@ def test_puma_pd_matches_rk4_at_1e_5(puma, integrator):
     over this start)."""
     traj = quintic(Q_START, Q_END, 1.0)
     ref = simulate(puma, t_end=T_END, dt=1e-5, trajectory=traj, regulators=pd_regs(),
-                   record_every=10)
+                   every=10)
     ada = simulate(puma, t_end=T_END, dt=1e-4, trajectory=traj, regulators=pd_regs(),
                    integrator=integrator, rtol=1e-6, atol=1e-8)
     assert ada.t.shape == ref.t.shape
@@ -156,7 +156,7 @@ def test_asvs_switching_matches_rk4_at_1e_5():
             return np.tile([0.1, 0.0, 0.25], (len(t), 1)), z, z.copy()
 
     kw = dict(t_end=0.08, trajectory=Step(), q0=[0.0, 0.0, 0.25])
-    ref = simulate(arm, dt=1e-5, regulators=regs(), record_every=10, **kw)
+    ref = simulate(arm, dt=1e-5, regulators=regs(), every=10, **kw)
     for integrator, rtol in (("adaptive", 1e-6), ("adaptive-exact", 1e-7)):
         ada = simulate(arm, dt=1e-4, regulators=regs(), integrator=integrator, rtol=rtol,
                        **kw)
@@ -174,7 +174,7 @@ def test_record_times_and_interpolation_match_rk4(puma):
     and within 1e-6 rad of RK4 at 1e-5; U held between the 1 kHz samples."""
     traj = quintic(Q_START, Q_END, 1.0)
     ref = simulate(puma, t_end=0.03, dt=1e-5, trajectory=traj, regulators=pd_regs(),
-                   record_every=10)
+                   every=10)
     ada = simulate(puma, t_end=0.03, dt=1e-4, trajectory=traj, regulators=pd_regs(),
                    integrator="adaptive")
     assert ada.q.shape == (301, 6)
@@ -240,7 +240,7 @@ def test_divergence_limits_and_progress_as_rk4(puma):
 
     traj = quintic(Q_START, Q_END, 1.0)
     narrow = puma.replace(limits=np.array([[-0.1, 0.1]] + [[-3.0, 3.0]] * 5))
-    kw = dict(t_end=0.5, dt=1e-4, trajectory=traj, regulators=pd_regs(), record_every=10)
+    kw = dict(t_end=0.5, dt=1e-4, trajectory=traj, regulators=pd_regs(), every=10)
     with pytest.raises(JointLimitExceeded, match=r"'waist' left its limits") as rk4:
         simulate(narrow, joint_limits="stop", **kw)
     done = []
@@ -265,7 +265,7 @@ def test_dry_friction_sticking_needs_no_steps_of_dt():
         arm = manipcad.load_robot("puma560")
     traj = quintic(Q_START, Q_END, 1.0)
     res = simulate(arm, t_end=0.2, dt=1e-4, trajectory=traj, regulators=pd_regs(),
-                   integrator="adaptive-exact", record_every=10)
+                   integrator="adaptive-exact", every=10)
     s = res.settings
     assert s["steps"] <= 0.2 / 1e-4 + 200  # + the steps that land on a sample
     assert s["steps_at_dt_above_tolerance"] == 0
@@ -335,8 +335,8 @@ def test_rigid_ur5_pd_at_1khz_matches_rk4_at_1e_5(ur5, integrator):
         return simulate(ur5, t_end=0.2, trajectory=_Hold(), q0=UR5_Q0, regulators=regs,
                         drives=False, joint_limits="ignore", **kw)
 
-    ref = run(dt=1e-5, record_every=100)
-    ada = run(dt=1e-4, record_every=10, integrator=integrator)
+    ref = run(dt=1e-5, every=100)
+    ada = run(dt=1e-4, every=10, integrator=integrator)
     np.testing.assert_allclose(ada.t, ref.t, atol=1e-15, rtol=0)
     dq = np.abs(ada.q - ref.q).max()
     assert 0.0 < dq <= 1e-7, dq
@@ -358,7 +358,7 @@ def test_pairs_converge_with_the_tolerance_at_their_order(puma, integrator, orde
     Bogacki–Shampine: 2nd of 3rd). Measured: DP54 90, 218, 544 steps and BS32 1007, 4684,
     21755 at tol 1e-7, 1e-9, 1e-11; errors 8.8 and 13.7 times the tolerance."""
     kw = dict(t_end=1.0, drives=False, q0=[0.0, 0.5, -0.5, 0.0, 0.3, 0.0],
-              joint_limits="ignore", record_every=100000)
+              joint_limits="ignore", every=100000)
     ref = simulate(puma, dt=1e-5, **kw)
     errors, steps = [], []
     tols = (1e-7, 1e-9, 1e-11)

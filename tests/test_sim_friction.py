@@ -111,7 +111,7 @@ def test_stick_slip_against_solve_ivp(qd0, integrator, tol):
     adaptive = integrator != "rk4"
     res = simulate(one_joint(), t_end=t_end, dt=2e-5 if not adaptive else 1e-4,
                    q0=[0.0], qd0=[qd0], regulators=[pid(0, kp=KP, kd=KD, period=PERIOD)],
-                   record_every=50 if not adaptive else 10, integrator=integrator,
+                   every=50 if not adaptive else 10, integrator=integrator,
                    **({"rtol": 1e-10, "atol": 1e-12} if adaptive else {}))
     got = res.events
     assert len(want) >= 3 and any(m == 0.0 for _, m, _ in want)

@@ -18,18 +18,11 @@ import numpy as np
 import pytest
 from killing import wait_dead
 
+from manipcad import folders
 from manipcad.errors import InputError
+from manipcad.folders import SaveInterrupted, clean_stale, leftovers
 from manipcad.sim.simulate import SimulationResult
-from manipcad.store import results as store
-from manipcad.store.results import (
-    SaveInterrupted,
-    clean_stale,
-    leftovers,
-    load_result,
-    record_every_for,
-    save_result,
-    write_csv,
-)
+from manipcad.store.results import every_for, load_result, save_result, write_csv
 
 
 def fake_result(run_id: int, k: int = 2000, n: int = 3) -> SimulationResult:
@@ -79,11 +72,11 @@ def test_compressed_npz_without_csv_round_trip(tmp_path):
     assert np.allclose(data[:, 1 + 8 * 4], res.q[:, 4], rtol=1e-9)
 
 
-def test_record_every_for():
-    assert record_every_for(1e-4, [1e-3]) == 10
-    assert record_every_for(1e-4, [1e-3, 4e-4]) == 2
-    assert record_every_for(1e-3, [1e-3]) == 1
-    assert record_every_for(1e-4, []) == 1
+def test_every_for():
+    assert every_for(1e-4, [1e-3]) == 10
+    assert every_for(1e-4, [1e-3, 4e-4]) == 2
+    assert every_for(1e-3, [1e-3]) == 1
+    assert every_for(1e-4, []) == 1
 
 
 # ------------------------------------------------------------------ swaps
@@ -97,12 +90,12 @@ def test_exchange_swaps_two_folders(tmp_path):
     b.mkdir()
     (a / "x").write_text("a")
     (b / "x").write_text("b")
-    assert store.exchange(a, b) is True
+    assert folders.exchange(a, b) is True
     assert (a / "x").read_text() == "b" and (b / "x").read_text() == "a"
 
 
 def test_force_replaces_by_exchange(tmp_path):
-    if not store.exchange_supported(tmp_path):
+    if not folders.exchange_supported(tmp_path):
         pytest.skip("file system without RENAME_EXCHANGE")
     out = tmp_path / "r"
     save_result(fake_result(1), out, plot=False, csv=False)
@@ -115,8 +108,8 @@ def test_force_replaces_by_exchange(tmp_path):
 
 
 def test_versioned_link_fallback(tmp_path, monkeypatch):
-    monkeypatch.setattr(store, "exchange", lambda a, b: False)
-    monkeypatch.setattr(store, "exchange_supported", lambda folder: False)
+    monkeypatch.setattr(folders, "exchange", lambda a, b: False)
+    monkeypatch.setattr(folders, "exchange_supported", lambda folder: False)
     out = tmp_path / "r"
     save_result(fake_result(1), out, plot=False, csv=False)
     assert out.is_symlink() and not os.path.isabs(os.readlink(out))
@@ -136,8 +129,8 @@ def test_ctrl_c_after_install_says_saved_and_next_save_cleans(tmp_path, monkeypa
     def interrupted(path):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(store, "_remove", interrupted)
-    with pytest.raises(SaveInterrupted, match="after the new result was saved"):
+    monkeypatch.setattr(folders, "_remove", interrupted)
+    with pytest.raises(SaveInterrupted, match="was written whole"):
         save_result(fake_result(2), out, plot=False, csv=False, force=True)
     monkeypatch.undo()
     assert assert_whole(out) == 2
@@ -250,9 +243,9 @@ def test_killed_writers_leave_old_or_new_never_neither(tmp_path, mode, monkeypat
     SIGINT); after each kill the result is one whole run, at least as new as the last
     reported save, and the next save leaves no leftovers."""
     if mode == "versioned":
-        monkeypatch.setattr(store, "_EXCHANGE_OFF", True)
-        monkeypatch.setattr(store, "exchange_supported", lambda folder: False)
-    elif not store.exchange_supported(tmp_path):
+        monkeypatch.setattr(folders, "_EXCHANGE_OFF", True)
+        monkeypatch.setattr(folders, "exchange_supported", lambda folder: False)
+    elif not folders.exchange_supported(tmp_path):
         pytest.skip("file system without RENAME_EXCHANGE")
     rng = random.Random(11)
     out = tmp_path / "r"

@@ -545,7 +545,7 @@ def test_regulators_of_several_methods_run_together(ws, tmp_path, monkeypatch):
     direct = manipcad.simulate(arm, t_end=0.05, dt=1e-4, trajectory=traj,
                                regulators=manipcad.load_regulators(ws.resolve(
                                    "regulators", "a"), arm) + manipcad.load_regulators(
-                                   ws.resolve("regulators", "b"), arm), record_every=5)
+                                   ws.resolve("regulators", "b"), arm), every=5)
     assert metrics["max_error"] == pytest.approx(
         max(m["max_error"] for m in direct.metrics.values()), rel=1e-12)
     logic.synthesize_to(ws, arm, "pid", joints=["lift"], name="c")

@@ -68,7 +68,7 @@ def test_law3_leaves_no_creep_after_the_motion_stops():
         reg = manipcad.synthesize(arm, j, "ace_de", period=1e-3, friction_zone=zone)
         res = manipcad.simulate(arm, t_end=4.0, dt=1e-4, trajectory=traj,
                                 regulators=[reg, *others], joint_limits="ignore",
-                                record_every=10)
+                                every=10)
         stop = np.searchsorted(res.t, 1.5)
         late[zone] = (abs(res.error[-1, j]), abs(res.error[-1, j] - res.error[stop, j]))
     assert all(held < 1e-4 and moved < 1e-8 for held, moved in late.values()), late

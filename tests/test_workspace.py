@@ -414,7 +414,7 @@ def test_store_result_then_rerun_is_identical_and_compare_plots(ws, tmp_path):
     regs = load_regulators(ws.resolve("regulator", "pid"), arm, dt=1e-4)
     run = {"t_end": 0.03, "dt": 1e-4, "every": 10, "drives": True, "payload": None}
     res = simulate(arm, t_end=0.03, dt=1e-4, trajectory=traj, regulators=regs,
-                   record_every=10)
+                   every=10)
     item = ws.store_result(res, name="r1", robot=arm, trajectory="move", regulators=["pid"],
                            run=run)
     assert item.provenance["inputs"]["trajectory"]["name"] == "move"

@@ -16,7 +16,7 @@ from manipcad.control import load_regulators
 from manipcad.errors import ManipcadWarning
 from manipcad.model.load import CATALOG
 from manipcad.sim import simulate
-from manipcad.store import record_every_for
+from manipcad.store import every_for
 from manipcad.trajectories import load_trajectory
 from manipcad.workspace import Workspace
 from manipcad.workspace.runs import compare, rerun
@@ -50,9 +50,9 @@ for traj_name in ("pick", "pick_slow"):
     for reg_name in ("pid", "ace_de"):
         n += 1
         regs = load_regulators(ws.resolve("regulator", reg_name), arm, dt=dt)
-        every = record_every_for(dt, [r.period for r in regs])   # one sample per period
+        every = every_for(dt, [r.period for r in regs])   # one sample per period
         res = simulate(arm, t_end=t_end, dt=dt, trajectory=traj, regulators=regs,
-                       record_every=every)
+                       every=every)
         ws.store_result(res, name=f"run{n}", robot="ur5", trajectory=traj_name,
                         regulators=[reg_name],
                         run={"t_end": t_end, "dt": dt, "every": every, "drives": True})

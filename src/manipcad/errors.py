@@ -68,3 +68,19 @@ class InertiaWarning(ManipcadWarning):
     given; a robot file that keeps such published data on purpose says so in the
     tensor's ``note`` and loads without this warning
     (:func:`manipcad.model.robot.inertia_notes` lists them for ``robots show``)."""
+
+
+def refuse_renamed(func: str, given: dict, **old_to_new: str) -> None:
+    """Refuse the keywords a function caught in ``**given``: one clear error naming the new
+    name of a renamed keyword, Python's own TypeError for any other.
+
+    Example:
+        >>> refuse_renamed("simulate", {"record_every": 10}, record_every="every")
+        Traceback (most recent call last):
+        ...
+        manipcad.errors.ManipcadError: simulate(): 'record_every' is now called 'every'
+    """
+    for key in given:
+        if key in old_to_new:
+            raise ManipcadError(f"{func}(): {key!r} is now called {old_to_new[key]!r}")
+        raise TypeError(f"{func}() got an unexpected keyword argument {key!r}")

@@ -18,16 +18,12 @@ error handling of its own for the file itself:
 
 from __future__ import annotations
 
-import contextlib
-import errno
 import math
 import os
 import re
-import shutil
 import stat
 import tempfile
-import time
-from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from importlib.abc import Traversable
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
@@ -682,213 +678,6 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     return atomic_write(path, lambda fh: fh.write(data), binary=True)
 
 
-# --------------------------------------------------------------------------- folders
-
-#: renameat2 flag: swap two names atomically (Linux >= 3.15, most local file systems)
-_RENAME_EXCHANGE = 2
-_AT_FDCWD = -100
-_LEFTOVER = re.compile(r"^\.(?P<name>.+)\.(?P<kind>partial|old)-(?P<pid>\d+)-[^.]+$")
-#: leftovers of the older study writer (".NAME.XXXXXXXX.tmp", no process id)
-#: are removed when older than this, s
-LEGACY_TMP_AGE = 3600.0
-
-
-def exchange_paths(a: str | Path, b: str | Path) -> bool:
-    """Swap two existing paths in one atomic step (Linux ``renameat2(RENAME_EXCHANGE)``).
-
-    Returns:
-        True when swapped; False when the system or file system cannot do it
-        (the caller then falls back to two renames).
-
-    Raises:
-        OSError: any other failure of the call (permissions, a read-only disk).
-    """
-    try:
-        import ctypes
-
-        fn = ctypes.CDLL(None, use_errno=True).renameat2
-    except (OSError, AttributeError):
-        return False
-    rc = fn(_AT_FDCWD, os.fsencode(str(a)), _AT_FDCWD, os.fsencode(str(b)), _RENAME_EXCHANGE)
-    if rc == 0:
-        return True
-    err = ctypes.get_errno()
-    if err in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP, errno.EXDEV):
-        return False
-    raise OSError(err, os.strerror(err), str(a), None, str(b))
-
-
-def _alive(pid: int) -> bool:
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
-def clean_folder_leftovers(out: str | Path) -> list[str]:
-    """Remove what killed writers of folder ``out`` left beside it; restore a lost ``out``.
-
-    ``.OUT.partial-PID-*`` (a folder being written, or after an exchange the old
-    one) and ``.OUT.old-PID-*`` (the old folder during the two-rename fallback)
-    of processes that no longer run are removed; if ``out`` itself is missing
-    (a writer killed between its two renames) the newest ``.OUT.old-*`` is renamed
-    back first. ``.OUT.XXXXXXXX.tmp`` folders of the older study writer are
-    removed when older than :data:`LEGACY_TMP_AGE`.
-
-    Returns:
-        What was done, one line per leftover (for a log or a test).
-    """
-    out = Path(out)
-    parent = out.parent if str(out.parent) else Path(".")
-    done: list[str] = []
-    try:
-        entries = list(os.scandir(parent))
-    except OSError:
-        return done
-    olds = []
-    for e in entries:
-        m = _LEFTOVER.match(e.name)
-        if m and m["name"] == out.name and not _alive(int(m["pid"])):
-            if m["kind"] == "old":
-                olds.append(e)
-            else:
-                shutil.rmtree(e.path, ignore_errors=True)
-                done.append(f"removed {e.name}")
-        elif (e.name.startswith(f".{out.name}.") and e.name.endswith(".tmp")
-              and len(e.name) == len(out.name) + 14):
-            try:
-                if time.time() - e.stat(follow_symlinks=False).st_mtime > LEGACY_TMP_AGE:
-                    shutil.rmtree(e.path, ignore_errors=True)
-                    done.append(f"removed {e.name}")
-            except OSError:
-                pass
-    olds.sort(key=lambda e: e.stat(follow_symlinks=False).st_mtime, reverse=True)
-    for k, e in enumerate(olds):
-        if k == 0 and not os.path.lexists(out):
-            os.rename(e.path, out)
-            done.append(f"restored {out.name} from {e.name}")
-        else:
-            shutil.rmtree(e.path, ignore_errors=True)
-            done.append(f"removed {e.name}")
-    return done
-
-
-def fsync_tree(root: Path) -> None:
-    """Flush every file and folder under ``root`` to disk (before it is renamed in place):
-    the one flush of every atomic folder writer (:func:`write_folder`, the results store)."""
-    for folder, _, files in os.walk(root):
-        for f in files:
-            fd = os.open(os.path.join(folder, f), os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
-        fd = os.open(folder, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-
-
-@contextlib.contextmanager
-def write_folder(out: str | Path, *, replace: bool = True) -> Iterator[Path]:
-    """Write a folder whole and install it atomically: readers see the old or the new one.
-
-    Yields an empty hidden folder beside ``out`` (``.OUT.partial-PID-XXXX``);
-    write every file into it. When the block ends normally the files are
-    flushed to disk and the folder becomes ``out`` in one step: a ``rename``
-    when ``out`` is absent, else ``renameat2(RENAME_EXCHANGE)`` (the two
-    folders swap names; the old one is then deleted). Where the exchange is not
-    available, two renames through ``.OUT.old-PID-XXXX``; a writer killed
-    between them leaves ``out`` missing, and the next :func:`write_folder` (or
-    :func:`clean_folder_leftovers`) renames the old folder back. Leftovers of
-    dead writers are removed at the start of each call.
-
-    If the block fails or is interrupted, the temporary folder is removed and
-    ``out`` is left as it was. Ctrl-C after the new folder is in place, while
-    the old one is deleted, raises KeyboardInterrupt saying that the new folder
-    was written.
-
-    Args:
-        out: the folder to write (its parent must exist).
-        replace: replace an existing ``out`` (False: an existing non-empty
-            folder is an error).
-
-    Raises:
-        InputError: the parent folder does not exist, ``out`` is a file, it
-            exists and ``replace`` is False, or the disk refuses (read-only,
-            full: "cannot write: No space left on device").
-
-    Example:
-        >>> import tempfile, pathlib
-        >>> out = pathlib.Path(tempfile.mkdtemp()) / "study"
-        >>> with write_folder(out) as tmp:
-        ...     _ = (tmp / "a.json").write_text("{}")
-        >>> sorted(p.name for p in out.iterdir())
-        ['a.json']
-    """
-    out = Path(out)
-    src = str(out)
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise InputError(src, "", f"folder {str(parent)!r} does not exist")
-    if os.path.lexists(out) and not out.is_dir():
-        raise InputError(src, "", "exists and is not a folder")
-    clean_folder_leftovers(out)
-    if not replace and out.is_dir() and any(out.iterdir()):
-        raise InputError(src, "", "exists and is not empty")
-    try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-{os.getpid()}-", dir=parent))
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o777 & ~mask)
-    except OSError as exc:
-        raise InputError(src, "", f"cannot write in {str(parent)!r}: "
-                         f"{exc.strerror or exc}") from None
-    old: Path | None = None
-    try:
-        yield tmp
-        fsync_tree(tmp)
-        old = _install(tmp, out, replace)
-    except BaseException as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
-        if isinstance(exc, OSError):
-            raise InputError(src, "", f"cannot write: {exc.strerror or exc}") from None
-        raise
-    if old is not None:
-        try:
-            shutil.rmtree(old, ignore_errors=True)
-        except KeyboardInterrupt:
-            raise KeyboardInterrupt(f"interrupted after {src} was written; the old copy "
-                                    f"{old.name} is removed on the next run") from None
-
-
-def _install(tmp: Path, out: Path, replace: bool) -> Path | None:
-    """Put the complete folder ``tmp`` in place as ``out``; return the old copy to delete."""
-    if not os.path.lexists(out):
-        try:
-            os.rename(tmp, out)
-            return None
-        except OSError as exc:
-            if exc.errno not in (errno.EEXIST, errno.ENOTEMPTY):  # not a lost race
-                raise
-    if not replace:
-        raise InputError(str(out), "", "exists (another writer made it)")
-    if exchange_paths(tmp, out):
-        return tmp  # now holds the old folder, under a name marked with our pid
-    # no exchange here: two renames; a kill between them leaves OUT missing and the
-    # pid-marked old copy, which clean_folder_leftovers renames back
-    old = out.parent / f".{out.name}.old-{os.getpid()}-{os.urandom(4).hex()}"
-    os.rename(out, old)
-    os.rename(tmp, out)
-    return old
-
-
 # --------------------------------------------------------------------------- JSON
 
 
@@ -966,6 +755,5 @@ __all__ = [
     "SafeYamlLoader",
     "UniqueKeyLoader", "MAX_FILE_BYTES", "MAX_NODES", "MAX_DEPTH", "field_path",
     "describe_error", "validation_error",
-    "write_folder", "exchange_paths", "clean_folder_leftovers",
     "writable_target", "atomic_write", "atomic_write_text", "atomic_write_bytes", "json_safe",
 ]

@@ -63,8 +63,8 @@ def components_one(table, g, q, qd, zero, rwork, cwork, tmp, H, H_ii, h, Qg):
     # once for these calls and the payload estimator's (its flag a run-time one), not
     # twice (2-4 s of CPU on a cold cache)
     links = bool(0)
-    rnea_one(table, nog, q, qd, zero, rwork, False, links, rwork, tmp, h)
-    rnea_one(table, g, q, zero, zero, rwork, False, links, rwork, tmp, Qg)
+    rnea_one(table, nog, q, qd, zero, rwork, False, links, rwork, h)
+    rnea_one(table, g, q, zero, zero, rwork, False, links, rwork, Qg)
 
 
 @nb.njit(cache=True, nogil=True)

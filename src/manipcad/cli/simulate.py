@@ -40,6 +40,16 @@ from rich.markup import escape
 from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
+from manipcad.cli.options import (
+    RobotArgument,
+    dt_option,
+    force_flag,
+    json_flag,
+    payload_option,
+    strict_flag,
+    t_end_option,
+    ws_option,
+)
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.model.tree_file import save_robot
 
@@ -126,8 +136,7 @@ OPTION_NAMES = {"dt": "--dt", "t_end": "--t-end", "every": "--every", "drives": 
 @app.command()
 @guarded
 def simulate(
-    robot: Annotated[str, typer.Argument(
-        help="A catalog robot name (see 'manipcad robots list') or a .yaml/.urdf file.")],
+    robot: RobotArgument,
     trajectory: Annotated[str, typer.Option(
         "--trajectory", "-t", help="Trajectory YAML file (reference motion), or a workspace "
         "trajectory's name.")],
@@ -135,16 +144,13 @@ def simulate(
         "--out", "-o", help="Result folder (inputs/, timeseries.csv/.npz, metrics.json, "
         "errors.png); with --ws the result's NAME in the workspace (optional there: a name "
         "is made).")] = None,
-    ws: Annotated[Path | None, typer.Option(
-        "--ws", help="Workspace: inputs may be its item names, and the result is stored and "
-        "indexed there (results/NAME).")] = None,
+    ws: ws_option("Workspace: inputs may be its item names, and the result is stored and "
+        "indexed there (results/NAME).") = None,
     regulator: Annotated[list[str] | None, typer.Option(
         "--regulator", "-r", help="Regulator YAML file or workspace name; repeat for several. "
         "Joints in no file get U = 0.")] = None,
-    t_end: Annotated[float | None, typer.Option(
-        "--t-end", help="Simulated time, s (default: the trajectory's duration).")] = None,
-    dt: Annotated[float, typer.Option(
-        "--dt", help="Integration step (RK4), s; regulator periods must be multiples of it.")]
+    t_end: t_end_option("Simulated time, s (default: the trajectory's duration).") = None,
+    dt: dt_option("Integration step (RK4), s; regulator periods must be multiples of it.")
     = 1e-4,
     every: Annotated[int | None, typer.Option(
         "--every", help="Keep every N-th step in the saved time series (the metrics are "
@@ -154,16 +160,13 @@ def simulate(
         "--csv/--no-csv", help="Also write timeseries.csv (text, units in the header); the "
         "full-precision arrays are always in timeseries.npz, and 'ws export' writes CSV.")]
     = False,
-    as_json: Annotated[bool, typer.Option(
-        "--json", help="Print the metrics document (metrics.json) instead of a table.")] = False,
+    as_json: json_flag("Print the metrics document (metrics.json) instead of a table.") = False,
     no_drives: Annotated[bool, typer.Option(
         "--no-drives", help="Rigid body only: regulator outputs are joint torques (N·m, N).")]
     = False,
-    payload: Annotated[float | None, typer.Option(
-        "--payload", help="Payload mass at the robot's tool point, kg.")] = None,
-    force: Annotated[bool, typer.Option(
-        "--force", help="Replace a non-empty result folder (only once the new one is "
-        "complete).")] = False,
+    payload: payload_option("Payload mass at the robot's tool point, kg.") = None,
+    force: force_flag("Replace a non-empty result folder (only once the new one is "
+        "complete).") = False,
     save_diverged: Annotated[bool, typer.Option(
         "--save-diverged", help="If the run diverges, still save its partial time series "
         "(status 'diverged'); the exit status stays 2.")] = False,
@@ -197,9 +200,8 @@ def simulate(
     max_chatter: Annotated[float, typer.Option(
         "--max-chatter", help="Largest amplifier-input reversals per second, 1/s "
         "(docs/checks.md).")] = 50.0,
-    strict: Annotated[bool, typer.Option(
-        "--strict", help="Exit 1 when a check fails (default: exit 0 whatever the "
-        "checks say).")] = False,
+    strict: strict_flag("Exit 1 when a check fails (default: exit 0 whatever the "
+        "checks say).") = False,
 ) -> None:
     """Simulate the closed loop (multibody + DC drives + sampled regulators) and save it."""
     from manipcad.model.load import load_robot
@@ -279,7 +281,7 @@ def simulate(
         warnings.simplefilter("always", ManipcadWarning)
         try:
             res = run_simulation(arm, t_end=t_end, dt=dt, trajectory=traj, regulators=regs,
-                                 payload=payload, drives=not no_drives, record_every=every,
+                                 payload=payload, drives=not no_drives, every=every,
                                  joint_limits=joint_limits, integrator=integrator,
                                  rtol=rtol, atol=atol)
         except SimulationDiverged as exc:

@@ -98,7 +98,7 @@ def estimator_update(est, sig, ctable, Ts):
     s = est.aux[0]
     n = sig.shape[0]
     h = est.hist
-    zero_fext, work, tmp, tau0, gunit, y, gs, ws, qdd, tau = est.scratch
+    zero_fext, work, tau0, gunit, y, gs, ws, qdd, tau = est.scratch
     for j in range(n):
         i = sig[j, S_I]
         if s < est.noise.shape[0]:
@@ -112,7 +112,7 @@ def estimator_update(est, sig, ctable, Ts):
                 h[4, j] = _through_gear(h[4, j], qdd[j], h[1, j], est.eta[j], est.dtable[j])
         payload_rls_step(est.state, est.table0, est.table_unit, est.gravity, h[0], h[1], qdd,
                          h[4], est.sel, est.w, est.vmin, est.lam, est.info_min, est.drives,
-                         zero_fext, work, tmp, tau0, gunit, y, gs, ws)
+                         zero_fext, work, tau0, gunit, y, gs, ws)
     for j in range(n):
         h[4, j] = h[2, j]
         h[3, j] = h[1, j]
@@ -162,7 +162,7 @@ def _own(a) -> np.ndarray:
 
 
 def _scratch(n: int, k: int):
-    return (np.zeros((n, 6)), np.empty((n, RNEA_WORK)), np.empty((6, 3)), np.empty(n),
+    return (np.zeros((n, 6)), np.empty((n, RNEA_WORK)), np.empty(n),
             np.empty(n), np.empty(k), np.empty(k), np.empty(k), np.zeros(n), np.zeros(n))
 
 

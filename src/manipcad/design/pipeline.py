@@ -465,7 +465,7 @@ def _case_id(label: str, p: dict, ti: int) -> str:
 def _sweep(docs, plants, trajs, payloads, dt, period, accuracy, designed, pool, workers,
            scheduler, cache_dir, progress, results, keep: bool = False,
            stored: bool = False) -> list[dict]:
-    from manipcad.store.results import record_every_for
+    from manipcad.store.results import every_for
 
     tasks, meta = [], []
     for label, doc in docs.items():
@@ -478,7 +478,7 @@ def _sweep(docs, plants, trajs, payloads, dt, period, accuracy, designed, pool, 
                              "sample": p["sample"], "sample_name": C.sample_name(p["sample"]),
                              "trajectory": ti, "factors": p["factors"]})
     bar = progress if progress is True else False
-    res = run_sweep(tasks, common={"dt": dt, "every": record_every_for(dt, [period]),
+    res = run_sweep(tasks, common={"dt": dt, "every": every_for(dt, [period]),
                                    "accuracy": accuracy, "judged": tuple(designed),
                                    "keep_result": keep},
                     workers=workers, scheduler=scheduler, pool=pool, cache_dir=cache_dir,

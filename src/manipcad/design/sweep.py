@@ -73,7 +73,7 @@ def run_case(*, plant, trajectory, regulators: dict, dt: float, t_end: float, ev
             regs = regulators_from_dict(regulators, plant, "<design>", dt=dt,
                                         allow_other_robot=True)
             res = simulate(plant, t_end=t_end, dt=dt, trajectory=trajectory, regulators=regs,
-                           record_every=every, use_generated=False)
+                           every=every, use_generated=False)
         except (SimulationDiverged, ManipcadError) as exc:
             status = "diverged" if isinstance(exc, SimulationDiverged) else "refused"
             out.update(status=status, message=str(exc), metrics={}, result=None,

@@ -40,11 +40,11 @@ I_A, I_B, I_C = 0, 6, 15
 
 
 @jit
-def aba_one(table, g, q, qd, tau, fext, use_fext, drives, work, tmp, qdd):
+def aba_one(table, g, q, qd, tau, fext, use_fext, drives, work, qdd):
     """Joint accelerations qdd (n,) from q, qd and joint torques tau (SI units).
 
-    work is (n, ABA_WORK) scratch; tmp is unused (kept for the callers'
-    signature); fext (n, 6) as in :func:`manipcad.dynamics.rnea.rnea_one`.
+    work is (n, ABA_WORK) scratch; fext (n, 6) as in
+    :func:`manipcad.dynamics.rnea.rnea_one`.
     The articulated inertias are kept as their 21 distinct entries and each
     joint's work in pass 2 is done on local scalars.
 
@@ -453,10 +453,9 @@ def aba_batch(table, g, Q, QD, TAU, FEXT, use_fext, drives, QDD):
     """
     n = table.shape[0]
     work = np.empty((n, ABA_WORK))
-    tmp = np.empty((23, 6))
     for k in range(Q.shape[0]):
         if not aba_state(table, g, Q[k], QD[k], TAU[k], FEXT[k if use_fext else 0],
-                         use_fext, drives, work, tmp, QDD[k]):
+                         use_fext, drives, work, QDD[k]):
             return k
     return -1
 

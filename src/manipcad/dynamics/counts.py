@@ -195,14 +195,12 @@ def operation_counts(algorithm: str, n: int) -> dict[str, int]:
     Counted.tally = _Tally()
     if algorithm == "rnea":
         work = np.empty((n, RNEA_WORK), dtype=object)
-        tmp = np.empty((6, 3), dtype=object)
-        _plain(rnea_one)(table, g, q, qd, x, fext, False, False, work, tmp, out)
+        _plain(rnea_one)(table, g, q, qd, x, fext, False, False, work, out)
     elif algorithm == "crba":
         work = np.empty((n, CRBA_WORK), dtype=object)
         tmp = np.empty((8, 3), dtype=object)
         _plain(crba_one)(table, q, False, work, tmp, np.empty((n, n), dtype=object))
     else:
         work = np.empty((n, ABA_WORK), dtype=object)
-        tmp = np.empty((23, 6), dtype=object)
-        _plain(aba_one)(table, g, q, qd, x, fext, False, False, work, tmp, out)
+        _plain(aba_one)(table, g, q, qd, x, fext, False, False, work, out)
     return {"mul": Counted.tally.mul, "add": Counted.tally.add}

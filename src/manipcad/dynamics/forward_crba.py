@@ -63,7 +63,7 @@ def crba_fd_batch(table, g, Q, QD, TAU, FEXT, use_fext, drives, QDD):
     bias = np.empty(n)
     for k in range(Q.shape[0]):
         rnea_state(table, g, Q[k], QD[k], zero, FEXT[k if use_fext else 0],
-                   use_fext, drives, rwork, tmp, bias)
+                   use_fext, drives, rwork, bias)
         crba_state(table, Q[k], drives, cwork, tmp, H)
         for i in range(n):
             bias[i] = TAU[k, i] - bias[i]

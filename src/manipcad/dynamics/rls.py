@@ -87,7 +87,7 @@ def rls_update(state, y, g, w, lam, info_min):
 
 @nb.njit(cache=True)
 def payload_rls_step(state, table0, table_unit, gravity, q, qd, qdd, tau, sel, w, vmin, lam,
-                     info_min, drives, zero_fext, work, tmp, tau0, gunit, y, gs, ws):
+                     info_min, drives, zero_fext, work, tau0, gunit, y, gs, ws):
     """One regulator period of the online payload estimator, from one measured state.
 
     Args:
@@ -102,15 +102,15 @@ def payload_rls_step(state, table0, table_unit, gravity, q, qd, qdd, tau, sel, w
             friction's sign is unknown), rad/s or m/s; 0 for none.
         lam, info_min: as in :func:`rls_update`.
         drives: tau includes the drive terms (rotor inertia, friction).
-        zero_fext, work, tmp, tau0, gunit, y, gs, ws: scratch ((n, 6) zeros,
-            (n, RNEA_WORK), (6, 3), (n,), (n,), (k,), (k,), (k,)).
+        zero_fext, work, tau0, gunit, y, gs, ws: scratch ((n, 6) zeros,
+            (n, RNEA_WORK), (n,), (n,), (k,), (k,), (k,)).
 
     Returns:
         The estimate m_r, kg.
     """
-    rnea_one(table0, gravity, q, qd, qdd, zero_fext, False, drives, work, tmp, tau0)
+    rnea_one(table0, gravity, q, qd, qdd, zero_fext, False, drives, work, tau0)
     # no drive terms, by a run-time flag as ``drives`` (one compiled rnea_one for both)
-    rnea_one(table_unit, gravity, q, qd, qdd, zero_fext, False, bool(0), work, tmp, gunit)
+    rnea_one(table_unit, gravity, q, qd, qdd, zero_fext, False, bool(0), work, gunit)
     for i in range(sel.shape[0]):
         j = sel[i]
         y[i] = tau[j] - tau0[j]
@@ -126,7 +126,6 @@ def _run(state, table0, table_unit, gravity, Q, QD, QDD, TAU, sel, w, vmin, lam,
     k = sel.shape[0]
     zero_fext = np.zeros((n, 6))
     work = np.empty((n, RNEA_WORK))
-    tmp = np.empty((6, 3))
     tau0 = np.empty(n)
     gunit = np.empty(n)
     y = np.empty(k)
@@ -135,7 +134,7 @@ def _run(state, table0, table_unit, gravity, Q, QD, QDD, TAU, sel, w, vmin, lam,
     for t in range(Q.shape[0]):
         out[t] = payload_rls_step(state, table0, table_unit, gravity, Q[t], QD[t], QDD[t],
                                   TAU[t], sel, w, vmin, lam, info_min, drives, zero_fext, work,
-                                  tmp, tau0, gunit, y, gs, ws)
+                                  tau0, gunit, y, gs, ws)
 
 
 class OnlinePayloadEstimator:

@@ -37,12 +37,11 @@ RNEA_WORK = 27
 
 
 @jit
-def rnea_one(table, g, q, qd, qdd, fext, use_fext, drives, work, tmp, tau):
+def rnea_one(table, g, q, qd, qdd, fext, use_fext, drives, work, tau):
     """Inverse dynamics of one state: tau (n,) from q, qd, qdd (SI units).
 
-    work is (n, RNEA_WORK) scratch; tmp is unused (kept for the callers'
-    signature); fext (n, 6) is read when use_fext is true: [force, moment about
-    the body origin] on each link, body axes.
+    work is (n, RNEA_WORK) scratch; fext (n, 6) is read when use_fext is true:
+    [force, moment about the body origin] on each link, body axes.
     """
     n = table.shape[0]
     for i in range(n):
@@ -170,7 +169,7 @@ def rnea_batch(table, g, Q, QD, QDD, FEXT, use_fext, drives, TAU):
     work = np.empty((n, RNEA_WORK))
     for k in range(Q.shape[0]):
         rnea_state(table, g, Q[k], QD[k], QDD[k], FEXT[k if use_fext else 0],
-                   use_fext, drives, work, work, TAU[k])
+                   use_fext, drives, work, TAU[k])
 
 
 @nb.njit(cache=True, nogil=True, parallel=True)

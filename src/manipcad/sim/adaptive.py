@@ -201,7 +201,7 @@ def _stages(plant, x, xs, U, dist, n, scr, Ks, tab, h, exact, ph, st0):
     drives' currents by the exact formula (``ph``: the φ table of h). The one stepping
     code of the error-controlled integrator (its steps and the steps of θ·h that locate
     an event inside one)."""
-    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scr
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, comp = scr
     S = tab.c.shape[0]
     nx = x.shape[0]
     me = 2 * n if exact else nx
@@ -217,7 +217,7 @@ def _stages(plant, x, xs, U, dist, n, scr, Ks, tab, h, exact, ph, st0):
                 xs[j] = x[j] + h * acc
             if exact:
                 _currents(plant, x, xs, U, tab.c[st] * h, n, ph[st])
-        _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, Ks, st, fext, awork, tmp)
+        _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, Ks, st, fext, awork)
 
 
 @nb.njit(cache=True)
@@ -260,7 +260,7 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
     plant, ctrl, ref, rec, work, tab, stats, bare = borrowed(
         (plant, ctrl, ref, rec, work, tab, stats, own))
     Ks, xs, xr, Kd, ph, noph, scr = bare
-    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scr
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, comp = scr
     x = work.x
     m = 2 * n
     U = work.U

@@ -144,7 +144,7 @@ def _dry(fric, j, s):
 
 
 @nb.njit(cache=True)
-def hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork, tmp):
+def hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork):
     """q̈ (into ``qdd``) of the hybrid plant at q, q̇ with the drives' joint torques ``tau``
     (disturbance ``dist`` included), N·m or N; the stuck joints' margins into
     ``plant.ev.marg`` (module docstring). Returns False when H is not positive definite
@@ -176,7 +176,7 @@ def hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork, tmp):
             for j in range(n):
                 qdd[j] = math.nan
             return False
-    elif not aba_one(plant.rtable, plant.g, q, qd, tf, fext, False, True, awork, tmp, qdd):
+    elif not aba_one(plant.rtable, plant.g, q, qd, tf, fext, False, True, awork, qdd):
         return False
     if stuck or geared:
         return _constrained(plant, q, qd, tau, dist, qdd)

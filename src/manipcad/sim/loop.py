@@ -144,7 +144,7 @@ def _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st):
 
 
 @nb.njit(cache=True, inline="always")
-def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work, tmp):
+def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work):
     """Right-hand side at state xs into row ``st`` of K4; joint torques into tau.
 
     The one place the simulator evaluates the closed loop's right-hand side (RK4 and
@@ -155,13 +155,13 @@ def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work, 
     for j in range(n):
         K4[st, j] = qd[j]
     if plant.ev.on:
-        hybrid_rates(plant, q, qd, tau, dist, qdd, fext, work, tmp)
+        hybrid_rates(plant, q, qd, tau, dist, qdd, fext, work)
     elif plant.gen:
         if plant.gen_fd(address(q), address(qd), address(tau), address(qdd)) >= 0:
             for j in range(n):  # H not positive definite: the run stops as diverged
                 qdd[j] = math.nan
     else:
-        aba_state(plant.rtable, plant.g, q, qd, tau, fext, False, True, work, tmp, qdd)
+        aba_state(plant.rtable, plant.g, q, qd, tau, fext, False, True, work, qdd)
     for j in range(n):
         K4[st, n + j] = qdd[j]
 
@@ -346,13 +346,13 @@ def scratch(n, nx):
     """The work arrays both integrators need (allocated once per call of the core, never
     in the step loop): q, q̇, q̈ (n,), the drive states and their rates (nx − 2n,),
     the joint torques (n,), the signal matrix (n, NSIG), H (n, n), the external forces
-    (n, 6), the ABA and small scratch, and the moment components' work tuple."""
+    (n, 6), the ABA's work rows, and the moment components' work tuple."""
     m = 2 * n
     comp = (np.empty(n), np.empty(n), np.zeros(n), np.empty((n, RNEA_WORK)),
             np.empty((n, CRBA_WORK)), np.zeros((8, 3)), np.empty(n), np.empty(n), np.empty(n))
     return (np.empty(n), np.empty(n), np.empty(n), np.empty(nx - m), np.empty(nx - m),
             np.empty(n), np.zeros((n, NSIG)), np.zeros((n, n)), np.zeros((n, 6)),
-            np.empty((n, ABA_WORK)), np.empty((23, 6)), comp)
+            np.empty((n, ABA_WORK)), comp)
 
 
 @nb.njit(cache=True)
@@ -372,7 +372,7 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
     # counts in the step loop; the caller holds the arguments, ``own`` is held to the end
     plant, ctrl, ref, rec, work, bare = borrowed((plant, ctrl, ref, rec, work, own))
     xs, K4, scr = bare
-    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = scr
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, comp = scr
     x = work.x
     U = work.U
     wait = work.wait
@@ -395,8 +395,7 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
                 settle(plant, x, U, dist, n, scr, K4, k * dt)
             else:
                 rk4_stage(x, K4, st, dt, xs)
-                _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, awork,
-                       tmp)
+                _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, awork)
                 if st != 0:
                     continue
             keep_sample(plant, rec, work, k * dt, every, x, U, tau)
@@ -418,11 +417,11 @@ def hybrid_at(xs, U, dist, n, plant, sc, K, st):
     """The hybrid plant's right-hand side at xs into row ``st`` of K (the stuck joints'
     margins into ``plant.ev.marg``): :func:`_rates` with ``plant.ev.on``, one compiled copy
     for the event code of both integrators."""
-    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, tmp, comp = sc
+    q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, comp = sc
     _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K, st)
     for j in range(n):
         K[st, j] = qd[j]
-    hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork, tmp)
+    hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork)
     for j in range(n):
         K[st, n + j] = qdd[j]
 

@@ -23,7 +23,7 @@ from manipcad.drives.params import (
     pack_drives,
     state_offsets,
 )
-from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.errors import InputError, ManipcadError, ManipcadWarning, refuse_renamed
 from manipcad.model.payload import apply_payload
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot, require_robot
 from manipcad.sim import adaptive as _adaptive
@@ -202,7 +202,7 @@ def simulate(
     disturbance: Callable[[np.ndarray], np.ndarray] | np.ndarray | None = None,
     transmissions=None,
     order: int = 3,
-    record_every: int = 1,
+    every: int = 1,
     progress: Callable[[float], None] | None = None,
     joint_limits: str = "warn",
     use_generated: bool = True,
@@ -212,6 +212,7 @@ def simulate(
     pickup: dict | None = None,
     estimator=None,
     model_payload: str | None = None,
+    **renamed,
 ) -> SimulationResult:
     """Simulate the closed loop: coupled multibody dynamics, DC drives, sampled regulators.
 
@@ -245,7 +246,7 @@ def simulate(
         transmissions: per-joint :class:`manipcad.drives.params.Transmission`
             (elasticity, backlash) or None.
         order: 3 keeps the armature inductance, 2 neglects it.
-        record_every: keep every k-th step in the result.
+        every: keep every k-th step in the result.
         progress: called with the fraction done (0..1) after each chunk of steps; an
             exception it raises (e.g. KeyboardInterrupt to cancel) stops the run.
         joint_limits: what a joint beyond the robot's limits does: "warn" (default: the
@@ -293,6 +294,8 @@ def simulate(
             assume: "true" (the plant's, the pickup known at once; the default without an
             estimator), "nominal" (the robot as given, the pickup unknown) or "online" (the
             estimator's estimate; the default with one).
+        renamed: no keyword is taken here: ``record_every`` (now ``every``) is refused
+            with its new name, any other as Python refuses an unknown keyword.
 
     Returns:
         :class:`SimulationResult`.
@@ -311,6 +314,7 @@ def simulate(
         >>> res.q.shape
         (101, 3)
     """
+    refuse_renamed("simulate", renamed, record_every="every")
     n = require_robot(robot, "simulate").n
     if joint_limits not in ("warn", "stop", "ignore"):
         raise ManipcadError(f"joint_limits must be 'warn', 'stop' or 'ignore', got "
@@ -320,8 +324,8 @@ def simulate(
         raise ManipcadError(f"t_end must be > 0 s, got {t_end}")
     if not (dt > 0 and dt <= t_end):
         raise ManipcadError(f"dt must be in (0, t_end], got {dt}")
-    if int(record_every) < 1:
-        raise ManipcadError(f"record_every must be >= 1, got {record_every}")
+    if int(every) < 1:
+        raise ManipcadError(f"every must be >= 1, got {every}")
     robot = apply_payload(robot, payload)[0]
     # the payload picked up mid-run, the online estimator and what the model knows
     from manipcad.sim import pickup as pk
@@ -333,9 +337,9 @@ def simulate(
     # the reference is sampled chunk by chunk: memory follows the kept samples (t, q, q̇, U,
     # i, τ, and q*, q̇* at the end), and the step count is bounded before anything is made
     K = check_steps(t_end, dt, floats_per_step=0.0, floats_per_kept=1 + 7 * n,
-                    every=int(record_every))
-    if int(record_every) > K:
-        raise ManipcadError(f"record_every = {record_every} keeps one sample of the {K} steps "
+                    every=int(every))
+    if int(every) > K:
+        raise ManipcadError(f"every = {every} keeps one sample of the {K} steps "
                             f"of the run (t_end = {t_end:g} s, dt = {dt:g} s); at most {K}")
     # RK4 along a trajectory: the first chunk's rows sampled once, here; where each row
     # depends on its own time only (Trajectory.rows_independent), their first row is the
@@ -397,7 +401,7 @@ def simulate(
         raise ManipcadError(f"integrator={integrator!r} handles rigid drives only; elastic "
                             "gears and backlash (transmissions=...) need integrator='rk4'")
 
-    every = int(record_every)
+    every = int(every)
     M = K // every + 1
     rec = Record(np.empty(M), *(np.empty((M, n)) for _ in range(5)))
     work = Work(x0, np.zeros(n), np.zeros(len(ctrl.kind), dtype=np.int64),

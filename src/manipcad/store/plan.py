@@ -4,7 +4,7 @@ web application's Simulation page make before a run.
 :func:`plan_run` takes the loaded robot and trajectory and the regulator files, checks that
 they fit together and that the numbers are physical, and gives what :func:`manipcad.simulate`
 needs beyond them: the regulators, the run's end time and the record stride (one stored
-sample per regulator period, :func:`manipcad.store.results.record_every_for`).
+sample per regulator period, :func:`manipcad.store.results.every_for`).
 """
 
 from __future__ import annotations
@@ -106,7 +106,7 @@ def plan_run(robot, trajectory, regulator_files: Sequence[str | Path] = (), *, d
         (True, 1, [])
     """
     from manipcad.control.files import load_regulators
-    from manipcad.store.results import record_every_for
+    from manipcad.store.results import every_for
 
     check_numbers(dt, t_end, every, names)
     robot_source = robot.name if robot_source is None else robot_source
@@ -143,5 +143,5 @@ def plan_run(robot, trajectory, regulator_files: Sequence[str | Path] = (), *, d
         raise InputError(robot_source, "drives", f"the robot has no drives; use "
                          f"{names['drives']}")
     if every is None:
-        every = record_every_for(dt, [r.period for r in regs])
+        every = every_for(dt, [r.period for r in regs])
     return RunPlan(regulators=regs, t_end=t_end, dt=dt, every=every)

@@ -15,43 +15,22 @@
                           made (docs/checks.md)
     DIR/errors.png        the tracking errors over time, one panel per joint
 
-How much is stored is set by the run's ``record_every`` (see
-:func:`record_every_for`: the regulators' sampling period by default).
+How much is stored is set by the run's ``every`` (see
+:func:`every_for`: the regulators' sampling period by default).
 
-Atomicity: everything is written into a hidden temporary sibling folder
-(``.DIR.partial-PID-XXXX``), flushed to disk, and only then installed as DIR:
-
-- DIR absent: one ``rename``.
-- DIR present (``force=True``): one ``renameat2(RENAME_EXCHANGE)`` (Linux,
-  through ctypes) swaps the two folders in a single step, so DIR is at every
-  instant either the old result or the new one; the old one, now under the
-  temporary name, is then deleted.
-- Where the exchange is not available (other systems, some file systems), DIR
-  is a symbolic link to a versioned folder ``.DIR.v-PID-XXXX`` beside it and
-  the link is replaced atomically (``rename`` of a new link over it). An
-  existing real folder is replaced there by two renames through
-  ``.DIR.old-PID-XXXX``; a writer killed between them leaves DIR missing and
-  the next save (or :func:`clean_stale`) renames the old folder back.
-
-A writer killed at any moment (SIGKILL, SIGTERM) leaves DIR complete (old or
-new) and at worst a hidden ``.DIR.partial-*``/``.DIR.old-*``/``.DIR.v-*``
-folder; each name holds the writer's process id, and :func:`clean_stale`
-(called by every save into the same folder) removes those of dead writers
-(and versions older than the one the link points to, whoever made them).
-An interrupted (Ctrl-C) or failed save removes its temporary folder and leaves
-DIR as it was; Ctrl-C after the new result is in place raises
-:class:`SaveInterrupted`, which says so. A DIR that exists and is not empty is
-refused unless ``force=True``.
+Atomicity: the folder is written by :func:`manipcad.folders.write_folder`: into a
+hidden sibling folder, flushed, then installed as DIR in one step (a rename, or an
+exchange of the two folders); a writer killed at any moment leaves DIR complete (old or
+new), and the next save removes what it left. Ctrl-C after the new result is in place
+raises :class:`~manipcad.folders.SaveInterrupted`, which says so. A DIR that exists and
+is not empty is refused unless ``force=True``, and ``force`` replaces only a result
+folder (one with ``metrics.json``).
 """
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
-import re
 import shutil
-import tempfile
 import zipfile
 import zlib
 from collections.abc import Mapping, Sequence
@@ -62,7 +41,8 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError
-from manipcad.fileio import dump_yaml, fsync_tree, json_safe
+from manipcad.fileio import dump_yaml, json_safe
+from manipcad.folders import clean_stale, write_folder
 from manipcad.sim.series import SERIES, result_arrays, series_columns, series_units  # noqa: F401
 from manipcad.version import __version__
 
@@ -155,18 +135,7 @@ def _describe_input(v: Any) -> Any:
     return f"<{type(v).__name__}> (dumped to {INPUTS_DIR}/)"
 
 
-class SaveInterrupted(KeyboardInterrupt):
-    """Ctrl-C arrived after the new result was installed: the save is complete.
-
-    The message says where the result is; the old copy still being deleted is
-    removed by the next save (:func:`clean_stale`).
-    """
-
-    def __str__(self) -> str:  # KeyboardInterrupt prints nothing by default
-        return str(self.args[0]) if self.args else "interrupted"
-
-
-def record_every_for(dt: float, periods: Sequence[float] = ()) -> int:
+def every_for(dt: float, periods: Sequence[float] = ()) -> int:
     """Record stride for a run: one sample per regulator period (the shortest one).
 
     Args:
@@ -179,9 +148,9 @@ def record_every_for(dt: float, periods: Sequence[float] = ()) -> int:
         stored); 1 without regulators.
 
     Example:
-        >>> record_every_for(1e-4, [1e-3, 5e-4])
+        >>> every_for(1e-4, [1e-3, 5e-4])
         5
-        >>> record_every_for(1e-4)
+        >>> every_for(1e-4)
         1
     """
     import math
@@ -222,7 +191,8 @@ def save_result(result, out_dir: str | Path, *, inputs: Mapping[str, Any] | None
     Raises:
         InputError: the folder is a file or is not empty (without ``force``),
             an input file cannot be read, or the disk refuses the write.
-        SaveInterrupted: Ctrl-C after the new result was installed (it is complete).
+        manipcad.folders.SaveInterrupted: Ctrl-C after the new result was installed (it is
+            complete).
 
     Example:
         >>> import manipcad
@@ -240,83 +210,12 @@ def save_result(result, out_dir: str | Path, *, inputs: Mapping[str, Any] | None
     check_out_dir(out, force=force)
     try:
         parent.mkdir(parents=True, exist_ok=True)
-        tmp = _temp_dir(parent, out.name, "partial")
     except OSError as exc:
         raise InputError(str(out), "", f"cannot create the folder: {exc.strerror or exc}") from None
-    with _discard_on_failure(tmp, out, "write"):
+    with write_folder(out, force=force) as tmp:
         _write_all(tmp, result, inputs or {}, joint_types, status, message, run, plot, csv,
                    extra or {})
-    install_folder(tmp, out, force=force)
     return out
-
-
-def install_folder(tmp: str | Path, out: str | Path, *, force: bool = False) -> Path:
-    """Install a complete folder ``tmp`` as ``out`` atomically (the module docstring's steps).
-
-    ``tmp`` must be a sibling of ``out`` (same file system). On failure or
-    Ctrl-C before the new folder is in place, ``tmp`` is deleted and ``out``
-    is left as it was.
-
-    Args:
-        tmp: the complete new folder (e.g. made by :func:`temp_dir`).
-        out: the target folder (or link, in the versioned layout).
-        force: replace a non-empty existing ``out``.
-
-    Returns:
-        ``out``.
-
-    Raises:
-        InputError: ``out`` is a file, or a non-empty folder without ``force``,
-            or the disk refuses the rename.
-        SaveInterrupted: Ctrl-C after the new folder was installed.
-    """
-    tmp, out = Path(tmp), Path(out)
-    with _discard_on_failure(tmp, out, "install"):
-        old = _install(tmp, out, force)
-    if old is not None:
-        try:
-            _remove(old)
-        except KeyboardInterrupt:
-            raise SaveInterrupted(f"interrupted after the new result was saved in {out}; "
-                                  f"the old copy {old.name} is removed on the next save") from None
-    return out
-
-
-@contextlib.contextmanager
-def _discard_on_failure(tmp: Path, out: Path, step: str):
-    """Delete ``tmp`` if the block fails or is interrupted; OSError -> InputError on ``out``."""
-    try:
-        yield
-    except BaseException as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
-        if isinstance(exc, OSError):
-            raise InputError(str(out), "", f"cannot {step} the result: "
-                             f"{exc.strerror or exc}") from None
-        raise
-
-
-def _temp_dir(parent: Path, name: str, tag: str) -> Path:
-    """A new hidden sibling folder ``.NAME.TAG-PID-XXXX`` (mode 0o755)."""
-    tmp = Path(tempfile.mkdtemp(prefix=f".{name}.{tag}-{os.getpid()}-", dir=parent))
-    os.chmod(tmp, 0o755)
-    return tmp
-
-
-def temp_dir(out: str | Path) -> Path:
-    """A new temporary folder beside ``out`` to build its next content in (see
-    :func:`install_folder`); its name marks it as this process's, so
-    :func:`clean_stale` removes it if the process dies."""
-    out = Path(out)
-    parent = out.parent if str(out.parent) else Path(".")
-    parent.mkdir(parents=True, exist_ok=True)
-    return _temp_dir(parent, out.name, "partial")
-
-
-def _remove(path: Path) -> None:
-    if path.is_symlink() or path.is_file():
-        path.unlink(missing_ok=True)
-    else:
-        shutil.rmtree(path, ignore_errors=True)
 
 
 def _write_all(tmp: Path, result, inputs: Mapping[str, Any], joint_types, status: str,
@@ -356,8 +255,6 @@ def _write_all(tmp: Path, result, inputs: Mapping[str, Any], joint_types, status
         if status != "ok":
             title = f"{result.robot or 'robot'}: tracking error q_ref - q ({status})"
         plot_errors(result, tmp / ERRORS_PNG, joint_types=joint_types, title=title)
-
-    fsync_tree(tmp)
 
 
 def write_csv(result, path: str | Path, *, joint_types: Sequence[str] | None = None) -> Path:
@@ -409,203 +306,6 @@ def _write_input(folder: Path, key: str, value: Any) -> None:
         return
     raise InputError("inputs", key, f"expected a file path, a mapping or an object with "
                      f"to_dict(), got {type(value).__name__}")
-
-
-# --------------------------------------------------------------------------- swapping
-
-_EXCHANGE_OFF = os.environ.get("MANIPCAD_NO_RENAME_EXCHANGE", "") not in ("", "0")
-
-
-def exchange(a: str | Path, b: str | Path) -> bool:
-    """Swap two existing paths in one atomic step (``renameat2(RENAME_EXCHANGE)``,
-    :func:`manipcad.fileio.exchange_paths`); off when ``MANIPCAD_NO_RENAME_EXCHANGE``
-    is set (to exercise the versioned-link fallback).
-
-    Returns:
-        True when swapped; False when the platform or file system has no such
-        call (then nothing changed). Other failures raise :class:`OSError`.
-    """
-    if _EXCHANGE_OFF:
-        return False
-    from manipcad.fileio import exchange_paths
-
-    return exchange_paths(a, b)
-
-
-def _install(tmp: Path, out: Path, force: bool) -> Path | None:
-    """Install ``tmp`` as ``out``; return what is left to delete (the old copy) or None."""
-    if out.is_symlink():  # the versioned layout: replace the link atomically
-        if not force and any(out.iterdir()):
-            raise InputError(str(out), "", "folder exists and is not empty; use --force "
-                             "(force=True) to replace it")
-        return _relink(tmp, out)
-    if not out.exists():
-        if exchange_supported(out.parent):
-            os.rename(tmp, out)
-            return None
-        return _relink(tmp, out)
-    if not out.is_dir():
-        raise InputError(str(out), "", "exists and is not a folder")
-    if not any(out.iterdir()):
-        os.replace(tmp, out)  # POSIX rename may replace an empty folder
-        return None
-    if not force:
-        raise InputError(str(out), "", "folder exists and is not empty; use --force "
-                         "(force=True) to replace it")
-    if exchange(tmp, out):
-        return tmp  # now holds the old result
-    # no exchange: two renames; a kill between them is repaired by clean_stale
-    old = _temp_dir(out.parent, out.name, "old")
-    os.rmdir(old)
-    os.rename(out, old)
-    try:
-        os.rename(tmp, out)
-    except BaseException:
-        os.rename(old, out)
-        raise
-    return old
-
-
-def _relink(tmp: Path, out: Path) -> Path | None:
-    """The versioned layout: rename ``tmp`` to ``.NAME.v-PID-X`` and point the link at it."""
-    version = _temp_dir(out.parent, out.name, "v")
-    os.rmdir(version)
-    os.rename(tmp, version)
-    link = out.parent / f".{out.name}.link-{os.getpid()}-{version.name[-8:]}"
-    try:
-        os.symlink(version.name, link)
-        previous = out.resolve() if out.is_symlink() else None
-        os.replace(link, out)
-    except BaseException:
-        # an interrupt (SIGINT) can land after the replace returned, still in this
-        # block: the link then already points at the new version, which must stay
-        if not (out.is_symlink() and out.resolve() == version.resolve()):
-            link.unlink(missing_ok=True)
-            os.rename(version, tmp)
-        raise
-    if previous is not None and previous != version.resolve() and previous.parent == out.parent:
-        return previous
-    return None
-
-
-def exchange_supported(folder: str | Path) -> bool:
-    """Whether :func:`exchange` works in ``folder`` (tried once on two empty folders)."""
-    folder = Path(folder)
-    key = str(folder.resolve())
-    if key not in _SUPPORTED:
-        a = b = None
-        try:
-            a = Path(tempfile.mkdtemp(prefix=f".probe.partial-{os.getpid()}-", dir=folder))
-            b = Path(tempfile.mkdtemp(prefix=f".probe.partial-{os.getpid()}-", dir=folder))
-            _SUPPORTED[key] = exchange(a, b)
-        except OSError:
-            _SUPPORTED[key] = False
-        finally:
-            for p in (a, b):
-                if p is not None:
-                    shutil.rmtree(p, ignore_errors=True)
-    return _SUPPORTED[key]
-
-
-_SUPPORTED: dict[str, bool] = {}
-
-#: hidden names the store makes beside a result: .NAME.TAG-PID-RANDOM
-_LEFTOVER = re.compile(r"^\.(?P<name>.+)\.(?P<tag>partial|old|v|link)-(?P<pid>\d+)-[^-/]+$")
-_LEGACY = re.compile(r"^\.(?P<name>.+)\.(?P<tag>partial|old)-[^-/]+$")
-
-
-def _alive(pid: int) -> bool:
-    from manipcad.fileio import _alive as alive  # one liveness test for every writer
-
-    return alive(pid)
-
-
-def leftovers(folder: str | Path, name: str | None = None) -> list[tuple[Path, str, bool]]:
-    """The store's hidden temporary entries in a folder.
-
-    Args:
-        folder: the folder holding result folders.
-        name: only those of this result name (None: all).
-
-    Returns:
-        (path, tag, writer_alive) per entry; tag is "partial", "old", "v"
-        (a version of the versioned layout) or "link". Entries of an earlier
-        manipcad without a process id in the name count as of a dead writer.
-    """
-    out = []
-    folder = Path(folder)
-    try:
-        entries = list(folder.iterdir())
-    except OSError:
-        return []
-    for p in entries:
-        m = _LEFTOVER.match(p.name)
-        if m is not None:
-            alive = _alive(int(m["pid"]))
-        else:
-            m = _LEGACY.match(p.name)
-            if m is None:
-                continue
-            alive = False
-        if name is None or m["name"] == name:
-            out.append((p, m["tag"], alive))
-    return out
-
-
-def clean_stale(folder: str | Path, name: str | None = None) -> list[str]:
-    """Remove the leftovers of dead writers beside result folders; repair a half swap.
-
-    A result folder NAME found missing while a dead writer's ``.NAME.old-*``
-    exists (a kill between the two renames of the fallback swap) gets that
-    folder back. Versions of the versioned layout no link points to are removed.
-
-    Args:
-        folder: the folder holding result folders.
-        name: only the leftovers of this result name (None: all).
-
-    Returns:
-        One line per action taken ("removed .r.partial-12-ab", "restored r from ...").
-    """
-    folder = Path(folder)
-    done: list[str] = []
-    found = leftovers(folder, name)
-    for p, tag, alive in found:
-        if alive and not (tag == "v" and _superseded(p, folder)):
-            continue
-        m = _LEFTOVER.match(p.name) or _LEGACY.match(p.name)
-        assert m is not None
-        target = folder / m["name"]
-        try:
-            if tag == "old" and not target.exists() and not target.is_symlink():
-                os.rename(p, target)
-                done.append(f"restored {target.name} from {p.name}")
-                continue
-            if tag == "v":
-                if target.is_symlink() and target.resolve() == p.resolve():
-                    continue
-                if not target.is_symlink() and not target.exists():
-                    os.symlink(p.name, target)  # a link lost before it was made: keep data
-                    done.append(f"restored {target.name} -> {p.name}")
-                    continue
-            _remove(p)
-            done.append(f"removed {p.name}")
-        except OSError:
-            continue
-    return done
-
-
-def _superseded(version: Path, folder: Path) -> bool:
-    """A version folder older than the one its link points to (no writer will link it)."""
-    m = _LEFTOVER.match(version.name)
-    link = folder / m["name"] if m else None
-    if link is None or not link.is_symlink():
-        return False
-    try:
-        current = link.resolve()
-        return current != version.resolve() and (
-            version.lstat().st_ctime_ns < current.lstat().st_ctime_ns)
-    except OSError:
-        return False
 
 
 # --------------------------------------------------------------------------- reading
@@ -685,6 +385,5 @@ def _read_npz(npz: Path) -> dict[str, np.ndarray]:
 
 
 __all__ = ["save_result", "load_result", "check_out_dir", "result_document", "series_units",
-           "metric_units", "SERIES", "jsonable", "write_csv", "clean_stale", "leftovers",
-           "install_folder", "temp_dir", "exchange", "SaveInterrupted", "record_every_for",
-           "result_arrays", "series_columns"]
+           "metric_units", "SERIES", "jsonable", "write_csv", "every_for", "result_arrays",
+           "series_columns"]

@@ -78,7 +78,6 @@ import json
 import math
 import os
 import shutil
-import tempfile
 import warnings
 from collections.abc import Callable
 from contextlib import ExitStack
@@ -88,7 +87,8 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
-from manipcad.fileio import clean_folder_leftovers, json_safe, writable_folder
+from manipcad.fileio import json_safe, writable_folder
+from manipcad.folders import clean_stale, temp_dir
 from manipcad.model.robot import Robot
 from manipcad.study.fig3 import (
     LAWS,
@@ -812,7 +812,7 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
     size = functools.partial(_size_rows, robot, max_payload, g["speed_scale"], targets)
     created = not out.exists()
     out.mkdir(exist_ok=True)
-    clean_folder_leftovers(out / "claims")  # the files' folder of a writer killed earlier
+    clean_stale(out, "claims")  # the files' folder of a writer killed earlier
     try:
         return _run_claims(out, robot, arm_name, max_payload, g, size, dt, workers,
                            scheduler, progress)
@@ -1056,7 +1056,7 @@ def _write(out: Path, doc: dict, pool=None) -> None:
     from manipcad.parallel import run_tasks
     from manipcad.report.claims import claims_html, draw_band, panel_groups, save_bands
 
-    tmp = Path(tempfile.mkdtemp(prefix=f".claims.partial-{os.getpid()}-", dir=out))
+    tmp = temp_dir(out / "claims")  # named as the folder writer's: cleaned if we die
     try:
         (tmp / "claims.json").write_text(json.dumps(doc, indent=2, ensure_ascii=False) + "\n",
                                          encoding="utf-8")

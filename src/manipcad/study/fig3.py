@@ -57,6 +57,7 @@ import numpy as np
 from manipcad.control import realization_complexity
 from manipcad.errors import InputError, ManipcadError
 from manipcad.fileio import json_safe, writable_folder
+from manipcad.folders import write_folder
 from manipcad.model.robot import Robot
 from manipcad.version import __version__
 
@@ -606,10 +607,9 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
 
 def _write(out: Path, data: dict, tracking: dict, steps: dict, plot_fig3, fig3_html,
            arm: Robot) -> dict[str, Path]:
-    """Write the three files and install the folder whole (:func:`manipcad.fileio.write_folder`):
+    """Write the three files and install the folder whole (:func:`manipcad.folders.write_folder`):
     a reader, or a kill at any moment, sees the old folder or the new one, never a mix.
     Other files a user keeps in ``out`` are carried over into the new folder."""
-    from manipcad.fileio import write_folder
 
     names = ("fig3.png", "fig3.json", "report.html")
     with write_folder(out) as tmp:

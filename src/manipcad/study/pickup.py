@@ -43,6 +43,7 @@ import numpy as np
 
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.fileio import json_safe, writable_folder
+from manipcad.folders import write_folder
 from manipcad.model.robot import Robot
 from manipcad.version import __version__
 
@@ -299,7 +300,6 @@ def findings(data: dict) -> list[str]:
 
 
 def _write(out: Path, data: dict, runs: dict) -> dict[str, Path]:
-    from manipcad.fileio import write_folder
     from manipcad.report.pickup import plot_pickup
 
     with write_folder(out) as tmp:

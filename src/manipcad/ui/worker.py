@@ -277,7 +277,7 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
         warnings.simplefilter("ignore", ManipcadWarning)
         try:
             res = simulate(arm, t_end=t_end, dt=spec.dt, trajectory=traj, regulators=regs,
-                           record_every=every, progress=progress)
+                           every=every, progress=progress)
         except SimulationDiverged as exc:
             if spec.save_diverged:
                 item = ws.store_result(exc.result, name=spec.name, robot=arm,

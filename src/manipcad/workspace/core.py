@@ -467,7 +467,7 @@ class Workspace:
                     shutil.rmtree(copy_from.parent, ignore_errors=True)
             target = folder / f"{name}{copy_from.suffix.lower()}"
         else:
-            from manipcad.store.results import temp_dir
+            from manipcad.folders import temp_dir
 
             tmp = temp_dir(folder / name)
             shutil.rmtree(tmp)
@@ -483,9 +483,9 @@ class Workspace:
     def _clean_leftovers(self, kind: str) -> list[str]:
         """Remove what killed writers left in ``kind``'s folder (the hidden
         ``.NAME.partial-PID-*`` files and folders, nested ones included, of processes that
-        no longer run; :func:`manipcad.store.results.clean_stale`). Every write does it
+        no longer run; :func:`manipcad.folders.clean_stale`). Every write does it
         first, so a SIGKILL's leftovers last only until the next write."""
-        from manipcad.store.results import clean_stale
+        from manipcad.folders import clean_stale
 
         folder = self.root / kind
         return clean_stale(folder) if folder.is_dir() else []
@@ -531,7 +531,7 @@ class Workspace:
     def _commit(self, kind: str, name: str, tmp: Path, target: Path, meta: dict[str, Any],
                 facts: dict[str, Any], force: bool) -> Item:
         """Install ``tmp`` as ``target`` and index it, in one write transaction."""
-        from manipcad.store.results import install_folder
+        from manipcad.folders import install_folder
 
         try:
             with self.index.write() as db:
@@ -692,7 +692,7 @@ class Workspace:
                 inputs["regulator"] = [self.find("regulators", r) or Path(r) for r in regulators]
             run_doc = dict(run or {})
             folder = self.root / "results"
-            from manipcad.store.results import temp_dir
+            from manipcad.folders import temp_dir
 
             staging = temp_dir(folder / name)
             shutil.rmtree(staging)
@@ -808,7 +808,7 @@ class Workspace:
             (a file the index lacks), "outside" (a link leaving the workspace),
             "leftover" (a dead writer's temporary file or folder). Empty when clean.
         """
-        from manipcad.store.results import leftovers
+        from manipcad.folders import leftovers
 
         problems: list[Problem] = []
         seen = set()
@@ -847,7 +847,7 @@ class Workspace:
             {"items": count indexed, "skipped": count of files that do not load}
             and the skipped items' errors under "errors".
         """
-        from manipcad.store.results import clean_stale
+        from manipcad.folders import clean_stale
 
         for kind in KINDS:
             if (self.root / kind).is_dir():
@@ -893,7 +893,8 @@ class Workspace:
         Raises:
             InputError: no such item, or the bundle folder exists.
         """
-        from manipcad.store.results import install_folder, load_result, temp_dir, write_csv
+        from manipcad.folders import install_folder, temp_dir
+        from manipcad.store.results import load_result, write_csv
 
         item = self.get(ref)
         out = Path(to) / item.name

@@ -155,7 +155,7 @@ def run_from_folder(folder: Path, doc: dict[str, Any]):
         same["use_generated"] = bool(run["generated"])
     return simulate(robot, t_end=float(run["t_end"]), dt=dt, trajectory=traj,
                     regulators=regs, payload=run.get("payload"), drives=drives,
-                    record_every=int(run.get("every") or run.get("record_every") or 1),
+                    every=int(run.get("every") or 1),
                     **same)
 
 

@@ -636,7 +636,7 @@ def test_api_names_the_argument_and_what_it_takes(call, words):
 
 @pytest.mark.parametrize("period", ["1.0e+6", "1.0e+300"])
 def test_regulator_period_longer_than_the_run_named(tmp_path, period):
-    """A huge period was reported as 'every = 10000000000 keeps one sample...'
+    """A huge period was reported as 'record_every = 10000000000 keeps one sample...'
     (CLI) and ran with a regulator that never acted (API, --every 1)."""
     import re
 

@@ -79,6 +79,8 @@ def short_paths(text: str, ws_root: str | Path | None = None) -> str:
         'manipcad/model/catalog/puma560.yaml: note'
         >>> short_paths("/home/me/ws/robots/arm.urdf: joint 'j'", "/home/me/ws")
         "robots/arm.urdf: joint 'j'"
+        >>> short_paths("/abs/a.yaml: bad", "/")
+        '/abs/a.yaml: bad'
     """
     roots = {str(_PACKAGE): "manipcad/"}
     pkg = Path(__file__).parents[1]                    # as imported (maybe through a link)
@@ -87,7 +89,8 @@ def short_paths(text: str, ws_root: str | Path | None = None) -> str:
         for r in (Path(ws_root), Path(ws_root).absolute(), Path(ws_root).resolve()):
             roots.setdefault(str(r), "")
     for root in sorted(roots, key=len, reverse=True):  # the longest first
-        text = text.replace(root.rstrip("/") + "/", roots[root])
+        if root.strip("/.") and not root.startswith("../"):  # never "/", "." or ".."
+            text = text.replace(root.rstrip("/") + "/", roots[root])
     return text
 
 

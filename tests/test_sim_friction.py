@@ -32,20 +32,25 @@ def one_joint(drive: Drive = DRIVE) -> Robot:
         np.zeros((1, 3)), np.diag([0.01, 0.01, I_LINK])[None], drives=[drive])
 
 
-def oracle(q0: float, qd0: float, t_end: float):
-    """The joint under the sampled PD (U = kp·(0 − q) − kd·q̇ held over each period) by
-    solve_ivp (rtol 1e-12) with events: q̇ = 0 while slipping, the holding torque at the
-    static friction while stuck. Returns the switches [(t, mode, q)]."""
-    inertia = I_LINK + DRIVE.J * RATIO**2
-    fp, fn = RATIO * DRIVE.M_f[0], RATIO * DRIVE.M_f[1]
-    km, kw, R, L = DRIVE.k_m, DRIVE.k_w, DRIVE.R, DRIVE.L
+def oracle(q0: float, qd0: float, t_end: float, drive: Drive = DRIVE, ki: float = 0.0):
+    """The joint under the sampled PD (U = kp·(0 − q) − kd·q̇ held over each period; with
+    ``ki`` the PID, + ki·Σ(0 − q)·T as :func:`manipcad.control.pid.pid_update`) by
+    solve_ivp (rtol 1e-12) with events: q̇ = 0 while slipping (the kinetic friction M_f
+    against the motion), the holding torque at the static friction M_s while stuck.
+    Returns the switches [(t, mode, q)]."""
+    inertia = I_LINK + drive.J * RATIO**2
+    kp_, kn_ = RATIO * drive.M_f[0], RATIO * drive.M_f[1]
+    fp, fn = RATIO * drive.static_friction[0], RATIO * drive.static_friction[1]
+    km, kw, R, L = drive.k_m, drive.k_w, drive.R, drive.L
     x = np.array([q0, qd0, 0.0])
     mode = float(np.sign(qd0))
     switches = []
     t = 0.0
     k = 0
+    integ = 0.0
     while t < t_end - 1e-12:
-        U = -KP * x[0] - KD * x[1]
+        integ -= x[0] * PERIOD
+        U = -KP * x[0] - KD * x[1] + ki * integ
         t1 = min((k + 1) * PERIOD, t_end)
         for _ in range(20):
             if t >= t1 - 1e-15:
@@ -56,7 +61,7 @@ def oracle(q0: float, qd0: float, t_end: float):
                 di = (U - R * y[2] - kw * RATIO * y[1]) / L
                 if mode == 0.0:
                     return [0.0, 0.0, di]
-                return [y[1], (tau - (fp if mode > 0 else -fn)) / inertia, di]
+                return [y[1], (tau - (kp_ if mode > 0 else -kn_)) / inertia, di]
 
             def stop(_t, y, mode=mode):
                 return mode * y[1] if mode != 0.0 else 1.0
@@ -113,8 +118,14 @@ def test_stick_slip_against_solve_ivp(qd0, integrator, tol):
                    q0=[0.0], qd0=[qd0], regulators=[pid(0, kp=KP, kd=KD, period=PERIOD)],
                    every=50 if not adaptive else 10, integrator=integrator,
                    **({"rtol": 1e-10, "atol": 1e-12} if adaptive else {}))
-    got = res.events
     assert len(want) >= 3 and any(m == 0.0 for _, m, _ in want)
+    _agree(res, want, t_end, tol)
+
+
+def _agree(res, want, t_end, tol):
+    """The run's switches (joint 0) at the oracle's instants within ``tol`` s, the same
+    modes, and the positions held while stuck within ``tol`` rad (q̇ = 0 exactly)."""
+    got = res.events
     assert got.shape[0] == len(want), (got, want)
     for (t, m, _q), (tg, jg, mg) in zip(want, got, strict=True):
         assert mg == m and jg == 0
@@ -132,6 +143,24 @@ def test_stick_slip_against_solve_ivp(qd0, integrator, tol):
         assert np.abs(res.q[held, 0] - q).max() < tol, (t, q)
         assert np.all(res.qd[held, 0] == 0.0)
     assert checked >= 1
+
+
+def test_static_friction_above_kinetic_against_solve_ivp():
+    """M_s > M_f: a stopped joint holds until the drive's torque exceeds the static
+    friction, then slides with the kinetic one. A PID (the integral winds up while the
+    joint is stuck) against solve_ivp with events: the switches within 1e-9 s, the held
+    positions within 1e-9 rad; where M_s = M_f turns the joint back at once, M_s holds it
+    and breaks away later."""
+    t_end, ki = 0.4, 400.0
+    drive = DRIVE.replace(M_s=(0.035, 0.045))
+    want = oracle(0.0, 3.0, t_end, drive, ki)
+    plain = oracle(0.0, 3.0, t_end, DRIVE, ki)
+    # the last stop: turned back at once with M_f, held for some 30 ms with M_s
+    assert plain[-1][0] == plain[-2][0] and want[-1][0] - want[-2][0] > 0.02, (want, plain)
+    res = simulate(one_joint(drive), t_end=t_end, dt=2e-5, q0=[0.0], qd0=[3.0],
+                   regulators=[pid(0, kp=KP, ki=ki, kd=KD, period=PERIOD)],
+                   record_every=50)
+    _agree(res, want, t_end, 1e-9)
 
 
 # ------------------------------------------------------------ gear losses

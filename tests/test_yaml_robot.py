@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import yaml
 
+import manipcad
 from manipcad.errors import InertiaWarning, InputError, ManipcadWarning, ModelError
 from manipcad.model import dh
 from manipcad.model.load import catalog_names, load_robot
@@ -860,3 +861,34 @@ def test_input_error_is_never_mutating_the_document(tmp_path):
     path = write(tmp_path, copy.deepcopy(doc))
     a, b = load_yaml_robot(path), load_yaml_robot(path)
     np.testing.assert_array_equal(a.table, b.table)
+
+
+def test_static_friction_read_saved_and_checked(tmp_path):
+    """A drive's M_s (static friction) is read, written back by save_robot, packed for the
+    simulator (joint side |i_r|·M_s); absent it equals M_f and the robot's hash is the one
+    of a drive without the field; below M_f it is refused naming the field."""
+    from manipcad.model.hashing import robot_hash
+    from manipcad.model.tree_file import save_robot
+    from manipcad.sim.events import FS_NEG, FS_POS
+    from manipcad.sim.simulate import _events, _packed_drives
+
+    plain = load_yaml_robot(write(tmp_path, base_doc()))
+    assert plain.drives[0].static_friction == plain.drives[0].M_f == (0.01, 0.02)
+    doc = base_doc()
+    doc["joints"][0]["drive"].update(M_s=[0.015, 0.02], R=1.0, L=1e-3, k_m=0.1, k_w=0.1)
+    robot = load_yaml_robot(write(tmp_path, doc, "ms.yaml"))
+    assert robot.drives[0].M_s == (0.015, 0.02)
+    again = manipcad.load_robot(save_robot(robot, tmp_path / "saved.yaml"))
+    assert again.drives[0].M_s == (0.015, 0.02)
+    assert robot_hash(again) == robot_hash(robot)
+    equal = base_doc()
+    equal["joints"][0]["drive"]["M_s"] = [0.01, 0.02]
+    assert robot_hash(load_yaml_robot(write(tmp_path, equal, "eq.yaml"))) == robot_hash(plain)
+    doc["joints"][0]["drive"]["M_s"] = [0.01, 0.02]
+    assert robot_hash(robot) != robot_hash(load_yaml_robot(write(tmp_path, doc, "ms2.yaml")))
+    dtable, _, rtable = _packed_drives(robot, True, None, 3)
+    fric = _events(robot, dtable, rtable, True, np.zeros(2), 4).fric
+    assert fric[0, FS_POS] == pytest.approx(50 * 0.015) and fric[0, FS_NEG] == pytest.approx(1.0)
+    bad = base_doc()
+    bad["joints"][0]["drive"]["M_s"] = 0.015
+    expect_error(tmp_path, bad, "joints[0].drive.M_s", ">= M_f")

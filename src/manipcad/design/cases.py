@@ -140,7 +140,9 @@ def perturbed(robot: Robot, uncertainty: float, sample: int, seed: int = 0
         drives.append(d.replace(k_m=d.k_m * f["k_m"][j], k_w=d.k_w * f["k_m"][j],
                                 R=d.R * f["R"][j], J=d.J * f["J"][j],
                                 k_v=d.k_v * f["friction"][j],
-                                M_f=tuple(m * f["friction"][j] for m in d.M_f)))
+                                M_f=tuple(m * f["friction"][j] for m in d.M_f),
+                                M_s=None if d.M_s is None
+                                else tuple(m * f["friction"][j] for m in d.M_s)))
     new = robot.replace(mass=np.asarray(robot.mass, dtype=float) * f["mass"],
                         inertia=np.asarray(robot.inertia, dtype=float)
                         * f["mass"][:, None, None],

@@ -62,6 +62,10 @@ def robot_hash(robot) -> str:
                 if v:  # (a drive without assumptions hashes as before they existed)
                     put(repr(v))
                 continue
+            if f.name == "M_s":
+                if v is not None:  # (static = kinetic friction hashes as before M_s existed)
+                    put(np.asarray(v, dtype=float))
+                continue
             if isinstance(v, tuple):
                 put(np.asarray(v, dtype=float))
             elif isinstance(v, float) and math.isnan(v):

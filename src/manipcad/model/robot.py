@@ -67,7 +67,12 @@ class Drive:
             for a prismatic joint); its sign gives the direction.
         k_v: viscous friction on the motor shaft, N·m·s/rad.
         M_f: dry (Coulomb) friction on the motor shaft as (positive motion,
-            negative motion) magnitudes, N·m.
+            negative motion) magnitudes, N·m: the kinetic friction of a turning motor.
+        M_s: static (break-away) friction on the motor shaft as (positive, negative)
+            magnitudes, N·m, each >= the matching M_f: a stuck drive breaks away only
+            when the torque on it exceeds M_s, then slides with M_f. None (the
+            default, what drive data without a break-away value give): equal to M_f
+            (:attr:`static_friction` gives the pair in force).
         R: armature resistance, Ω.
         L: armature inductance, H.
         k_m: torque constant, N·m/A.
@@ -111,6 +116,7 @@ class Drive:
     ratio: float = 1.0
     k_v: float = 0.0
     M_f: tuple[float, float] = (0.0, 0.0)
+    M_s: tuple[float, float] | None = None
     R: float = float("nan")
     L: float = float("nan")
     k_m: float = float("nan")
@@ -143,6 +149,21 @@ class Drive:
             raise ModelError("drive M_f must be one value or a [positive, negative] pair")
         # the negative-motion value may be given signed, as Corke's Tc-
         object.__setattr__(self, "M_f", (abs(float(mf[0])), abs(float(mf[1]))))
+        ms = self.M_s
+        if ms is not None:
+            if np.ndim(ms) == 0:
+                ms = (float(ms), float(ms))
+            elif len(ms) != 2:
+                raise ModelError("drive M_s must be one value or a [positive, negative] pair",
+                                 field="M_s")
+            ms = (abs(float(ms[0])), abs(float(ms[1])))
+            if not all(math.isfinite(x) for x in ms):
+                raise ModelError(f"drive M_s must be finite (N·m), got {ms}", field="M_s")
+            if ms[0] < self.M_f[0] or ms[1] < self.M_f[1]:
+                raise ModelError(f"drive M_s (static friction, {ms[0]:g}, {ms[1]:g} N·m) must "
+                                 f"be >= M_f (kinetic, {self.M_f[0]:g}, {self.M_f[1]:g} N·m) "
+                                 "in each direction", field="M_s")
+            object.__setattr__(self, "M_s", None if ms == self.M_f else ms)
         assumed = dict(self.assumed)
         if set(assumed) - {f.name for f in dataclasses.fields(self)}:
             raise ModelError(f"drive assumed names no drive field: "
@@ -165,6 +186,17 @@ class Drive:
         elif not 0 < float(self.efficiency) <= 1:
             raise ModelError(f"drive efficiency must be in (0, 1] (nan: unknown), "
                              f"got {self.efficiency}")
+
+    @property
+    def static_friction(self) -> tuple[float, float]:
+        """The static (break-away) friction in force, (positive, negative) motion, N·m on
+        the motor shaft: ``M_s``, or ``M_f`` where none is given.
+
+        Example:
+            >>> Drive(M_f=0.1).static_friction, Drive(M_f=0.1, M_s=(0.15, 0.1)).static_friction
+            ((0.1, 0.1), (0.15, 0.1))
+        """
+        return self.M_f if self.M_s is None else self.M_s
 
     @property
     def elastic(self) -> bool:

@@ -208,6 +208,8 @@ def drive_to_dict(d: Drive) -> dict[str, Any]:
             continue
         out[key] = v
     out["M_f"] = [float(d.M_f[0]), float(d.M_f[1])]
+    if d.M_s is not None:
+        out["M_s"] = [float(d.M_s[0]), float(d.M_s[1])]
     if d.elastic:
         out["elasticity"] = [float(d.stiffness), float(d.damping)]
     if d.assumed:

@@ -43,8 +43,8 @@ Mapping onto the internal tree (see :mod:`manipcad.model.dh`):
   prismatic); the link's centre and inertia are carried into the body frame;
   the last row's distal part becomes the tool frame (composed with ``tool:``).
 
-Drives: explicit fields ``J, ratio, k_v, M_f, R, L, k_m, k_w, k_u, u_max`` (and
-the ratings), ``elasticity`` (k_s N·m/rad, or [k_s, d_s]) and ``backlash`` (b,
+Drives: explicit fields ``J, ratio, k_v, M_f, M_s, R, L, k_m, k_w, k_u, u_max`` (and
+the ratings; ``M_s`` the static friction, default ``M_f``), ``elasticity`` (k_s N·m/rad, or [k_s, d_s]) and ``backlash`` (b,
 rad, half the gap; joint side), ``efficiency`` and the gear ratings, or
 ``motor:`` and/or ``gear:`` names from the catalog (a gear may be a list, a
 chain from the motor outwards), with any explicit field overriding the
@@ -185,7 +185,8 @@ Elasticity = Annotated[tuple[float, float] | None, BeforeValidator(_elasticity)]
 
 class DriveSpec(_Spec):
     """A joint drive: catalog motor/gear names and/or explicit fields (SI units,
-    motor side: J kg·m², ratio rad/rad or rad/m, k_v N·m·s/rad, M_f N·m, R Ω, L H,
+    motor side: J kg·m², ratio rad/rad or rad/m, k_v N·m·s/rad, M_f N·m (kinetic dry
+    friction), M_s N·m (static, break-away friction, >= M_f; default M_f), R Ω, L H,
     k_m N·m/A, k_w V·s/rad, k_u V/V, u_max V, rated/peak torque N·m, max_speed
     rad/s, rated_voltage V, rated_current A; joint side: elasticity k_s N·m/rad
     or [k_s N·m/rad, d_s N·m·s/rad], backlash b rad (half the gap), gear
@@ -212,6 +213,7 @@ class DriveSpec(_Spec):
     ratio: OptNum = None
     k_v: OptNum = None
     M_f: Friction = None
+    M_s: Friction = None
     R: OptNum = None
     L: OptNum = None
     k_m: OptNum = None

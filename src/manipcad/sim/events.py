@@ -8,8 +8,9 @@ efficiency η < 1 takes part (a *lossy* joint). Each has a mode, ``mode[j]``:
   direction opposes it, whatever the sign q̇ takes inside a step (the sign is a
   mode, switched at located events, never ``sign(q̇)`` of a stage);
 * ``0``: stuck: q̇_j = q̈_j = 0, the friction holds whatever torque the motion of the
-  others and the drive ask of it, up to the static friction (M_s = M_f: the data
-  give no separate static value).
+  others and the drive ask of it, up to the static friction |i_r|·M_s
+  (:attr:`manipcad.model.robot.Drive.static_friction`, M_f where the data give none);
+  once it breaks away it slides with the kinetic friction |i_r|·M_f.
 
 Forward dynamics (:func:`hybrid_rates`): the multibody forward dynamics with the
 drive terms (the generated kernels or the articulated-body method) gives q̈₀ of
@@ -103,16 +104,28 @@ def events_part(fric: np.ndarray, qd0: np.ndarray, nx: int) -> Events:
                   np.empty((LOG if lossy.any() else 0, 3)), np.zeros(8))
 
 
-def friction_table(dtable: np.ndarray, rtable: np.ndarray, efficiency, kinds) -> np.ndarray:
+def friction_table(dtable: np.ndarray, rtable: np.ndarray, efficiency, kinds,
+                   static=None) -> np.ndarray:
     """(n, 5) :data:`FK_POS`..:data:`F_ETA` of the rigid drives: the joint-referred dry
-    friction of the body table's drive columns (static = kinetic: no separate data), and
-    the gears' efficiency (1 where unknown, nan, as the sizing takes it, or for the elastic
+    friction of the body table's drive columns (kinetic), the static friction, and the
+    gears' efficiency (1 where unknown, nan, as the sizing takes it, or for the elastic
     kinds, whose friction is on the motor's own states).
 
     Args:
         dtable: (n, NPAR) packed drives; rtable: the body table with the drive terms.
         efficiency: (n,) the drives' η (nan: unknown).
         kinds: (n,) bool, the joints with a rigid drive.
+        static: (n, 2) the static friction against positive and negative motion, joint
+            side (|i_r|·M_s), N·m or N, taken where ``kinds`` (never below the kinetic);
+            None: equal to the kinetic friction.
+
+    Example:
+        >>> import numpy as np
+        >>> from manipcad.model.robot import COL_FCN, COL_FCP, TABLE_COLS
+        >>> rt = np.zeros((1, TABLE_COLS)); rt[0, COL_FCP] = rt[0, COL_FCN] = 2.0
+        >>> friction_table(None, rt, np.array([0.9]), np.array([True]),
+        ...                np.array([[3.0, 2.5]])).tolist()
+        [[2.0, 2.0, 3.0, 2.5, 0.9]]
     """
     from manipcad.model.robot import COL_FCN, COL_FCP
 
@@ -122,6 +135,11 @@ def friction_table(dtable: np.ndarray, rtable: np.ndarray, efficiency, kinds) ->
     out[:, FK_NEG] = rtable[:, COL_FCN]
     out[:, FS_POS] = rtable[:, COL_FCP]
     out[:, FS_NEG] = rtable[:, COL_FCN]
+    if static is not None:
+        static = np.asarray(static, dtype=float)
+        for c, k in ((FS_POS, FK_POS), (FS_NEG, FK_NEG)):
+            out[:, c] = np.where(kinds, np.maximum(static[:, c - FS_POS], out[:, k]),
+                                 out[:, c])
     eta = np.where(np.isnan(efficiency), 1.0, np.asarray(efficiency, dtype=float))
     out[:, F_ETA] = np.where(kinds, eta, 1.0)
     return out
@@ -130,7 +148,8 @@ def friction_table(dtable: np.ndarray, rtable: np.ndarray, efficiency, kinds) ->
 @nb.njit(cache=True)
 def is_lossy(fric, j):
     """Whether joint j takes part in the hybrid model (dry friction or η < 1)."""
-    return fric[j, FK_POS] > 0.0 or fric[j, FK_NEG] > 0.0 or fric[j, F_ETA] < 1.0
+    return (fric[j, FK_POS] > 0.0 or fric[j, FK_NEG] > 0.0 or fric[j, FS_POS] > 0.0
+            or fric[j, FS_NEG] > 0.0 or fric[j, F_ETA] < 1.0)
 
 
 @nb.njit(cache=True, inline="always")

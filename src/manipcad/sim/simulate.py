@@ -810,7 +810,10 @@ def _events(robot: Robot, dtable, rtable, drives: bool, qd0, nx: int):
     kinds = dtable[:, P_KIND].astype(np.int64)
     rigid = drives & ((kinds == KIND_RIGID) | (kinds == KIND_RIGID_STATIC))
     eta = np.array([1.0 if d is None else float(d.efficiency) for d in robot.drives])
-    return events_part(friction_table(dtable, rtable, eta, rigid), qd0, nx)
+    static = np.array([(0.0, 0.0) if d is None else
+                       (abs(d.ratio) * d.static_friction[0], abs(d.ratio) * d.static_friction[1])
+                       for d in robot.drives]).reshape(-1, 2)
+    return events_part(friction_table(dtable, rtable, eta, rigid, static), qd0, nx)
 
 
 def _drive_initial_state(dtable, off, q, qd) -> np.ndarray:

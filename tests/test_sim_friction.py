@@ -15,6 +15,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from manipcad.control import pid
+from manipcad.errors import ManipcadError, ManipcadWarning
 from manipcad.model.robot import Drive, Robot
 from manipcad.sim import simulate
 
@@ -32,12 +33,30 @@ def one_joint(drive: Drive = DRIVE) -> Robot:
         np.zeros((1, 3)), np.diag([0.01, 0.01, I_LINK])[None], drives=[drive])
 
 
-def oracle(q0: float, qd0: float, t_end: float, drive: Drive = DRIVE, ki: float = 0.0):
-    """The joint under the sampled PD (U = kp·(0 − q) − kd·q̇ held over each period; with
-    ``ki`` the PID, + ki·Σ(0 − q)·T as :func:`manipcad.control.pid.pid_update`) by
-    solve_ivp (rtol 1e-12) with events: q̇ = 0 while slipping (the kinetic friction M_f
-    against the motion), the holding torque at the static friction M_s while stuck.
-    Returns the switches [(t, mode, q)]."""
+class Sine:
+    """The reference q*(t) = a·sin(w·t), rad, of one joint (``.sample`` as a trajectory)."""
+
+    def __init__(self, a: float, w: float) -> None:
+        self.a, self.w = a, w
+
+    def at(self, t: float) -> tuple[float, float]:
+        return self.a * math.sin(self.w * t), self.a * self.w * math.cos(self.w * t)
+
+    def sample(self, t):
+        t = np.asarray(t, dtype=float)[:, None]
+        return (self.a * np.sin(self.w * t), self.a * self.w * np.cos(self.w * t),
+                -self.a * self.w**2 * np.sin(self.w * t))
+
+
+def oracle(q0: float, qd0: float, t_end: float, drive: Drive = DRIVE, ki: float = 0.0,
+           ref: Sine | None = None, hi: float = math.inf):
+    """The joint under the sampled PD (U = kp·(q* − q) + kd·(q̇* − q̇) held over each
+    period, q* = 0 or ``ref`` at the sample; with ``ki`` the PID, + ki·Σ(q* − q)·T as
+    :func:`manipcad.control.pid.pid_update`) by solve_ivp (rtol 1e-12) with events: q̇ = 0
+    while slipping (the kinetic friction M_f against the motion), the holding torque at
+    the static friction M_s while stuck; with ``hi`` a hard stop there (rad): reached, the
+    joint is put on it at rest (mode 2) and held while its torque pushes into it or the
+    static friction holds it. Returns the switches [(t, mode, q)]."""
     inertia = I_LINK + drive.J * RATIO**2
     kp_, kn_ = RATIO * drive.M_f[0], RATIO * drive.M_f[1]
     fp, fn = RATIO * drive.static_friction[0], RATIO * drive.static_friction[1]
@@ -48,9 +67,14 @@ def oracle(q0: float, qd0: float, t_end: float, drive: Drive = DRIVE, ki: float 
     t = 0.0
     k = 0
     integ = 0.0
+
+    def held(tau, mode):
+        return -fn <= tau and (mode == 2.0 or tau <= fp)
+
     while t < t_end - 1e-12:
-        integ -= x[0] * PERIOD
-        U = -KP * x[0] - KD * x[1] + ki * integ
+        qs, qds = (0.0, 0.0) if ref is None else ref.at(k * PERIOD)
+        integ += (qs - x[0]) * PERIOD
+        U = KP * (qs - x[0]) + KD * (qds - x[1]) + ki * integ
         t1 = min((k + 1) * PERIOD, t_end)
         for _ in range(20):
             if t >= t1 - 1e-15:
@@ -59,44 +83,53 @@ def oracle(q0: float, qd0: float, t_end: float, drive: Drive = DRIVE, ki: float 
             def rhs(_t, y, mode=mode, U=U):
                 tau = RATIO * km * y[2]
                 di = (U - R * y[2] - kw * RATIO * y[1]) / L
-                if mode == 0.0:
+                if mode in (0.0, 2.0):
                     return [0.0, 0.0, di]
                 return [y[1], (tau - (kp_ if mode > 0 else -kn_)) / inertia, di]
 
             def stop(_t, y, mode=mode):
-                return mode * y[1] if mode != 0.0 else 1.0
+                return mode * y[1] if mode in (1.0, -1.0) else 1.0
             stop.terminal = True
             stop.direction = -1.0
 
             def breakaway(_t, y, mode=mode):
-                if mode != 0.0:
-                    return 1.0
                 tau = RATIO * km * y[2]
-                return min(fp - tau, tau + fn)
+                if mode == 0.0:
+                    return min(fp - tau, tau + fn)
+                return tau + fn if mode == 2.0 else 1.0
             breakaway.terminal = True
             breakaway.direction = -1.0
 
+            def contact(_t, y, mode=mode):
+                return hi - y[0] if mode == 1.0 and hi < math.inf else 1.0
+            contact.terminal = True
+            contact.direction = -1.0
+
             sol = solve_ivp(rhs, (t, t1), x, method="DOP853", rtol=1e-12, atol=1e-14,
-                            events=(stop, breakaway))
+                            events=(stop, breakaway, contact))
             assert sol.status >= 0
             x = sol.y[:, -1].copy()
             t = sol.t[-1]
             if sol.status == 1:          # an event: switch the mode
                 tau = RATIO * km * x[2]
-                if mode != 0.0:          # it stops; turned back at once if not held
-                    x[1] = 0.0
-                    mode = 0.0
+                if mode in (1.0, -1.0):  # it stops or reaches the stop; turned back at
+                    x[1] = 0.0           # once if not held
+                    if len(sol.t_events[2]):
+                        x[0] = hi
+                        mode = 2.0
+                    else:
+                        mode = 0.0
                     switches.append((t, mode, x[0]))
-                    if not -fn <= tau <= fp:
+                    if not held(tau, mode):
                         mode = float(np.sign(tau))
                         switches.append((t, mode, x[0]))
                 else:
-                    mode = 1.0 if tau > fp - 1e-12 else -1.0
+                    mode = 1.0 if mode == 0.0 and tau > fp - 1e-12 else -1.0
                     switches.append((t, mode, x[0]))
-        # a sample: a stuck joint whose drive now exceeds the band breaks away there
-        if mode == 0.0:
+        # a sample: a held joint whose drive now exceeds the band breaks away there
+        if mode in (0.0, 2.0):
             tau = RATIO * km * x[2]
-            if not -fn <= tau <= fp:
+            if not held(tau, mode):
                 mode = float(np.sign(tau))
                 switches.append((t, mode, x[0]))
         k += 1
@@ -133,7 +166,7 @@ def _agree(res, want, t_end, tol):
     # the positions where it stuck: the recorded q holds them until the next switch
     checked = 0
     for a, (t, m, q) in enumerate(want):
-        if m != 0.0:
+        if m not in (0.0, 2.0):
             continue
         t_next = want[a + 1][0] if a + 1 < len(want) else t_end
         held = (res.t > t + 1e-9) & (res.t < t_next - 1e-9)
@@ -159,8 +192,60 @@ def test_static_friction_above_kinetic_against_solve_ivp():
     assert plain[-1][0] == plain[-2][0] and want[-1][0] - want[-2][0] > 0.02, (want, plain)
     res = simulate(one_joint(drive), t_end=t_end, dt=2e-5, q0=[0.0], qd0=[3.0],
                    regulators=[pid(0, kp=KP, ki=ki, kd=KD, period=PERIOD)],
-                   record_every=50)
+                   every=50)
     _agree(res, want, t_end, 1e-9)
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "adaptive"])
+def test_hard_stop_against_solve_ivp(integrator):
+    """joint_limits="hard-stop": the joint (dry friction, PD on a sine beyond the stop)
+    reaches its upper stop, is put on it at rest (inelastic) and held while its drive
+    pushes into it, and leaves when the drive pulls away beyond the static friction: the
+    instants within 1e-9 s of solve_ivp with events, the position on the stop to rounding,
+    never beyond it."""
+    t_end, hi = 0.3, 0.06
+    ref = Sine(0.1, 2 * math.pi / 0.4)
+    want = oracle(0.0, 0.0, t_end, ref=ref, hi=hi)
+    assert [m for _, m, _ in want] == [1.0, 2.0, -1.0]
+    robot = one_joint().replace(limits=np.array([[-1.0, hi]]))
+    adaptive = integrator != "rk4"
+    with pytest.warns(ManipcadWarning, match="reference leaves the joint limits"):
+        res = simulate(robot, t_end=t_end, dt=1e-4 if adaptive else 2e-5, trajectory=ref,
+                       regulators=[pid(0, kp=KP, kd=KD, period=PERIOD)],
+                       joint_limits="hard-stop", every=10 if adaptive else 50,
+                       integrator=integrator,
+                       **({"rtol": 1e-10, "atol": 1e-12} if adaptive else {}))
+    _agree(res, want, t_end, 1e-9)
+    assert res.q.max() <= hi + 1e-15
+    on = (res.t > want[1][0]) & (res.t < want[2][0])
+    # held on the stop: pushed into it, then pulled away but less than the friction holds
+    assert np.abs(res.q[on, 0] - hi).max() <= 1e-15
+    assert res.tau[on, 0].max() > 1.0 and -RATIO * DRIVE.M_f[1] < res.tau[on, 0].min() < 0
+    with pytest.raises(ManipcadError, match="beyond its stops"):
+        simulate(robot, t_end=0.01, q0=[0.07], joint_limits="hard-stop")
+
+
+def test_hard_stop_impact_keeps_the_momentum_of_the_free_joint():
+    """A passive planar two-link arm turning about vertical axes (no torque on joint 1): the
+    elbow hits its stop and the impact's impulse acts through the coupled inertia, so the
+    momentum conjugate to joint 1, (H·q̇)_1, is the same before, across and after the
+    impact (setting the elbow's speed to 0 alone would change it by H_12·q̇_2); the elbow
+    never passes its stop."""
+    import manipcad
+
+    arm = Robot.from_arrays(
+        "planar", ["revolute", "revolute"], [-1, 0], np.stack([np.eye(3)] * 2),
+        np.array([[0.0, 0.0, 0.0], [0.4, 0.0, 0.0]]), [3.0, 2.0],
+        np.array([[0.2, 0.0, 0.0], [0.15, 0.0, 0.0]]),
+        np.stack([np.diag([0.01, 0.04, 0.04]), np.diag([0.005, 0.02, 0.02])]),
+        limits=np.array([[-math.pi, math.pi], [-0.5, 0.3]]))
+    res = simulate(arm, t_end=0.5, dt=1e-4, q0=[0.0, 0.0], qd0=[1.0, 2.0], drives=False,
+                   joint_limits="hard-stop", every=10)
+    assert res.events[:, 1:].tolist()[0] == [1.0, 2.0]     # the elbow reaches its stop
+    assert res.q[:, 1].max() <= 0.3
+    H = manipcad.mass_matrix(arm, res.q, drives=False)
+    p1 = np.einsum("kj,kj->k", H[:, 0, :], res.qd)
+    assert np.abs(p1 - p1[0]).max() < 1e-9 * abs(p1[0]), np.abs(p1 - p1[0]).max()
 
 
 # ------------------------------------------------------------ gear losses

@@ -175,7 +175,9 @@ def simulate(
         "hash (refused by default).")] = False,
     joint_limits: Annotated[str, typer.Option(
         "--joint-limits", help="A joint beyond its limits: warn (the run goes on), stop (the "
-        "run stops there, exit 2), ignore.")] = "warn",
+        "run stops there, exit 2), ignore, or hard-stop (the limits are mechanical stops: a "
+        "joint reaching one stops on it, inelastically, and leaves when its torque pulls "
+        "away; docs/simulation.md).")] = "warn",
     integrator: Annotated[str, typer.Option(
         "--integrator", help="rk4 (fixed step --dt, the reference), adaptive "
         "(error-controlled Dormand-Prince 5(4); steps never cross a regulator sample; --dt "
@@ -207,6 +209,7 @@ def simulate(
     from manipcad.model.load import load_robot
     from manipcad.sim import SimulationDiverged
     from manipcad.sim import simulate as run_simulation
+    from manipcad.sim.simulate import JOINT_LIMITS
     from manipcad.store import check_out_dir, result_document
     from manipcad.store.plan import check_numbers, plan_run
     from manipcad.trajectories import load_trajectory
@@ -253,9 +256,9 @@ def simulate(
     for w in shown:
         err_console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
 
-    if joint_limits not in ("warn", "stop", "ignore"):
-        raise InputError("--joint-limits", "", f"must be warn, stop or ignore, got "
-                         f"{joint_limits!r}")
+    if joint_limits not in JOINT_LIMITS:
+        raise InputError("--joint-limits", "", f"must be one of {', '.join(JOINT_LIMITS)}, "
+                         f"got {joint_limits!r}")
     inputs: dict[str, Any] = {}
     # the robot as it ran, drives included, in one self-contained file (a robot file that
     # points to a URDF by a relative path would not re-run from the result folder)

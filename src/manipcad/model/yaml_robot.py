@@ -44,11 +44,11 @@ Mapping onto the internal tree (see :mod:`manipcad.model.dh`):
   the last row's distal part becomes the tool frame (composed with ``tool:``).
 
 Drives: explicit fields ``J, ratio, k_v, M_f, M_s, R, L, k_m, k_w, k_u, u_max`` (and
-the ratings; ``M_s`` the static friction, default ``M_f``), ``elasticity`` (k_s N·m/rad, or [k_s, d_s]) and ``backlash`` (b,
-rad, half the gap; joint side), ``efficiency`` and the gear ratings, or
-``motor:`` and/or ``gear:`` names from the catalog (a gear may be a list, a
-chain from the motor outwards), with any explicit field overriding the
-composed value. Composition: ``J = J_motor + sum_k J_gear_k /
+the ratings; ``M_s`` the static friction, default ``M_f``), ``elasticity`` (k_s
+N·m/rad, or [k_s, d_s]) and ``backlash`` (b, rad, half the gap; joint side),
+``efficiency`` and the gear ratings, or ``motor:`` and/or ``gear:`` names from the
+catalog (a gear may be a list, a chain from the motor outwards), with any explicit
+field overriding the composed value. Composition: ``J = J_motor + sum_k J_gear_k /
 (i_1···i_{k-1})²`` on the motor shaft, ``ratio = prod_k direction_k·i_k``, the
 electrical data and friction from the motor, ``u_max`` defaulting to the
 motor's rated voltage, the gear's efficiency and ratings referred to the joint

@@ -361,7 +361,7 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
             if hyb:
                 ev = plant.ev
                 event_values(plant, xs, n, ev.e1)
-                if release_edge(plant, n, ev.e0, ev.e1, t0 + s):
+                if release_edge(plant, x, n, ev.e0, ev.e1, t0 + s):
                     # a stuck joint on its band's edge at the step's start breaks away
                     # there: the step again from x
                     stats[1] -= 1

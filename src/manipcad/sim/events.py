@@ -31,10 +31,16 @@ or a gear has losses, with the mass matrix H_d:
   ``min(P − lo, hi − P)`` (N·m or N) goes to ``marg[s]`` and the way it would
   break away to ``dirn[s]``.
 
+Hard stops (``simulate(joint_limits="hard-stop")``, ``lims``): a joint reaching one is put
+on it (an inelastic impact through the mass matrix, :func:`_impact`) and held like a stuck
+joint (``lim`` ±1, mode 0) with the stop taking any load that pushes into it (that side
+of its holding band open); it leaves when its margin, the other side, falls below zero.
+
 Events (located by the integrators, :mod:`manipcad.sim.loop` and
 :mod:`manipcad.sim.adaptive`): a slipping joint's d·q̇_j reaching zero (it stops:
 stuck, or turned back at once when it cannot be held) and a stuck joint's margin
-falling below zero (it breaks away in ``dirn``). Several stuck joints are coupled
+falling below zero (it breaks away in ``dirn``), and a joint's distance to its nearest
+hard stop reaching zero. Several stuck joints are coupled
 through H_d; when several cannot be held, the one furthest beyond its band is
 released first and the rest solved again (:func:`settle`).
 """
@@ -67,9 +73,13 @@ FK_POS, FK_NEG, FS_POS, FS_NEG, F_ETA = range(5)
 #: scratch: ``tf``, ``b``, ``rhs``, ``frj``, ``gv`` (n,), ``A``, ``M`` (n, n), ``cw``
 #: (n, CRBA_WORK), ``ctmp`` (8, 3); ``count`` (2,): mode switches, rounds of location;
 #: ``log`` (LOG, 3): the first LOG switches' time (s), joint and new mode
-#: ``il`` (8,) the bracket of the event being located (:func:`bracket_start`)
+#: ``il`` (8,) the bracket of the event being located (:func:`bracket_start`); hard stops
+#: (``joint_limits="hard-stop"``): ``lims`` (n, 2) the stops' positions (rad, m; ±inf: none)
+#: and ``lim`` (n,) where each joint is: 0 away from its stops, +1 / -1 held at its upper /
+#: lower stop (then ``mode`` is 0); ``e0``, ``e1`` (2n,): the joints' mode events, then
+#: their distances to the nearest stop
 Events = namedtuple("Events", "on fric mode marg dirn e0 e1 xe Ke tf b rhs frj gv A M cw "
-                              "ctmp count log il")
+                              "ctmp count log il lim lims")
 
 #: mode switches kept in :attr:`Events.log` (the rest are counted only)
 LOG = 100000
@@ -79,10 +89,11 @@ LOG = 100000
 MAX_EVENTS = 24
 
 
-def events_part(fric: np.ndarray, qd0: np.ndarray, nx: int) -> Events:
+def events_part(fric: np.ndarray, qd0: np.ndarray, nx: int, stops=None) -> Events:
     """The :class:`Events` of a run: ``fric`` (n, 5) (see :data:`FK_POS`), the initial
     joint speeds ``qd0`` (rad/s, m/s) set the modes (a lossy joint at rest starts
-    stuck), ``nx`` the state's length.
+    stuck), ``nx`` the state's length; ``stops`` (n, 2): the joints' hard stops (lower,
+    upper; rad or m, ±inf: none), or None.
 
     Example:
         >>> import numpy as np
@@ -96,12 +107,16 @@ def events_part(fric: np.ndarray, qd0: np.ndarray, nx: int) -> Events:
     n = fric.shape[0]
     lossy = np.array([is_lossy(fric, j) for j in range(n)], dtype=bool)
     mode = np.where(lossy, np.sign(np.asarray(qd0, dtype=float)), 0.0)
-    return Events(bool(lossy.any()), fric, mode.astype(float), np.full(n, math.inf),
-                  np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(nx), np.zeros((1, nx)),
+    lims = (np.tile([-math.inf, math.inf], (n, 1)) if stops is None
+            else np.array(stops, dtype=float).reshape(n, 2))
+    on = bool(lossy.any()) or bool(np.isfinite(lims).any())
+    return Events(on, fric, mode.astype(float), np.full(n, math.inf),
+                  np.zeros(n), np.zeros(2 * n), np.zeros(2 * n), np.zeros(nx),
+                  np.zeros((1, nx)),
                   np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.ones(n),
                   np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, CRBA_WORK)),
                   np.zeros((8, 3)), np.zeros(2, dtype=np.int64),
-                  np.empty((LOG if lossy.any() else 0, 3)), np.zeros(8))
+                  np.empty((LOG if on else 0, 3)), np.zeros(8), np.zeros(n), lims)
 
 
 def friction_table(dtable: np.ndarray, rtable: np.ndarray, efficiency, kinds,
@@ -153,6 +168,13 @@ def is_lossy(fric, j):
 
 
 @nb.njit(cache=True, inline="always")
+def held(ev, j):
+    """Whether joint j is held at rest (q̇_j = q̈_j = 0): stuck in its friction, or at a hard
+    stop."""
+    return ev.mode[j] == 0.0 and (ev.lim[j] != 0.0 or is_lossy(ev.fric, j))
+
+
+@nb.njit(cache=True, inline="always")
 def _dry(fric, j, s):
     """The kinetic dry friction of joint j for motion of sign s (0: none), N·m or N."""
     if s > 0.0:
@@ -178,12 +200,12 @@ def hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork):
     for j in range(n):
         tf[j] = tau[j]
         ev.marg[j] = math.inf
+        if held(ev, j):
+            stuck = True
+            continue
         if not is_lossy(fric, j):
             continue
         d = mode[j]
-        if d == 0.0:
-            stuck = True
-            continue
         if fric[j, F_ETA] < 1.0:
             geared = True
         s = qd[j]
@@ -203,6 +225,30 @@ def hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork):
 
 
 @nb.njit(cache=True)
+def _mass(plant, q, A):
+    """H_d = H(q) + diag(J·i_r²) into A (n, n): the generated kernel or the CRBA."""
+    rt = plant.rtable
+    if plant.gen:
+        plant.gen_mass(address(q), address(A))
+        for j in range(q.shape[0]):
+            A[j, j] += rt[j, COL_JR]
+    else:
+        crba_one(rt, q, True, plant.ev.cw, plant.ev.ctmp, A)
+
+
+@nb.njit(cache=True)
+def _free_part(ev, A, M, n):
+    """M (n, n): A with the held joints' rows and columns taken out (a unit row and column
+    each: q̈ or Δq̇ of a held joint is 0)."""
+    for i in range(n):
+        held_i = held(ev, i)
+        for k in range(n):
+            M[i, k] = 0.0 if held_i or held(ev, k) else A[i, k]
+        if held_i:
+            M[i, i] = 1.0
+
+
+@nb.njit(cache=True)
 def _constrained(plant, q, qd, tau, dist, qdd):
     """q̈₀ in ``qdd`` made the hybrid plant's: gear factors and stuck joints (module
     docstring)."""
@@ -217,12 +263,7 @@ def _constrained(plant, q, qd, tau, dist, qdd):
     rhs = ev.rhs
     frj = ev.frj
     gv = ev.gv
-    if plant.gen:
-        plant.gen_mass(address(q), address(A))
-        for j in range(n):
-            A[j, j] += rt[j, COL_JR]
-    else:
-        crba_one(rt, q, True, ev.cw, ev.ctmp, A)
+    _mass(plant, q, A)
     for i in range(n):
         s = 0.0
         for k in range(n):
@@ -243,13 +284,9 @@ def _constrained(plant, q, qd, tau, dist, qdd):
                     changed = True
         if it > 0 and not changed:
             break
+        _free_part(ev, A, M, n)
         for i in range(n):
-            stuck_i = mode[i] == 0.0 and is_lossy(fric, i)
-            for k in range(n):
-                M[i, k] = 0.0 if stuck_i or (mode[k] == 0.0 and is_lossy(fric, k)) \
-                    else A[i, k]
-            if stuck_i:
-                M[i, i] = 1.0
+            if held(ev, i):
                 rhs[i] = 0.0
             else:
                 M[i, i] += (gv[i] - 1.0) * rt[i, COL_JR]
@@ -259,27 +296,92 @@ def _constrained(plant, q, qd, tau, dist, qdd):
                 qdd[j] = math.nan
             return False
     for s_ in range(n):
-        if mode[s_] != 0.0 or not is_lossy(fric, s_):
+        if not held(ev, s_):
             continue
         P = tau[s_] - dist[s_] - b[s_]
         for k in range(n):
             P += A[s_, k] * qdd[k]
         lo, hi = holding_band(fric[s_, F_ETA], tau[s_] - dist[s_], fric[s_, FS_POS],
                               fric[s_, FS_NEG])
+        # at a hard stop the stop holds any load pushing into it
+        if ev.lim[s_] > 0.0:
+            lo = -math.inf
+        elif ev.lim[s_] < 0.0:
+            hi = math.inf
         ev.marg[s_] = min(P - lo, hi - P)
         ev.dirn[s_] = 1.0 if P - lo < hi - P else -1.0
     return True
 
 
 @nb.njit(cache=True)
-def _log(ev, t, j):
-    """Keep the switch of joint j at t s (its new mode) in ``ev.log``."""
+def _log(ev, t, j, what):
+    """Keep the switch of joint j at t s in ``ev.log``: ``what`` its new mode (+1, -1, 0),
+    or +2 / -2 reaching its upper / lower hard stop."""
     c = ev.count[0]
     if c < ev.log.shape[0]:
         ev.log[c, 0] = t
         ev.log[c, 1] = j
-        ev.log[c, 2] = ev.mode[j]
+        ev.log[c, 2] = what
     ev.count[0] = c + 1
+
+
+@nb.njit(cache=True)
+def _release(ev, j, t):
+    """Joint j, held, breaks away at t s in its direction ``dirn`` (off its stop, if at
+    one)."""
+    ev.mode[j] = ev.dirn[j]
+    ev.lim[j] = 0.0
+    _log(ev, t, j, ev.mode[j])
+
+
+@nb.njit(cache=True, inline="always")
+def _has_stops(ev, j):
+    """Whether joint j has a hard stop."""
+    return ev.lims[j, 0] > -math.inf or ev.lims[j, 1] < math.inf
+
+
+@nb.njit(cache=True)
+def _contact(plant, x, n, j, t):
+    """Joint j reaches its nearest hard stop at t s: q_j set on the stop, an inelastic
+    impact (:func:`_impact`) brings q̇_j to 0, and the joint is held there."""
+    ev = plant.ev
+    lo = ev.lims[j, 0]
+    hi = ev.lims[j, 1]
+    side = 1.0 if hi - x[j] <= x[j] - lo else -1.0
+    x[j] = hi if side > 0.0 else lo
+    _impact(plant, x, n, j, t)
+    x[n + j] = 0.0
+    ev.mode[j] = 0.0
+    ev.lim[j] = side
+    _log(ev, t, j, 2.0 * side)
+
+
+@nb.njit(cache=True)
+def _impact(plant, x, n, j, t):
+    """The inelastic impact of joint j on its stop, at state x (t s): the stop's impulse
+    λ·e_j (N·m·s, N·s) through the mass matrix H_d (drives' rotors included) of the joints
+    not held, Δq̇ = λ·H_d⁻¹·e_j with λ such that q̇_j becomes 0; the held joints (stuck,
+    at a stop) take their share rigidly. A slipping joint the impulse turns round slips
+    the other way from here (its friction follows; one at exactly 0 is made stuck)."""
+    ev = plant.ev
+    u = ev.b    # H_d⁻¹·e_j of the joints not held (scratch: q in tf, e_j in rhs)
+    for k in range(n):
+        ev.tf[k] = x[k]
+        ev.rhs[k] = 1.0 if k == j else 0.0
+    _mass(plant, ev.tf, ev.A)
+    _free_part(ev, ev.A, ev.M, n)
+    if not cholesky_solve(ev.M, ev.rhs, u) or not u[j] > 0.0:
+        return
+    lam = -x[n + j] / u[j]
+    for k in range(n):
+        if k != j and not held(ev, k):
+            x[n + k] += lam * u[k]
+            if is_lossy(ev.fric, k) and ev.mode[k] * x[n + k] <= 0.0:
+                if x[n + k] == 0.0:
+                    ev.mode[k] = 0.0
+                else:
+                    ev.mode[k] = 1.0 if x[n + k] > 0.0 else -1.0
+                _log(ev, t, k, ev.mode[k])
 
 
 @nb.njit(cache=True)
@@ -290,29 +392,33 @@ def release_worst(plant, t):
     worst = -1
     wm = 0.0
     for j in range(ev.mode.shape[0]):
-        if ev.mode[j] == 0.0 and is_lossy(ev.fric, j) and ev.marg[j] < wm:
+        if held(ev, j) and ev.marg[j] < wm:
             worst = j
             wm = ev.marg[j]
     if worst < 0:
         return False
-    ev.mode[worst] = ev.dirn[worst]
-    _log(ev, t, worst)
+    _release(ev, worst, t)
     return True
 
 
 @nb.njit(cache=True)
 def event_values(plant, x, n, e):
-    """The event functions at state x into ``e`` (n,): d·q̇_j of a slipping lossy joint
-    (rad/s, m/s), the margin of a stuck one (N·m, N; of the last right-hand side, which
-    must be x's), 0 for the others."""
+    """The event functions at state x into ``e`` (2n,): e[j] d·q̇_j of a slipping lossy
+    joint (rad/s, m/s), the margin of a held one (N·m, N; of the last right-hand side,
+    which must be x's), 0 for the others; e[n + j] a joint's distance to its nearest hard
+    stop (rad, m) while away from its stops, 0 for the others."""
     ev = plant.ev
     for j in range(n):
-        if not is_lossy(ev.fric, j):
-            e[j] = 0.0
-        elif ev.mode[j] != 0.0:
+        if held(ev, j):
+            e[j] = ev.marg[j]
+        elif is_lossy(ev.fric, j):
             e[j] = ev.mode[j] * x[n + j]
         else:
-            e[j] = ev.marg[j]
+            e[j] = 0.0
+        if ev.lim[j] == 0.0 and _has_stops(ev, j):
+            e[n + j] = min(x[j] - ev.lims[j, 0], ev.lims[j, 1] - x[j])
+        else:
+            e[n + j] = 0.0
 
 
 @nb.njit(cache=True)
@@ -329,19 +435,23 @@ def crossing(e0, e1):
 
 
 @nb.njit(cache=True)
-def release_edge(plant, n, e0, e1, t):
-    """Release, at t s, the stuck joints that sat on the edge of their holding band at
+def release_edge(plant, x, n, e0, e1, t):
+    """Release, at t s, the held joints that sat on the edge of their holding band at
     a step's start (margin e0 = 0) and are past it at its end (e1 < 0): their break-away
     is at the start (the measure of :func:`crossing` cannot see it). Their direction is
-    the end's (``dirn`` of the last right-hand side, at the step's end). Whether one was;
+    the end's (``dirn`` of the last right-hand side, at the step's end). Likewise a joint
+    on (or past) a hard stop at the start (distance e0 <= 0) and into it at the end is
+    put on the stop at the start (x, the step's start state, changed). Whether one was;
     the caller then takes the step again."""
     ev = plant.ev
     any_ = False
     for j in range(n):
-        if (ev.mode[j] == 0.0 and is_lossy(ev.fric, j) and e0[j] <= 0.0
-                and e1[j] < 0.0):
-            ev.mode[j] = ev.dirn[j]
-            _log(ev, t, j)
+        if held(ev, j) and e0[j] <= 0.0 and e1[j] < 0.0:
+            _release(ev, j, t)
+            any_ = True
+        elif (ev.lim[j] == 0.0 and _has_stops(ev, j) and e0[n + j] <= 0.0
+              and e1[n + j] < 0.0):
+            _contact(plant, x, n, j, t)
             any_ = True
     return any_
 
@@ -350,17 +460,19 @@ def release_edge(plant, n, e0, e1, t):
 def switch(plant, x, n, e0, e1, t):
     """Switch the modes of the joints whose events crossed (e0 > 0 >= e1): a slipping joint
     stops (stuck, q̇_j = 0 exactly; :func:`release_worst` turns it back if it cannot be
-    held), a stuck one breaks away (``dirn``, of the last right-hand side at x); t: the
-    time, s."""
+    held), a held one breaks away (``dirn``, of the last right-hand side at x), a joint
+    reaching a hard stop is put on it (:func:`_contact`); t: the time, s."""
     ev = plant.ev
     for j in range(n):
-        if e0[j] > 0.0 and e1[j] <= 0.0 and is_lossy(ev.fric, j):
-            if ev.mode[j] != 0.0:
+        if e0[j] > 0.0 and e1[j] <= 0.0:
+            if held(ev, j):
+                _release(ev, j, t)
+            elif is_lossy(ev.fric, j):
                 ev.mode[j] = 0.0
                 x[n + j] = 0.0
-            else:
-                ev.mode[j] = ev.dirn[j]
-            _log(ev, t, j)
+                _log(ev, t, j, 0.0)
+        if e0[n + j] > 0.0 and e1[n + j] <= 0.0 and ev.lim[j] == 0.0:
+            _contact(plant, x, n, j, t)
 
 
 @nb.njit(cache=True)

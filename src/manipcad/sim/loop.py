@@ -470,7 +470,7 @@ def hybrid_step(plant, x, U, dist, t, dt, n, sc, K, xs, xn):
     for _ in range(MAX_EVENTS):
         event_values(plant, x, n, e0)
         _rk4_sub(plant, x, U, dist, n, sc, K, h, xs, xn, e1)
-        if release_edge(plant, n, e0, e1, t):
+        if release_edge(plant, x, n, e0, e1, t):
             settle(plant, x, U, dist, n, sc, K, t)
             continue
         fhi = crossing(e0, e1)

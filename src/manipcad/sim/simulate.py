@@ -83,7 +83,8 @@ class SimulationResult:
             metrics.json.
         events: (E, 3) the located stick-slip switches of the lossy joints (dry friction
             or gear losses, :mod:`manipcad.sim.events`): time (s), joint index, new mode
-            (+1 or -1 slipping that way, 0 stuck); None without lossy joints.
+            (+1 or -1 slipping that way, 0 stuck; +2 / -2 reaching the upper / lower hard
+            stop with ``joint_limits="hard-stop"``); None without lossy joints or stops.
     """
 
     t: np.ndarray
@@ -253,7 +254,12 @@ def simulate(
             run goes on; a :class:`~manipcad.errors.ManipcadWarning` names each joint, how
             far and when, and ``metrics[joint]["limit_excess"]`` records it), "stop"
             (:class:`JointLimitExceeded` at the first step beyond, with the partial
-            result), or "ignore". The limits are not modelled as stops.
+            result), "ignore", or "hard-stop": the limits are the joints' mechanical
+            stops, a joint reaching one stops there (an inelastic impact located as an
+            event: q on the stop, q̇ = 0), stays while the torque on it pushes into the
+            stop (or its static friction holds it) and leaves when it pulls away beyond
+            its friction (docs/simulation.md, "Hard stops"); ``q0`` must be within the
+            limits.
         use_generated: use the robot's customized kernels when
             :func:`manipcad.codegen.generate` has made them for this robot (with the
             payload, if any) and the drives' joint side is the robot's own or none
@@ -316,8 +322,8 @@ def simulate(
     """
     refuse_renamed("simulate", renamed, record_every="every")
     n = require_robot(robot, "simulate").n
-    if joint_limits not in ("warn", "stop", "ignore"):
-        raise ManipcadError(f"joint_limits must be 'warn', 'stop' or 'ignore', got "
+    if joint_limits not in JOINT_LIMITS:
+        raise ManipcadError(f"joint_limits must be one of {', '.join(JOINT_LIMITS)}, got "
                             f"{joint_limits!r}")
     adaptive, rtol, atol = _integrator_options(integrator, rtol, atol)
     if not (t_end > 0 and math.isfinite(t_end)):
@@ -386,12 +392,21 @@ def simulate(
     span = limits[:, 1] - limits[:, 0]
     tol = np.where(np.isfinite(span), np.maximum(1e-6 * span, 1e-12), 0.0)
     wide = np.column_stack([limits[:, 0] - tol, limits[:, 1] + tol])
+    stops = None
+    if joint_limits == "hard-stop" and np.isfinite(limits).any():
+        stops = limits
+        out = (x_q < limits[:, 0]) | (x_q > limits[:, 1])
+        if out.any():
+            j = int(np.flatnonzero(out)[0])
+            raise ManipcadError(f"q0 of joint {robot.joint_names[j]!r} ({x_q[j]:.6g}) is "
+                                f"beyond its stops [{limits[j, 0]:.6g}, {limits[j, 1]:.6g}] "
+                                "(joint_limits='hard-stop')")
     ctable = np.array(robot.table)  # the regulators' model (a pickup or the estimator edit it)
     plant = Plant(rtable, ctable, np.asarray(robot.gravity, float),
                   dtable, off, bool(drives), generic, wide, *gen,
                   pk.no_pickup() if picked is None else
                   pk.pickup_part(picked[0], picked[1], dtable, model_payload == "true"),
-                  _events(robot, dtable, rtable, bool(drives), x_qd, len(x0)))
+                  _events(robot, dtable, rtable, bool(drives), x_qd, len(x0), stops))
     est = pk.estimator_part(estimator, robot, dt, K, ctable, feed=model_payload == "online",
                             drives=bool(drives))
     ctrl, described = _pack_regulators(robot, regulators, dt, est, t_end)
@@ -473,7 +488,8 @@ def simulate(
                        f"{limits[j, 1]:.6g}])")
     res._lazy_metrics(bool(drives) and robot.has_drives, dtable, excesses)
     if out:
-        warnings.warn(f"{robot.name}: joints beyond their limits (not modelled as stops): "
+        how = "" if joint_limits == "hard-stop" else " (not modelled as stops)"
+        warnings.warn(f"{robot.name}: joints beyond their limits{how}: "
                       + "; ".join(out), ManipcadWarning, stacklevel=2)
     if (trajectory is not None and joint_limits != "ignore" and len(res.t)
             and np.isfinite(limits).any()):
@@ -558,6 +574,8 @@ INTEGRATORS = {"rk4": None,
                "adaptive-exact": ("dp54", True),
                "adaptive-bs32": ("bs32", False),
                "adaptive-exact-bs32": ("bs32", True)}
+#: what ``simulate(joint_limits=...)`` accepts
+JOINT_LIMITS = ("warn", "stop", "ignore", "hard-stop")
 #: the adaptive integrators' default tolerances: relative (-), absolute (rad, rad/s)
 RTOL = 1e-6
 ATOL = 1e-8
@@ -802,9 +820,10 @@ def _extremes(a):
     return out
 
 
-def _events(robot: Robot, dtable, rtable, drives: bool, qd0, nx: int):
-    """The plant's stick-slip friction and gear losses (:mod:`manipcad.sim.events`): the
-    rigid drives' joint-referred dry friction and gear efficiencies."""
+def _events(robot: Robot, dtable, rtable, drives: bool, qd0, nx: int, stops=None):
+    """The plant's stick-slip friction, gear losses and hard stops (:mod:`manipcad.sim.events`):
+    the rigid drives' joint-referred dry friction and gear efficiencies; ``stops`` (n, 2)
+    the joints' hard stops, rad or m, or None."""
     from manipcad.sim.events import events_part, friction_table
 
     kinds = dtable[:, P_KIND].astype(np.int64)
@@ -813,7 +832,7 @@ def _events(robot: Robot, dtable, rtable, drives: bool, qd0, nx: int):
     static = np.array([(0.0, 0.0) if d is None else
                        (abs(d.ratio) * d.static_friction[0], abs(d.ratio) * d.static_friction[1])
                        for d in robot.drives]).reshape(-1, 2)
-    return events_part(friction_table(dtable, rtable, eta, rigid, static), qd0, nx)
+    return events_part(friction_table(dtable, rtable, eta, rigid, static), qd0, nx, stops)
 
 
 def _drive_initial_state(dtable, off, q, qd) -> np.ndarray:

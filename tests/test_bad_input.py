@@ -718,6 +718,26 @@ def test_workspace_doc_says_which_commands_take_ws():
         assert res.exit_code == 0 and "--ws" in out, (command, out)
 
 
+def test_result_inputs_name_files_that_exist(tmp_path):
+    """metrics.json's inputs of `simulate --out` and `simulate --ws` name files that exist
+    after the run (the robot as it ran used to be named by a deleted temporary file)."""
+    import json
+
+    from manipcad.workspace import Workspace
+
+    ws = Workspace.init(tmp_path / "ws")
+    traj = move(tmp_path)
+    for where in (("--out", tmp_path / "r1"), ("--ws", ws.root, "--out", "r2")):
+        res, out = cli("simulate", "puma560", "-t", traj, "--t-end", "0.002", *where)
+        assert res.exit_code == 0, out
+    for folder in (tmp_path / "r1", ws.root / "results" / "r2"):
+        doc = json.loads((folder / "metrics.json").read_text())
+        robot = doc["inputs"]["robot"]
+        assert robot.startswith("inputs/robot.yaml") and "PUMA 560" in robot, robot
+        assert (folder / "inputs" / "robot.yaml").is_file()
+        assert Path(doc["inputs"]["trajectory"]).is_file()
+
+
 def test_robots_show_takes_ws(tmp_path):
     from manipcad.workspace import Workspace
 

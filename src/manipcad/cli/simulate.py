@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import json
 import math
-import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -51,7 +50,6 @@ from manipcad.cli.options import (
     ws_option,
 )
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
-from manipcad.model.tree_file import save_robot
 
 
 def _num(x: Any, fmt: str = ".4g") -> str:
@@ -260,10 +258,9 @@ def simulate(
         raise InputError("--joint-limits", "", f"must be one of {', '.join(JOINT_LIMITS)}, "
                          f"got {joint_limits!r}")
     inputs: dict[str, Any] = {}
-    # the robot as it ran, drives included, in one self-contained file (a robot file that
-    # points to a URDF by a relative path would not re-run from the result folder)
-    keep = tempfile.TemporaryDirectory()
-    inputs["robot"] = save_robot(arm, Path(keep.name) / "robot.yaml")
+    # the robot as it ran, drives included, saved as one self-contained file (a robot file
+    # that points to a URDF by a relative path would not re-run from the result folder)
+    inputs["robot"] = arm
     inputs["trajectory"] = trajectory
     if regulator:
         inputs["regulator"] = list(regulator)

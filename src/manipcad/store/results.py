@@ -121,18 +121,28 @@ def result_document(result, *, joint_types: Sequence[str] | None = None,
     if run:
         doc["run"] = dict(run)
     if inputs:
-        doc["inputs"] = {k: _describe_input(v) for k, v in inputs.items()}
+        doc["inputs"] = {k: _describe_input(k, v) for k, v in inputs.items()}
     doc["manipcad_version"] = __version__
     doc["created"] = datetime.now(UTC).isoformat(timespec="seconds")
     return jsonable(doc)
 
 
-def _describe_input(v: Any) -> Any:
+def _describe_input(key: str, v: Any) -> Any:
+    """What metrics.json says of an input: a file's path as given, a robot object by its
+    name and stored file (never a temporary file that is gone after the run)."""
     if isinstance(v, str | Path):
         return str(v)
     if isinstance(v, list | tuple) and all(isinstance(x, str | Path) for x in v):
         return [str(x) for x in v]
+    if _is_robot(v):
+        return f"{INPUTS_DIR}/{key}.yaml (the robot {v.name!r} as it ran)"
     return f"<{type(v).__name__}> (dumped to {INPUTS_DIR}/)"
+
+
+def _is_robot(v: Any) -> bool:
+    """A :class:`manipcad.model.Robot` (told by its fields: this layer names no class
+    of the model)."""
+    return all(hasattr(v, a) for a in ("joint_types", "drives", "joint_names", "table"))
 
 
 def every_for(dt: float, periods: Sequence[float] = ()) -> int:
@@ -173,8 +183,10 @@ def save_result(result, out_dir: str | Path, *, inputs: Mapping[str, Any] | None
         out_dir: the result folder; created with its parents if needed.
         inputs: what the run used, copied into ``DIR/inputs/``: name -> a file
             path (copied as ``name`` + its suffix), a list of file paths
-            (``name-1``, ``name-2``, ...), a mapping (dumped as ``name.yaml``)
-            or an object with ``to_dict()`` (a trajectory; dumped likewise).
+            (``name-1``, ``name-2``, ...), a :class:`~manipcad.model.Robot` (saved
+            in its self-contained tree form as ``name.yaml``; metrics.json names it
+            so), a mapping (dumped as ``name.yaml``) or an object with ``to_dict()``
+            (a trajectory; dumped likewise).
         joint_types: "revolute"/"prismatic" per joint (``robot.joint_types``),
             for the units in the header and the plot; None: "rad|m".
         force: replace a non-empty existing folder (only once the new one is complete).
@@ -296,6 +308,11 @@ def _write_input(folder: Path, key: str, value: Any) -> None:
         if not src.is_file():
             raise InputError(str(src), "", f"input {key!r} is not a readable file")
         shutil.copyfile(src, folder / f"{key}{src.suffix}")
+        return
+    if _is_robot(value):           # its self-contained tree form, which loads back identical
+        from manipcad.model.tree_file import save_robot
+
+        save_robot(value, folder / f"{key}.yaml")
         return
     if hasattr(value, "to_dict"):
         value = value.to_dict()

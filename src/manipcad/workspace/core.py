@@ -673,34 +673,28 @@ class Workspace:
         self.check_free("results", name, force)
         self._clean_leftovers("results")
         inputs: dict[str, Any] = {}
-        tmpdir = None
-        try:
-            if robot is not None:
-                if hasattr(robot, "joint_types"):
-                    tmpdir = Path(tempfile.mkdtemp(prefix="manipcad-ws-"))
-                    inputs["robot"] = save_robot(robot, tmpdir / "robot.yaml")
-                    if joint_types is None:
-                        joint_types = robot.joint_types
-                else:
-                    inputs["robot"] = self.find("robots", robot) or Path(robot)
-                    if joint_types is None:
-                        joint_types = _joint_types(inputs["robot"])
-            if trajectory is not None:
-                inputs["trajectory"] = (self.find("trajectories", trajectory) or Path(trajectory)
-                                        if isinstance(trajectory, str | Path) else trajectory)
-            if regulators:
-                inputs["regulator"] = [self.find("regulators", r) or Path(r) for r in regulators]
-            run_doc = dict(run or {})
-            folder = self.root / "results"
-            from manipcad.folders import temp_dir
+        if robot is not None:
+            if hasattr(robot, "joint_types"):
+                inputs["robot"] = robot        # saved in its tree form (store.save_result)
+                if joint_types is None:
+                    joint_types = robot.joint_types
+            else:
+                inputs["robot"] = self.find("robots", robot) or Path(robot)
+                if joint_types is None:
+                    joint_types = _joint_types(inputs["robot"])
+        if trajectory is not None:
+            inputs["trajectory"] = (self.find("trajectories", trajectory) or Path(trajectory)
+                                    if isinstance(trajectory, str | Path) else trajectory)
+        if regulators:
+            inputs["regulator"] = [self.find("regulators", r) or Path(r) for r in regulators]
+        run_doc = dict(run or {})
+        folder = self.root / "results"
+        from manipcad.folders import temp_dir
 
-            staging = temp_dir(folder / name)
-            shutil.rmtree(staging)
-            save_result(result, staging, inputs=inputs, joint_types=joint_types,
-                        status=status, message=message, run=run_doc, plot=plot, csv=False)
-        finally:
-            if tmpdir is not None:
-                shutil.rmtree(tmpdir, ignore_errors=True)
+        staging = temp_dir(folder / name)
+        shutil.rmtree(staging)
+        save_result(result, staging, inputs=inputs, joint_types=joint_types,
+                    status=status, message=message, run=run_doc, plot=plot, csv=False)
         try:
             facts = validate_item("results", staging)
             prov = self._result_provenance(staging)

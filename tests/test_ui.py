@@ -1178,3 +1178,69 @@ def test_robots_page_pose_is_within_the_limits_and_notes_show_no_paths(ws, tmp_p
     assert error_text(err) == "manipcad/model/catalog/x.yaml: joints[0].mass: bad"
     err = InputError(str(ws.root / "trajectories" / "m.yaml"), "type", "bad")
     assert error_text(err) == "trajectories/m.yaml: type: bad"
+
+
+def test_a_jobs_warnings_reach_its_page(monkeypatch):
+    """The worker passes a run's ManipcadWarnings to the job as notes (each once; they
+    used to reach only the server's log, with an install path), the job keeps them, and
+    the pages show them as "note: ..." lines."""
+    import queue as queues
+    import types
+
+    from manipcad.ui import worker
+
+    class Spec:
+        def run(self, progress):
+            for _ in range(3):
+                warnings.warn("joint 'lift' beyond its limits by 1.7e-05 m", ManipcadWarning,
+                              stacklevel=1)
+            return "s1", {"files": []}
+
+    class Inbox:
+        def __init__(self):
+            self.msgs = [(7, Spec()), None]
+
+        def recv(self):
+            return self.msgs.pop(0)
+
+    out = queues.Queue()
+    monkeypatch.setattr(worker, "_warm", lambda: None)
+    worker._work(Inbox(), out, types.SimpleNamespace(value=0), types.SimpleNamespace(value=0))
+    said = [out.get_nowait() for _ in range(out.qsize())]
+    assert said == [(7, "note", "joint 'lift' beyond its limits by 1.7e-05 m"),
+                    (7, "done", "s1", {"files": []})]
+    job = worker.SimulationJob.__new__(worker.SimulationJob)     # its bookkeeping alone
+    job.number, job.state, job.notes = 7, "running", []
+    job._worker = types.SimpleNamespace(read=lambda number: [m[1:] for m in said])
+    job._take_messages()
+    assert job.state == "done" and job.notes == [said[0][2]]
+
+
+def test_a_studys_notes_are_shown_on_its_page(tmp_path, monkeypatch):
+    """A finished study's notes (its run's warnings) are caption lines on the page."""
+    from nicegui import ui
+
+    from manipcad.ui.pages import results
+
+    class Done:                        # what SimulationJob reports after such a study
+        fraction, finished, result, wall = 1.0, True, "fig3", 1.0
+        metrics = {"files": []}
+        notes = ["cylindrical arm: joint 'lift' beyond its limits by up to 1.68e-05 m"]
+
+        def __init__(self, spec):
+            self.spec = spec
+
+        def poll(self):
+            return "done"
+
+    monkeypatch.setattr(results, "SimulationJob", Done)
+
+    async def script(user):
+        await _open(user, "/results")
+        user.find("Run the study").click()
+        await user.should_see("note: cylindrical arm: joint 'lift' beyond its limits",
+                              retries=50)
+        assert [e.text for e in user.find(kind=ui.label, content="note:").elements] == \
+            [f"note: {Done.notes[0]}"]
+
+    _simulate_user(tmp_path / "ws", script)

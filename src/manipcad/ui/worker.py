@@ -274,7 +274,9 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
     run = {"robot": spec.robot, "trajectory": spec.trajectory, "regulators": spec.regulators,
            "t_end": t_end, "dt": spec.dt, "every": every, "drives": True, "payload": None}
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ManipcadWarning)
+        # said as `manipcad simulate` says them (a joint beyond its limits, ...): the
+        # worker passes them to the page as the job's notes
+        warnings.simplefilter("always", ManipcadWarning)
         try:
             res = simulate(arm, t_end=t_end, dt=spec.dt, trajectory=traj, regulators=regs,
                            every=every, progress=progress)
@@ -330,7 +332,9 @@ def _work(inbox, out, cancel, done) -> None:
     the number of each job just before its last message is sent (the worker is then
     free for the next job).
     """
-    from manipcad.errors import ManipcadError
+    import warnings
+
+    from manipcad.errors import ManipcadError, ManipcadWarning
 
     _warm()
     while True:
@@ -345,7 +349,12 @@ def _work(inbox, out, cancel, done) -> None:
                 raise KeyboardInterrupt
 
         try:
-            name, metrics = spec.run(progress)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", ManipcadWarning)
+                try:
+                    name, metrics = spec.run(progress)
+                finally:
+                    _pass_notes(number, caught, out)
         except KeyboardInterrupt:
             last = (number, "cancelled", "")
         except ManipcadError as exc:
@@ -356,6 +365,25 @@ def _work(inbox, out, cancel, done) -> None:
             last = (number, "done", name, metrics)
         done.value = number        # free before its last word: the job that reads it finds
         out.put(last)              # the worker free (no new spare started)
+
+
+def _pass_notes(number: int, caught, out) -> None:
+    """A job's warnings: manipcad's own (a joint beyond its limits, ...) go to the page as
+    ``(number, "note", text)`` messages, each text once (they used to reach the server's
+    log only, with the module's install path); others to stderr as Python shows them."""
+    import warnings
+
+    from manipcad.errors import ManipcadWarning
+
+    said: set[str] = set()
+    for w in caught:
+        if issubclass(w.category, ManipcadWarning):
+            text = str(w.message)
+            if text not in said:
+                said.add(text)
+                out.put((number, "note", text))
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
 class _Worker:
@@ -462,6 +490,7 @@ class SimulationJob:
         self.result: str | None = None
         self.metrics: dict[str, Any] = {}
         self.message = ""
+        self.notes: list[str] = []     # the run's warnings (manipcad's own), in order
         self.started = time.perf_counter()
         self.wall = float("nan")
         w.send.send((self.number, spec))
@@ -492,6 +521,8 @@ class SimulationJob:
             elif msg[0] == "done":
                 self.state, self.result, self.metrics = "done", msg[1], msg[2]
                 self.fraction = 1.0
+            elif msg[0] == "note":
+                self.notes.append(msg[1])
             else:
                 self.state, self.message = msg[0], msg[1]
 

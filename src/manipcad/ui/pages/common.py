@@ -124,6 +124,14 @@ def poll_job(job, bar, status, what: str, shown: dict) -> str | None:
     return state
 
 
+def job_notes(job) -> None:
+    """The warnings a finished job's run gave (a joint beyond its limits, ...), one
+    caption line each, in the current container."""
+    for note in getattr(job, "notes", ()):
+        ui.label(f"note: {logic.short_paths(note, SERVER['ws'])}") \
+            .classes("text-caption text-warning").props("data-testid=job-note")
+
+
 def error_label():
     """A hidden error line; ``show(exc)`` fills it, ``clear()`` hides it."""
     lab = ui.label("").classes("text-negative text-body1").props("data-testid=error") \

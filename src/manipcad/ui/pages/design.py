@@ -20,6 +20,7 @@ from manipcad.ui.pages.common import (
     connected,
     error_label,
     frame,
+    job_notes,
     jobs,
     numbers,
     poll_job,
@@ -156,6 +157,7 @@ async def page() -> None:
                            f"studies/{job.result}")
             out.clear()
             with out:
+                job_notes(job)
                 if m.get("failure"):
                     ui.label(m["failure"]["text"]).classes("text-negative")
                 rows = [{"joint": jn, "method": m["methods"].get(jn) or "-",

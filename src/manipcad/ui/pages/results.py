@@ -15,6 +15,7 @@ from manipcad.ui.pages.common import (
     connected,
     error_label,
     frame,
+    job_notes,
     jobs,
     numbers,
     ws,
@@ -96,6 +97,7 @@ async def page() -> None:
             kind.on_value_change(lambda e: sname.set_value(e.value))
         sbar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
         sstatus = ui.label("").props("data-testid=study-status")
+        snotes = ui.column().classes("gap-0")
         my_studies: list[SimulationJob] = []
         seen: dict[str, Any] = {"job": None}
 
@@ -133,6 +135,9 @@ async def page() -> None:
             if seen["job"] is job:
                 return
             seen["job"] = job
+            snotes.clear()
+            with snotes:
+                job_notes(job)
             if st == "done":
                 report = "report.html" if "report.html" in job.metrics.get("files", []) \
                     else None

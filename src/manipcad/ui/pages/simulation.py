@@ -15,6 +15,7 @@ from manipcad.ui.pages.common import (
     connected,
     error_label,
     frame,
+    job_notes,
     jobs,
     numbers,
     poll_job,
@@ -89,6 +90,7 @@ async def page() -> None:
                                f"max |e| = {job.metrics.get('max_error', float('nan')):.3g}")
                 figs.clear()
                 with figs:
+                    job_notes(job)
                     box = ui.column().classes("w-full")
 
                     def draw(q: str, name: str = job.result) -> None:

@@ -657,6 +657,30 @@ def test_regulator_period_longer_than_the_run_named(tmp_path, period):
         manipcad.simulate(puma, t_end=0.01, dt=1e-4, regulators=load_regulators(str(regs), puma))
 
 
+def test_tables_print_law_and_names_literally_and_uncut_into_a_pipe(tmp_path):
+    """rich read table cells as markup: the ace_de law lost its bracketed term and a joint
+    named '[red]sh:fire:[/]' lost its brackets; output to a pipe was laid out for 80
+    columns (or the terminal on another stream) and cut."""
+    from typer.testing import CliRunner
+
+    from manipcad.cli import app
+
+    def piped(*args):  # stdout is not a terminal and COLUMNS is not set
+        res = CliRunner().invoke(app, [str(a) for a in args], env={"COLUMNS": None})
+        assert res.exit_code == 0, res.output
+        return res.output
+
+    out = piped("synthesize", "puma560", "--method", "ace_de", "--joint", "waist",
+                "--out", tmp_path / "g")
+    law = "+ [k_w/k_u·(1−ρ) + (R(h*+k_v)+L·ḣ*)/(k_m k_u)]·i_r·q̇ + R/(k_m k_u)·m_f +"
+    assert law in out, out
+    arm = _two_link(tmp_path, "name: shoulder", "name: '[red]sh:fire:[/]'")
+    out = piped("robots", "show", arm)
+    assert "│ [red]sh:fire:[/] │" in out and "🔥" not in out, out
+    out = piped("catalog", "list", "--kind", "gear", "--makers", "maxon")
+    assert "…" not in out and max(map(len, out.splitlines())) > 150
+
+
 def test_echoed_user_text_keeps_emoji_codes(tmp_path):
     res, out = cli("size", "puma560", "--trajectory", tmp_path / ":fire:0:100:10.yaml")
     fails_cleanly(res, out, ":fire:0:100:10.yaml")

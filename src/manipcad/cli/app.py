@@ -23,8 +23,30 @@ app = typer.Typer(
     add_completion=True,  # --install-completion / --show-completion (bash, zsh, fish)
     pretty_exceptions_enable=False,
 )
-console = Console(emoji=False)  # ":fire:" in a file name or "0:100:10" stays text
-err_console = Console(stderr=True, emoji=False)
+#: the width output to a file or a pipe is laid out for (characters): wide enough that
+#: no table is cut and no line is wrapped
+PIPE_WIDTH = 2000
+
+
+class _Console(Console):
+    """A console that lays out output to a file or pipe at :data:`PIPE_WIDTH` (rich
+    takes the width of a terminal on another stream, or 80, and cuts table cells to it)
+    unless COLUMNS says otherwise; on a terminal, the terminal's width."""
+
+    @property
+    def size(self):  # noqa: D102 - rich's
+        dims = super().size
+        if self._width is None and "COLUMNS" not in self._environ and not self.is_terminal:
+            return dims._replace(width=PIPE_WIDTH)
+        return dims
+
+    @size.setter
+    def size(self, new_size) -> None:
+        Console.size.fset(self, new_size)
+
+
+console = _Console(emoji=False)  # ":fire:" in a file name or "0:100:10" stays text
+err_console = _Console(stderr=True, emoji=False)
 
 
 def _version(value: bool) -> None:

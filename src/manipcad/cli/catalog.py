@@ -15,10 +15,10 @@ from typing import Annotated, Any
 
 import typer
 from rich.markup import escape
-from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import json_flag, ws_option
+from manipcad.cli.tables import Table
 from manipcad.errors import InputError
 from manipcad.fileio import json_safe
 
@@ -91,7 +91,7 @@ def list_parts(
         for _, head, scale, _ in cols:
             t.add_column(head, justify="left" if scale is None else "right", overflow="fold")
         for name, row in df.iterrows():
-            t.add_row(escape(str(name)), *(escape(_cell(row[c], f)) for c, _, _, f in cols))
+            t.add_row(str(name), *(_cell(row[c], f) for c, _, _, f in cols))
         console.print(t)
 
 
@@ -126,8 +126,8 @@ def show_part(
     for col in ("field", "value", "unit", "note"):
         t.add_column(col, justify="right" if col == "value" else "left", overflow="fold")
     for f in doc["fields"]:
-        t.add_row(f["field"], _cell(f["value"], ".6g"), escape(f["unit"]),
-                  escape(f["note"] or ("-" if math.isnan(f["value"]) else "printed")))
+        t.add_row(f["field"], _cell(f["value"], ".6g"), f["unit"],
+                  f["note"] or ("-" if math.isnan(f["value"]) else "printed"))
     console.print(t)
     console.print(f"source: {escape(doc['source'])}", soft_wrap=True, highlight=False)
     other = "gears" if doc["kind"] == "motor" else "motors"

@@ -18,11 +18,11 @@ from typing import Annotated
 import typer
 from rich import box
 from rich.markup import escape
-from rich.table import Table
 
 from manipcad.cli.app import console, guarded
 from manipcad.cli.options import Scheduler, Workers, dt_option, progress_flag, ws_option
 from manipcad.cli.study import study_app
+from manipcad.cli.tables import Table
 
 
 @study_app.command("claims")

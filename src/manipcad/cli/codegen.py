@@ -26,10 +26,10 @@ from typing import Annotated
 
 import typer
 from rich import box
-from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import RobotArgument, json_flag
+from manipcad.cli.tables import Table
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 
 

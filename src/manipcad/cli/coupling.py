@@ -21,10 +21,10 @@ from typing import Annotated
 
 import typer
 from rich import box
-from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import RobotArgument, dt_option, json_flag
+from manipcad.cli.tables import Table, styled
 from manipcad.errors import ManipcadWarning
 
 STYLE = {"decoupled": "green", "inertial": "yellow", "full": "red"}
@@ -69,7 +69,7 @@ def coupling(
     for j in rep.joints:
         table.add_row(
             f"{j.joint} ({j.type[0].upper()})",
-            f"[{STYLE[j.classification]}]{j.classification}[/]",
+            styled(j.classification, STYLE[j.classification]),
             f"{j.inertial_peak:.4g}", _pct(j.coupling_ratio), _pct(j.velocity_ratio),
             _pct(j.gravity_ratio), f"{j.H_min:.4g}..{j.H_max:.4g} {j.inertia_unit}",
             f"{j.H_ratio:.3g}", f"{j.gravity_constant:+.4g}", f"{j.gravity_after_spring:.4g}",

@@ -8,9 +8,9 @@ from typing import Annotated
 
 import numpy as np
 import typer
-from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
+from manipcad.cli.tables import Table
 
 
 @app.command()

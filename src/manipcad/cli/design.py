@@ -26,7 +26,6 @@ from typing import Annotated
 
 import typer
 from rich import box
-from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.cli.options import (
@@ -37,6 +36,7 @@ from manipcad.cli.options import (
     strict_flag,
     ws_option,
 )
+from manipcad.cli.tables import Table, styled
 from manipcad.errors import InputError
 
 
@@ -189,5 +189,5 @@ def summary_table(doc: dict) -> Table:
         t.add_row(jn, p.get("motor", ""), p.get("gear", ""),
                   doc["methods"].get(jn) or doc["support"].get(jn, "-"),
                   "-" if err is None else (err if isinstance(err, str) else f"{err:.3g}"),
-                  ("met" if ok else "[red]missed[/]") if designed else "(not designed)")
+                  ("met" if ok else styled("missed", "red")) if designed else "(not designed)")
     return t

@@ -32,10 +32,10 @@ from typing import Annotated
 
 import typer
 from rich import box
-from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.cli.options import RobotArgument, json_flag, ws_option
+from manipcad.cli.tables import Table, styled
 from manipcad.errors import InputError, ManipcadWarning
 
 
@@ -173,7 +173,8 @@ def identify(
                                         est.per_joint_residual, strict=True):
         unit = "N·m" if model.joint_types[j] == "revolute" else "N"
         table.add_row(name, f"{e:.4g} {unit}/kg", f"{m:.5g}", _num(sd), _num(zz, "+.1f"),
-                      f"{r:.3g} {unit}", "[bold red]disagrees[/]" if name in est.flagged else "")
+                      f"{r:.3g} {unit}",
+                      styled("disagrees", "bold red") if name in est.flagged else "")
     console.print(table)
     weights = ("drives weighted by their estimated noise" if est.weighting == "noise"
                else "plain least squares")

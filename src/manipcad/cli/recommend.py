@@ -28,10 +28,10 @@ from typing import Annotated
 
 import typer
 from rich import box
-from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import json_flag
+from manipcad.cli.tables import Table, styled
 from manipcad.errors import InputError, ManipcadWarning
 
 
@@ -112,20 +112,20 @@ def recommend(
     table.add_column("reasons (rules)", overflow="fold")
     for k, r in enumerate(recs, 1):
         c = r.complexity
-        row = [str(k), f"[bold]{r.method}[/]", f"{r.score:g}", str(c["gains_stored"]),
+        row = [str(k), styled(r.method, "bold"), f"{r.score:g}", str(c["gains_stored"]),
                str(c["ops_per_period"]), str(len(c["signals"]))]
         if recs.verified:
             if r.max_error is None:
                 row.append("—")
             else:
                 style = "green" if r.meets_accuracy else "red"
-                row.append(f"[{style}]{r.max_error:.3g}[/]")
-        row.append({"met": "[green]met[/]", "missed": "[red]missed[/]"}.get(
-            r.accuracy, "[yellow]unverified[/]"))
+                row.append(styled(f"{r.max_error:.3g}", style))
+        row.append(styled(r.accuracy if r.accuracy in ("met", "missed") else "unverified",
+                          {"met": "green", "missed": "red"}.get(r.accuracy, "yellow")))
         if recs.verified:
-            row.append({"pass": "[green]pass[/]", "unknown": "[yellow]unknown[/]",
-                        "unverified": "[yellow]unverified[/]"}.get(
-                r.verdict, f"[red]✗ fail ({len(r.failed) or 'not run'})[/]"))
+            row.append(styled(r.verdict, {"pass": "green"}.get(r.verdict, "yellow"))
+                       if r.verdict in ("pass", "unknown", "unverified") else
+                       styled(f"✗ fail ({len(r.failed) or 'not run'})", "red"))
         ids = [x.split(" ", 1)[0] for x in r.reasons if x.split(" ", 1)[0] in recs.rule_texts]
         row.append(", ".join(ids) or "meets every fired rule")
         table.add_row(*row)

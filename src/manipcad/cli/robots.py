@@ -17,10 +17,10 @@ from typing import Annotated, Any
 
 import numpy as np
 import typer
-from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import RobotArgument, json_flag, ws_option
+from manipcad.cli.tables import Table
 from manipcad.errors import ManipcadWarning
 from manipcad.fileio import json_safe
 from manipcad.model.robot import loader_notes

@@ -19,7 +19,6 @@ from typing import Annotated
 import typer
 from rich import box
 from rich.markup import escape
-from rich.table import Table
 
 from manipcad.cli.app import console, guarded
 from manipcad.cli.options import (
@@ -31,6 +30,7 @@ from manipcad.cli.options import (
     t_end_option,
 )
 from manipcad.cli.study import study_app
+from manipcad.cli.tables import Table
 
 
 @study_app.command("robustness")

@@ -25,10 +25,10 @@ from typing import Annotated
 import typer
 from rich import box
 from rich.markup import escape
-from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.cli.options import dt_option, force_flag, json_flag, payload_option, ws_option
+from manipcad.cli.tables import Table, styled
 from manipcad.errors import InputError
 
 
@@ -197,7 +197,7 @@ def print_selection(sel, trajectories: list[str]) -> None:
         t.add_column(col, justify=just, overflow="fold")
     for c in sel.joints:
         ch = c.chosen
-        row = [escape(c.joint), escape(ch.label), f"{ch.part.drive.ratio:.4g}",
+        row = [c.joint, ch.label, f"{ch.part.drive.ratio:.4g}",
                f"{ch.part.mass:.3g}"]
         if sel.objective != "mass":
             row.append(f"{ch.objective:.3g}")
@@ -206,15 +206,15 @@ def print_selection(sel, trajectories: list[str]) -> None:
         t.add_row(*row)
     console.print(t)
     for c in sel.joints:
-        alt = Table(box=box.SIMPLE, title=f"{escape(c.joint)}: next alternatives and the "
+        alt = Table(box=box.SIMPLE, title=f"{c.joint}: next alternatives and the "
                     "lighter candidates rejected", title_justify="left")
         for col in ("", "candidate", sel.objective, "binding / why not"):
             alt.add_column(col, overflow="fold")
         for a in c.alternatives:
-            alt.add_row("[green]alt[/]", escape(a.label), f"{a.objective:.4g}",
+            alt.add_row(styled("alt", "green"), a.label, f"{a.objective:.4g}",
                         f"{a.binding} {_pct(a.binding_margin)}")
         for r in c.rejected:
-            alt.add_row("[red]no[/]", escape(r.label), f"{r.objective:.4g}", escape(r.reason))
+            alt.add_row(styled("no", "red"), r.label, f"{r.objective:.4g}", r.reason)
         if c.alternatives or c.rejected:
             console.print(alt)
     console.print(f"total drive mass {sel.total_drive_mass:.3g} kg", highlight=False)

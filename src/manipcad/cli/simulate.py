@@ -36,7 +36,6 @@ from typing import Annotated, Any
 import typer
 from rich import box
 from rich.markup import escape
-from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.cli.options import (
@@ -49,6 +48,7 @@ from manipcad.cli.options import (
     t_end_option,
     ws_option,
 )
+from manipcad.cli.tables import Table, styled
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 
 
@@ -92,7 +92,7 @@ def checks_table(checks) -> Table:
             style = VERDICT_STYLE.get(c.verdict, "")
             t.add_row(j if k == 0 else "", name, _num(c.value, ".3g"),
                       "none" if c.limit == math.inf else _num(c.limit, ".3g"), c.unit,
-                      f"[{style}]{mark}[/]" if style else mark,
+                      styled(mark, style) if style else mark,
                       end_section=k == len(names) - 1)
     return t
 

@@ -28,7 +28,6 @@ from typing import Annotated
 import typer
 from rich import box
 from rich.markup import escape
-from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import (
@@ -40,6 +39,7 @@ from manipcad.cli.options import (
     t_end_option,
     ws_option,
 )
+from manipcad.cli.tables import Table, styled
 from manipcad.errors import InputError, ManipcadWarning
 from manipcad.fileio import json_safe
 
@@ -191,7 +191,7 @@ def exit_status(status: tuple[str, ...], allow_unknown: bool) -> int:
 def _print_tables(req, source: str) -> None:
     from manipcad.sizing.requirements import check_unit
 
-    title = (f"{escape(req.robot.name)}: drive requirements along {escape(source)} "
+    title = (f"{req.robot.name}: drive requirements along {source} "
              f"(t_end = {req.t_end:g} s, dt = {req.dt:.3g} s"
              + (f", payload {req.payload_mass:g} kg" if req.payload_mass else "") + ")")
     mixed = "prismatic" in req.robot.joint_types
@@ -201,7 +201,7 @@ def _print_tables(req, source: str) -> None:
     need.add_column("quantity")
     need.add_column("unit")
     for name, kind in zip(req.joint_names, req.robot.joint_types, strict=True):
-        need.add_column(escape(name) + (" (P)" if kind == "prismatic" else ""), justify="right")
+        need.add_column(name + (" (P)" if kind == "prismatic" else ""), justify="right")
     ratios = [d.ratio if d is not None else math.nan for d in req.drives]
     nm = "N·m (N)" if mixed else "N·m"
     rad_s = "rad/s (m/s)" if mixed else "rad/s"
@@ -250,7 +250,7 @@ def _print_tables(req, source: str) -> None:
         check.add_column(col, justify=just, no_wrap=True)
     for j in range(req.n):
         d = req.drives[j]
-        first = [escape(req.joint_names[j])]
+        first = [req.joint_names[j]]
         for k, c in enumerate(req.checks.values()):
             st = c.status[j]
             m = c.margin[j]
@@ -260,8 +260,8 @@ def _print_tables(req, source: str) -> None:
                 "none" if c.limit[j] == math.inf else _fmt(c.limit[j]),
                 "N" if c.unit == "N·m" and c.name.startswith("gear_") and prismatic
                 else check_unit(c.name, c.unit, req.robot.joint_types[j]),
-                f"[{_COLOUR[st]}]{m:+.0%}[/]" if st in ("pass", "fail") else "",
-                f"[{_COLOUR[st]}]{st}[/]", end_section=k == len(req.checks) - 1)
+                styled(f"{m:+.0%}", _COLOUR[st]) if st in ("pass", "fail") else "",
+                styled(st, _COLOUR[st]), end_section=k == len(req.checks) - 1)
     console.print("drives:")
     for j in range(req.n):
         d = req.drives[j]

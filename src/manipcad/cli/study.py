@@ -21,10 +21,10 @@ from typing import Annotated
 import typer
 from rich import box
 from rich.markup import escape
-from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import dt_option, t_end_option, ws_option
+from manipcad.cli.tables import Table
 
 study_app = typer.Typer(help="Reproduce the paper's experiments (Fig. 3, pickup).",
                         no_args_is_help=True)

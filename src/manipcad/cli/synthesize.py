@@ -31,10 +31,10 @@ from typing import Annotated, Any
 import typer
 import yaml
 from rich import box
-from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.cli.options import dt_option, force_flag, json_flag, ws_option
+from manipcad.cli.tables import Table
 from manipcad.control import realization_complexity
 from manipcad.errors import InputError
 

@@ -29,10 +29,10 @@ from typing import Annotated
 import typer
 from rich import box
 from rich.markup import escape
-from rich.table import Table
 
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.cli.options import RobotArgument, dt_option, json_flag, payload_option
+from manipcad.cli.tables import Table, styled
 from manipcad.errors import InputError, ManipcadWarning
 
 
@@ -132,14 +132,14 @@ def verify(
                     "promise", "coupling", "why"):
             t.add_column(col, overflow="fold")
         for c in promises:
-            verdict = ("-" if c.met is None else "[green]met[/]" if c.met
-                       else "[red]✗ missed[/]")
+            verdict = ("-" if c.met is None else styled("met", "green") if c.met
+                       else styled("✗ missed", "red"))
             promise = ("-" if c.kept is None else "kept" if c.kept
-                       else f"[yellow]exceeded ×{c.ratio:.3g}[/]")
+                       else styled(f"exceeded ×{c.ratio:.3g}", "yellow"))
             t.add_row(c.joint, c.method, "-" if c.accuracy is None else f"{c.accuracy:.3g}",
                       f"{c.simulated:.3g}", verdict,
                       "-" if c.promised is None else f"{c.promised:.3g}", promise,
-                      f"{100 * c.coupling_share:.0f} %", escape(c.why))
+                      f"{100 * c.coupling_share:.0f} %", c.why)
         console.print(t)
         console.print(checks_table(checks))
         console.print(f"[{VERDICT_STYLE[checks.verdict]}]{escape(checks.summary())}[/]",

@@ -27,10 +27,10 @@ from typing import Annotated, Any
 
 import typer
 from rich import box
-from rich.table import Table
 
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import force_flag
+from manipcad.cli.tables import Table
 from manipcad.errors import InputError
 
 ws_app = typer.Typer(help="The workspace: add, list, compare and re-run robots, motors, "

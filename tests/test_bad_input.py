@@ -410,6 +410,23 @@ def test_size_refuses_a_dt_that_undersamples(tmp_path):
     assert res.exit_code in (0, 1) and "error" not in out, out
 
 
+def test_size_says_a_trajectory_leaves_the_joint_limits(tmp_path):
+    """A move of the waist to 4 rad (limits ±2.79 rad): the position check
+    (sizing.limits.check_joint_limits, the one the run checks use) fails, exit 1, and the
+    summary names the joint, the check, the value and the limit."""
+    traj = tmp_path / "far.yaml"
+    traj.write_text("type: quintic\nq_start: [0, 0.5, -0.5, 0, 0.3, 0]\n"
+                    "q_end: [4, 0.5, -0.5, 0, 0.3, 0]\nduration: 8.0\n")
+    res, out = cli("size", "puma560", "--trajectory", traj, "--allow-unknown")
+    assert res.exit_code == 1, out
+    assert "over a limit: waist: position 4 vs 2.793 rad" in out, out
+    res, out = cli("size", "puma560", "--trajectory", traj, "--json")
+    import json
+
+    doc = json.loads(out[out.index("{"):])
+    assert doc["joints"][0]["checks"]["position"]["status"] == "fail"
+
+
 def test_api_simulate_refuses_another_robots_regulators():
     """Regulators made for a two-link arm are not run on the PUMA's waist and shoulder."""
     import manipcad
@@ -474,6 +491,25 @@ def test_names_that_look_like_numbers_read_back(tmp_path):
     save_regulators(regs, tmp_path / "regs.yaml")
     again = load_regulators(str(tmp_path / "regs.yaml"), back)
     assert [r.joint_names for r in again] == [("1e0",), ("1e3",)]
+
+
+def test_selection_file_quotes_names_that_look_like_numbers(tmp_path):
+    """select's robot file was written with yaml.safe_dump: joints named 1e0, 1e3 came
+    back as numbers. Every YAML writer goes through fileio.dump_yaml."""
+    import re
+    from types import SimpleNamespace
+
+    import manipcad
+    from manipcad.sizing.select import save_selection
+
+    arm = manipcad.load_robot("cylindrical").replace(joint_names=("1e0", "1e3", "010"))
+    sel = SimpleNamespace(objective="mass", margin=1.2, payloads=[2.0], joints=[], robot=arm)
+    back = manipcad.load_robot(str(save_selection(sel, tmp_path / "sel.yaml")))
+    assert back.joint_names == ("1e0", "1e3", "010")
+    src = ROOT / "src" / "manipcad"
+    writers = [str(p.relative_to(src)) for p in src.rglob("*.py")
+               if p.name != "fileio.py" and re.search(r"yaml\.(safe_)?dump\(", p.read_text())]
+    assert writers == [], writers
 
 
 # --------------------------------------------------------------------------- tracebacks
@@ -770,6 +806,46 @@ def test_robots_show_takes_ws(tmp_path):
     res, out = cli("robots", "show", "arm2", "--ws", ws.root, "--json")
     assert res.exit_code == 0, out
     assert '"shoulder"' in out
+
+
+def test_recommend_footer_says_the_order_it_shows(monkeypatch):
+    """The --verify footer said "ranked by score" while the list is ordered by the verdict
+    of every check, then cost: the footer prints the list's own order."""
+    import manipcad.expert as expert
+    from manipcad.expert.engine import RULES_ORDER, VERIFIED_ORDER
+
+    real = expert.recommend
+    seen = []
+
+    def verified(*args, verify=False, **kw):  # the rules' list, marked as _verify marks it
+        recs = real(*args, **kw)
+        seen.append(recs.order)
+        recs.verified, recs.order = True, VERIFIED_ORDER
+        return recs
+
+    res, out = cli("recommend", EXAMPLES / "requirements_fig3.yaml")
+    assert res.exit_code == 0, out
+    assert RULES_ORDER in " ".join(out.split())
+    monkeypatch.setattr(expert, "recommend", verified)
+    res, out = cli("recommend", EXAMPLES / "requirements_fig3.yaml")
+    flat = " ".join(out.split())
+    assert seen == [RULES_ORDER] and VERIFIED_ORDER in flat and "ranked by score" not in flat
+
+
+def test_claims_arm_file_must_be_the_cylindrical_arm(tmp_path):
+    """study claims --arm FILE said only 'turn: the claims study needs joints turn, lift,
+    reach': now what arm it takes, the joints the file has, and before any work."""
+    res, out = cli("study", "claims", "--arm", EXAMPLES / "two_link.yaml", "--workers", "1",
+                   "--out", tmp_path / "c")
+    fails_cleanly(res, out, "two_link.yaml: joints", "exactly the joints turn (revolute",
+                  "this arm has shoulder (revolute), elbow (revolute) (no turn, lift, reach)",
+                  "--arm light, industrial or heavy")
+    assert not (tmp_path / "c").exists()
+    text = (ROOT / "src/manipcad/model/catalog/robots/cylindrical.yaml").read_text()
+    p = tmp_path / "cyl.yaml"
+    p.write_text(text.replace("type: prismatic", "type: revolute", 1))
+    res, out = cli("study", "robustness", "--arm", p, "--workers", "1", "--out", tmp_path / "r")
+    fails_cleanly(res, out, "cyl.yaml: lift", "joint 'lift' is revolute")
 
 
 def test_simulate_summary_says_every_n_steps(tmp_path):

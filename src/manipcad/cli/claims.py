@@ -36,7 +36,8 @@ def claims(
     arm: Annotated[str, typer.Option(
         "--arm", help="light (the catalog Fig. 2 arm), industrial (+3 kg arm, 2 kg payload, "
         "CSF-20 on the turn), heavy (+5 kg arm, 5 kg payload, extra reach reduction) or a "
-        "robot file with joints turn, lift, reach.")] = "light",
+        "robot file of a cylindrical arm: exactly the joints turn (revolute), lift, reach "
+        "(prismatic), in this order, each with a drive.")] = "light",
     grid: Annotated[str, typer.Option("--grid", help="quick (4 × 4 cells) or full (7 × 7).")]
     = "quick",
     workers: Workers = None,

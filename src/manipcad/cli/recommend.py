@@ -28,6 +28,7 @@ from typing import Annotated
 
 import typer
 from rich import box
+from rich.markup import escape
 
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import json_flag
@@ -131,9 +132,8 @@ def recommend(
         table.add_row(*row)
     console.print(table)
     src = sorted({r.complexity.get("source", "") for r in recs})
-    console.print(f"[dim]ranked by score (sum of the fired 'prefer' rules), then realization "
-                  f"complexity (from the {' and '.join(src)}); errors in rad or m[/]",
-                  highlight=False)
+    console.print(f"[dim]{escape(recs.order)} (complexity from the {' and '.join(src)}); "
+                  "errors in rad or m[/]", highlight=False)
     notes = [(k, r) for k, r in enumerate(recs, 1) if r.note]
     for k, r in notes:
         console.print(f"  {k}. {r.method}: {r.note}", highlight=False)

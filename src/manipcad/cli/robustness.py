@@ -39,7 +39,8 @@ def robustness(
     out: Annotated[str, typer.Option("--out", "-o", help="Output folder (created).")],
     arm: Annotated[str, typer.Option(
         "--arm", help="light, industrial, heavy (the claims study's arms) or a robot file "
-        "with joints turn, lift, reach.")] = "light",
+        "of a cylindrical arm: exactly the joints turn (revolute), lift, reach (prismatic), in "
+        "this order, each with a drive.")] = "light",
     samples: Annotated[int, typer.Option("--samples", help="Perturbed arms (plus the "
                                          "nominal one).")] = 20,
     uncertainty: Annotated[float, typer.Option(

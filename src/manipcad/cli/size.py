@@ -272,7 +272,13 @@ def _print_tables(req, source: str) -> None:
     fails = [req.joint_names[j] for j in range(req.n) if req.status[j] == "fail"]
     unknown = [req.joint_names[j] for j in range(req.n) if req.status[j] == "unknown"]
     if fails:
-        console.print(f"[red]over a limit:[/] {escape(', '.join(fails))}")
+        what = []  # each failed check with its value and limit (a position outside the
+        for j in range(req.n):  # joint's limits says so: "waist: position 4 vs 2.793 rad")
+            jt = req.robot.joint_types[j]
+            what += [f"{req.joint_names[j]}: {c.name} {_fmt(c.required[j])} vs "
+                     f"{_fmt(c.limit[j])} {check_unit(c.name, c.unit, jt)}"
+                     for c in req.checks.values() if c.status[j] == "fail"]
+        console.print(f"[red]over a limit:[/] {escape('; '.join(what))}", soft_wrap=True)
     if unknown:
         console.print(f"[yellow]not fully checked (a rating or the motor's electrical data "
                       f"unknown; exit 1 unless --allow-unknown):[/] {escape(', '.join(unknown))}")

@@ -25,8 +25,6 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from manipcad.design.judge import margin, verdict
 from manipcad.fileio import atomic_write_text, json_safe
 from manipcad.model.tree_file import save_robot
@@ -77,24 +75,18 @@ def _store_runs(folder: Path, runs: list[dict], results: dict, arm) -> None:
 
     tmp = Path(tempfile.mkdtemp(prefix=".runs-new-", dir=folder.parent))
     try:
-        keep = Path(tempfile.mkdtemp(prefix=".plants-", dir=folder.parent))
-        seen: dict[int, Path] = {}
         for r in runs:
             res, task = results.get(r["id"], (None, None))
             if res is None:
                 continue
-            plant = task["plant"]
-            f = seen.get(id(plant))
-            if f is None:
-                f = save_robot(plant, keep / f"plant-{len(seen)}.yaml")
-                seen[id(plant)] = f
-            save_result(res, tmp / r["id"], inputs={"robot": f,
+            # the plant as it ran, saved in the result (metrics.json names it so; a
+            # temporary file would be gone after the design)
+            save_result(res, tmp / r["id"], inputs={"robot": task["plant"],
                                                     "trajectory": task["trajectory"],
                                                     "regulators": task["regulators"]},
                         joint_types=arm.joint_types, plot=False, csv=False,
                         run={"design_case": r["id"], "payload_kg": r["payload"],
                              "uncertainty_sample": r["sample"], "dt": None})
-        shutil.rmtree(keep, ignore_errors=True)
         old = None
         if folder.exists():
             old = folder.with_name(f".runs-old-{tmp.name}")
@@ -173,6 +165,7 @@ def write_outputs(out: Path, *, req, arm, nominal, trajectories, outcome, runs, 
     """Write every file of the design folder; return the design.json document."""
     from manipcad.control.files import regulators_yaml
     from manipcad.design.drives import parts
+    from manipcad.trajectories import save_trajectory
 
     out.mkdir(exist_ok=True)
     save_robot(nominal, out / "robot.yaml")
@@ -183,7 +176,7 @@ def write_outputs(out: Path, *, req, arm, nominal, trajectories, outcome, runs, 
     traj_files = []
     for k, tr in enumerate(trajectories):
         f = tdir / f"traj-{k}.yaml"
-        atomic_write_text(f, yaml.safe_dump(json_safe(tr.to_dict()), sort_keys=False))
+        save_trajectory(tr, f)  # the one trajectory writer (fileio.dump_yaml)
         traj_files.append(f"trajectories/traj-{k}.yaml")
     c_files = write_c(out / "c", nominal, outcome["mix_regs"])
     if store_runs != "none":

@@ -456,6 +456,17 @@ class Recommendation:
                 "checks": self.checks, "note": self.note}
 
 
+#: the order of a list ranked by the rules (:func:`recommend`)
+RULES_ORDER = ("ranked by score (the sum of the fired 'prefer' rules), then by realization "
+               "complexity")
+#: the order of a list ranked by simulation (``verify=True``): the sort key of
+#: :func:`_verify`, in words
+VERIFIED_ORDER = ("ranked by the checks' verdict: every check passes, then none fails but "
+                  "some cannot be made (unknown), then not simulated (by score), then "
+                  "failing (by max error, then the number of failed checks); within "
+                  "'pass' and 'unknown' by realization complexity")
+
+
 class Recommendations(list):
     """The ranked :class:`Recommendation` list, best first, with the context.
 
@@ -470,6 +481,8 @@ class Recommendations(list):
         rule_texts: {id: text} of the fired rules.
         notes: remarks, e.g. a given field the robot and trajectory disagree with.
         verified: whether the ranking comes from simulation (verify=True).
+        order: how the list is ordered, in words (:data:`RULES_ORDER` or
+            :data:`VERIFIED_ORDER`).
     """
 
     def __init__(self, items, *, excluded, requirements, derived, fired, undecided,
@@ -481,6 +494,7 @@ class Recommendations(list):
         self.fired: list[str] = fired
         self.undecided: list[str] = undecided
         self.verified: bool = verified
+        self.order: str = VERIFIED_ORDER if verified else RULES_ORDER
         self.rules_source = rules_source
         #: {method: ids of the rules that excluded it}
         self.excluded_by: dict[str, list[str]] = {}
@@ -792,6 +806,7 @@ def _verify(out: Recommendations, rb: RuleBase, robot, trajectory, *, top: int,
 
     out.sort(key=key)
     out.verified = True
+    out.order = VERIFIED_ORDER
 
 
 __all__ = ["recommend", "Recommendation", "Recommendations", "load_rules", "RuleBase", "Rule",

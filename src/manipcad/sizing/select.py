@@ -1148,9 +1148,7 @@ def save_selection(selection: Selection, path: Any) -> Any:
     Returns:
         The path written.
     """
-    import yaml
-
-    from manipcad.fileio import atomic_write_text
+    from manipcad.fileio import atomic_write_text, dump_yaml
     from manipcad.model.tree_file import robot_to_dict
 
     lines = ["# manipcad robot, tree form (docs/robot-files.md); SI units: m, rad, kg, kg·m²,",
@@ -1163,7 +1161,7 @@ def save_selection(selection: Selection, path: Any) -> Any:
                      f"{c.mount_link or 'the base'}")
     lines.append("# The link masses include these drive masses (point masses at the joint "
                  "origins).")
-    text = "\n".join(lines) + "\n" + yaml.safe_dump(
+    text = "\n".join(lines) + "\n" + dump_yaml(
         robot_to_dict(selection.robot), sort_keys=False, allow_unicode=True,
         default_flow_style=None, width=100)
     return atomic_write_text(path, text)

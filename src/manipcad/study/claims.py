@@ -740,7 +740,9 @@ def resolve_arm(arm: str | Robot, study: str = "claims") -> tuple[Robot, str, fl
     (``ARMS``), a robot file or a Robot, checked to have joints turn, lift, reach with drives.
 
     Raises:
-        InputError: the file cannot be read, or a joint or drive is missing (named).
+        InputError: the file cannot be read; the arm's joints are not exactly turn
+            (revolute), lift and reach (prismatic), each with a drive (the message names
+            the joints the arm has and what is missing).
 
     Example:
         >>> robot, name, m = resolve_arm("heavy")
@@ -755,14 +757,24 @@ def resolve_arm(arm: str | Robot, study: str = "claims") -> tuple[Robot, str, fl
         robot, arm_name, max_payload = manipcad.load_robot(ARMS[arm][0]), arm, ARMS[arm][1]
     else:
         robot, arm_name, max_payload = manipcad.load_robot(arm), str(arm), MAX_PAYLOAD
-    for name in (TURN, LIFT, REACH):
-        try:
-            j = robot.joint_index(name)
-        except ManipcadError:
-            raise InputError(str(arm_name), name, f"the {study} study needs joints turn, "
-                             "lift, reach") from None
+    want = {TURN: "revolute", LIFT: "prismatic", REACH: "prismatic"}
+    has = ", ".join(f"{nm} ({jt})" for nm, jt in zip(robot.joint_names, robot.joint_types,
+                                                      strict=True))
+    need = (f"the {study} study runs the paper's cylindrical arm (laws (2) move three joints): "
+            "it needs exactly the joints turn (revolute, about the vertical), lift "
+            "(prismatic) and reach (prismatic), in this order, each with a drive")
+    if tuple(robot.joint_names) != tuple(want):
+        missing = [nm for nm in want if nm not in robot.joint_names]
+        raise InputError(str(arm_name), "joints", f"{need}; this arm has {has}"
+                         + (f" (no {', '.join(missing)})" if missing else "")
+                         + ": name its joints so, or use --arm light, industrial or heavy")
+    for name, kind in want.items():
+        j = robot.joint_index(name)
+        if robot.joint_types[j] != kind:
+            raise InputError(str(arm_name), name, f"{need}; joint {name!r} is "
+                             f"{robot.joint_types[j]}")
         if robot.drives[j] is None:
-            raise InputError(str(arm_name), name, f"the {study} study needs a drive here")
+            raise InputError(str(arm_name), name, f"{need}; joint {name!r} has no drive")
     return robot, arm_name, max_payload
 
 

@@ -86,7 +86,7 @@ from typing import Any
 
 import numpy as np
 
-from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.errors import InputError, ManipcadWarning
 from manipcad.fileio import json_safe, writable_folder
 from manipcad.folders import clean_stale, temp_dir
 from manipcad.model.robot import Robot

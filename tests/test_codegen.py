@@ -93,10 +93,13 @@ def test_catalog_robot_matches_general_kernels(name):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["ur5", "panda"])
 def test_example_robot_data_urdf_matches_general_kernels(name):
+    """The code computes the snapped robot's dynamics (the UR5's 12-digit π made exact)."""
+    from manipcad.codegen.symbolic import snapped
+
     robot = erd_robot(name)
     gen = generate(robot, attach=False)
     assert gen.generated
-    check_against_general(robot, gen, N=5)
+    check_against_general(snapped(robot), gen, N=5)
 
 
 def test_puma_counts_within_target_and_read_from_the_code():
@@ -109,6 +112,38 @@ def test_puma_counts_within_target_and_read_from_the_code():
         assert count_ops(src, func) == c
     # the general kernel's count at n = 6 without drives is far higher (134n - 60)
     assert manipcad.operation_counts("rnea", 6)["mul"] > 3 * ops["mul"]
+
+
+def test_ur5_twelve_digit_pi_constants_snapped():
+    """The UR5 URDF writes π as 3.14159265359: sin and cos of it left 2e-12 and 5e-12 in
+    the placements (and a payload com of -2e-13 m), 162 constants below 1e-9 in the code
+    and 253 + 203 operations of inverse dynamics. Snapped (symbolic.snapped), the code is
+    smaller, equals the general kernels on the snapped robot to TOL and Pinocchio on the
+    robot as given to its URDF tolerance."""
+    import re
+
+    import pinocchio as pin
+    from urdf_pinref import RTOL, close, pin_from_robot, pin_reference
+
+    from manipcad.codegen.symbolic import SNAP_RTOL, snapped
+
+    robot = load(str(Path(__file__).resolve().parents[1] / "examples/ur5/ur5.yaml"))
+    gen = generate(robot, attach=False)
+    ops = gen.ops["inverse_dynamics"]
+    assert ops["mul"] + ops["add"] <= 390 and gen.ops["mass_matrix"]["mul"] <= 150, gen.ops
+    consts = [float(x) for x in re.findall(r"\d+\.\d+e-\d+", gen.python_source())]
+    assert not [x for x in consts if x < SNAP_RTOL], "near-zero constants left"
+    snap = snapped(robot)
+    assert snap is not robot and np.abs(snap.placement_R - robot.placement_R).max() < 1e-11
+    check_against_general(snap, gen, N=4)
+    model = pin_from_robot(robot)
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        q, qd, qdd = rng.uniform(-1.5, 1.5, (3, robot.n))
+        tau_ref, H_ref, _ = pin_reference(robot, model, q, qd, qdd, np.zeros(robot.n))
+        close(gen.inverse_dynamics(q, qd, qdd, False), tau_ref, RTOL)
+        close(gen.mass_matrix(q, False), H_ref, RTOL)
+    assert pin.__version__
 
 
 def test_count_ops_counts_longest_branch_and_skips_unary_minus():
@@ -154,6 +189,12 @@ def test_c_code_compiles_and_matches(name, tmp_path):
         H = np.empty((n, n))
         lib.arm_mass_matrix(p(q), p(H))
         assert rel(H, manipcad.mass_matrix(robot, q, use_generated=False)) < TOL
+        # the rigid body alone, as computed_torque_full's H (docs/codegen.md)
+        lib.arm_mass_matrix_rigid(p(q), p(H))
+        assert rel(H, manipcad.mass_matrix(robot, q, drives=False, use_generated=False)) < TOL
+        lib.arm_inverse_dynamics_rigid(p(q), p(qd), p(qdd), p(tau))
+        assert rel(tau, manipcad.inverse_dynamics(robot, q, qd, qdd, drives=False,
+                                                  use_generated=False)) < TOL
         Hii, h, Qg = np.empty(n), np.empty(n), np.empty(n)
         lib.arm_moment_components(p(q), p(qd), p(Hii), p(h), p(Qg))
         mc = moment_components(robot, q, qd)
@@ -166,7 +207,7 @@ def test_c_code_compiles_and_matches(name, tmp_path):
     # the C code calls nothing from libm but sin, cos and sqrt, and allocates nothing
     src = gen.c_code("arm")[1]
     calls = set(__import__("re").findall(r"\b([a-z_]+)\(", src)) - {"if", "return"}
-    own = {f"arm_{f}{tail}" for f in gen.ops for tail in ("", "_body")} | {"arm_sincos"}
+    own = {f"arm_{f}{tail}" for f in gen.ops for tail in ("", "_body", "_rigid")} | {"arm_sincos"}
     assert calls <= {"sin", "cos", "sqrt"} | own, calls
     assert "malloc" not in src
 

@@ -525,6 +525,16 @@ _C_DOCS = {
 }
 
 
+#: the functions also emitted for the rigid body alone, ``<P>_<func>_rigid`` (a regulator
+#: such as computed_torque_full takes the rigid-body H; the drive terms are its own)
+_C_RIGID_DOCS = {
+    "inverse_dynamics": "The same for the rigid body alone: no rotor inertia, no viscous or "
+                        "dry friction of\n   the drives (the Python module's drives=False).",
+    "mass_matrix": "The rigid-body joint-space inertia matrix H[n*n] (row-major), without "
+                   "the rotor\n   inertias (the Python module's drives=False).",
+}
+
+
 def _c_sources(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> tuple[str, str]:
     """(header, source) templates with the prefix as ``@PREFIX@``: portable C99."""
     n = d.frames.n
@@ -560,6 +570,10 @@ def _c_sources(d: Dynamics, stmts: dict, robot_name: str, digest: str) -> tuple[
         names = ", ".join(a.split("*")[-1] for a in args.split(", "))
         call = f"{P}_{func}_body({names}{', 1' if flag else ''})"
         src += [proto, "{", f"    {'return ' if ret == 'int' else ''}{call};", "}", ""]
+        if func in _C_RIGID_DOCS:  # the rigid body alone (drive terms off)
+            rproto = f"{ret} {P}_{func}_rigid({args})"
+            hdr += [f"/* {_C_RIGID_DOCS[func]} */", rproto + ";", ""]
+            src += [rproto, "{", f"    {P}_{func}_body({names}, 0);", "}", ""]
     hdr += [f"#endif /* {guard} */", ""]
     return "\n".join(hdr), "\n".join(src)
 

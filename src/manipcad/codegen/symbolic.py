@@ -9,10 +9,14 @@ expanded or simplified: the trees keep the nesting of the recursion.
 
 Steps (Khalil & Kleinfinger 1987; Khalil & Gautier 1990):
 
-1. **Exact constants.** Rotation entries within 1e-13 of 0 or ±1 become the
-   exact integers (cos(π/2) is 6e-17 in floating point, a product that would
-   never vanish), lengths within 1e-13 m of zero become 0, and a joint offset
-   that is a multiple of π/2 turns cos/sin(q + offset) into ±cos q or ±sin q.
+1. **Exact constants** (:func:`snapped`). Rotation entries within
+   ``SNAP_RTOL`` = 1e-9 of 0 or ±1 become the exact integers (cos(π/2) is 6e-17 in
+   floating point, and a URDF's π written to 12 digits leaves sin = 2e-12: products
+   that would never vanish), lengths within 1e-9 of the robot's length scale (its
+   largest joint placement, m) become 0, and a joint offset within 1e-9 rad of a
+   multiple of π/2 turns cos/sin(q + offset) into ±cos q or ±sin q. The code is then
+   the dynamics of the snapped robot, which differs from the given one by at most
+   1e-9 relative in a placement (the UR5's torques by about 5e-12 relative).
 2. **Inertial parameters about the joint frame's origin**: mass M (kg),
    first moment MS = M·c (kg·m) and inertia J about the origin (kg·m²), body
    axes, so the recursion needs no centre-of-mass acceleration.
@@ -57,10 +61,12 @@ from manipcad.model.robot import (
     Robot,
 )
 
+#: constants within this of 0 or ±1 are made exact: rotation entries (dimensionless),
+#: offsets of revolute joints from a multiple of π/2 (rad), lengths relative to the
+#: robot's length scale (:func:`length_scale`) and gravity relative to its magnitude
+SNAP_RTOL = 1e-9
 #: entries of a rotation within this of 0 or ±1 are made exact
-ROT_TOL = 1e-13
-#: lengths (m) within this of 0 are made exact zeros
-LEN_TOL = 1e-13
+ROT_TOL = SNAP_RTOL
 #: inertial parameters within this fraction of the robot's largest of the kind become 0
 PARAM_RTOL = 1e-14
 
@@ -127,6 +133,78 @@ def _exact_rot(R) -> list:
     return [[num(R[r, k], ROT_TOL) for k in range(3)] for r in range(3)]
 
 
+def length_scale(robot: Robot) -> float:
+    """The robot's length scale, m: its largest joint-placement coordinate (1 m when every
+    placement is at the origin); lengths within ``SNAP_RTOL`` of it are made 0.
+
+    Example:
+        >>> import manipcad
+        >>> round(length_scale(manipcad.load_robot("puma560")), 5)  # its tool-side d, m
+        0.67183
+    """
+    p = np.abs(np.asarray(robot.placement_p, dtype=float))
+    big = float(p.max(initial=0.0))
+    return big if big > 0.0 else 1.0
+
+
+def _len_tol(robot: Robot) -> float:
+    return SNAP_RTOL * length_scale(robot)
+
+
+def _quarter_turns(off: float) -> int | None:
+    """k when ``off`` (rad) is within SNAP_RTOL of k·π/2, else None."""
+    k = off / (math.pi / 2)
+    kq = round(k)
+    return kq if abs(off - kq * math.pi / 2) <= SNAP_RTOL else None
+
+
+def snapped(robot: Robot) -> Robot:
+    """The robot whose dynamics the generated code computes: the near-exact constants of
+    step 1 of the module made exact (placement rotations, placements, offsets, gravity,
+    and centres of mass within 1e-9 of the length scale and inertia entries within 1e-9
+    of the robot's largest: a payload placed through a frame turned by a 12-digit π).
+
+    Args:
+        robot: the manipulator.
+
+    Returns:
+        a new :class:`Robot` (the same one when nothing is snapped).
+
+    Example:
+        >>> import manipcad
+        >>> ur5 = manipcad.load_robot("examples/ur5/ur5.yaml")  # doctest: +SKIP
+        >>> float(abs(ur5.placement_R).min(where=ur5.placement_R != 0, initial=1))  # doctest: +SKIP
+        4.8965888601467475e-12
+        >>> s = snapped(ur5)  # doctest: +SKIP
+        >>> float(abs(s.placement_R).min(where=s.placement_R != 0, initial=1))  # doctest: +SKIP
+        1.0
+    """
+    tol = _len_tol(robot)
+    R = np.array([[[float(num(robot.placement_R[i][r, k], ROT_TOL)) for k in range(3)]
+                   for r in range(3)] for i in range(robot.n)])
+    p = np.array([[float(num(v, tol)) for v in robot.placement_p[i]] for i in range(robot.n)])
+    off = np.array(robot.offset, dtype=float)
+    for i, jt in enumerate(robot.joint_types):
+        if jt == "revolute":
+            k = _quarter_turns(off[i])
+            if k is not None:
+                off[i] = k * math.pi / 2
+        else:
+            off[i] = float(num(off[i], tol))
+    g = np.asarray(robot.gravity, dtype=float)
+    gt = SNAP_RTOL * float(np.abs(g).max(initial=0.0))
+    g = np.array([float(num(v, gt)) for v in g])
+    com = np.where(np.abs(robot.com) <= tol, 0.0, robot.com)
+    inertia = np.asarray(robot.inertia, dtype=float)
+    it = SNAP_RTOL * float(np.abs(inertia).max(initial=0.0))
+    inertia = np.where(np.abs(inertia) <= it, 0.0, inertia)
+    new = {"placement_R": R, "placement_p": p, "offset": off, "gravity": g, "com": com,
+           "inertia": inertia}
+    if all(np.array_equal(v, getattr(robot, k)) for k, v in new.items()):
+        return robot
+    return robot.replace(**new)
+
+
 def frames(robot: Robot) -> Frames:
     """Joint symbols and the exact, joint-dependent placements of every body.
 
@@ -149,15 +227,15 @@ def frames(robot: Robot) -> Frames:
     qd = [se.Symbol(f"qd{i}") for i in range(n)]
     qdd = [se.Symbol(f"qdd{i}") for i in range(n)]
     trig, Rs, ps, rev, Rps, css = [], [], [], [], [], []
+    len_tol = _len_tol(robot)
     for i in range(n):
         Rp = _exact_rot(robot.placement_R[i])
-        pp = [num(v, LEN_TOL) for v in robot.placement_p[i]]
+        pp = [num(v, len_tol) for v in robot.placement_p[i]]
         off = float(table[i, COL_OFFSET])
         if table[i, COL_TYPE] == 0.0:
             rev.append(True)
-            k = off / (math.pi / 2)
-            kq = round(k)
-            if abs(k - kq) < 1e-13:  # offset a multiple of π/2: ±cos q, ±sin q
+            kq = _quarter_turns(off)
+            if kq is not None:  # offset a multiple of π/2: ±cos q, ±sin q
                 c0 = se.Symbol(f"c{i}")
                 s0 = se.Symbol(f"s{i}")
                 trig += [(c0, "cos", i, 0.0), (s0, "sin", i, 0.0)]
@@ -175,7 +253,7 @@ def frames(robot: Robot) -> Frames:
             css.append((c, s))
         else:
             rev.append(False)
-            th = q[i] + num(off, LEN_TOL)
+            th = q[i] + num(off, len_tol)
             Rs.append(Rp)
             ps.append([pp[r] + Rp[r][2] * th for r in range(3)])
             Rps.append(Rp)
@@ -218,7 +296,8 @@ def grouped_parameters(robot: Robot) -> tuple[np.ndarray, np.ndarray, np.ndarray
                   for i in range(n)])
     Rex = [np.array([[float(num(robot.placement_R[i][r, k], ROT_TOL)) for k in range(3)]
                      for r in range(3)]) for i in range(n)]
-    pex = [np.array([float(num(v, LEN_TOL)) for v in robot.placement_p[i]]) for i in range(n)]
+    pex = [np.array([float(num(v, _len_tol(robot))) for v in robot.placement_p[i]])
+           for i in range(n)]
     for j in range(n - 1, -1, -1):
         par = int(robot.parent[j])
         R = Rex[j]
@@ -394,9 +473,11 @@ def dynamics(robot: Robot) -> Dynamics:
         >>> len(d.tau), len(d.H)
         (3, 3)
     """
+    robot = snapped(robot)
     fr = frames(robot)
     params = _snap_params(*grouped_parameters(robot))
-    g = [num(v, LEN_TOL) for v in robot.gravity]
+    gt = SNAP_RTOL * float(np.abs(np.asarray(robot.gravity, dtype=float)).max(initial=0.0))
+    g = [num(v, gt) for v in robot.gravity]
     zeros = [ZERO] * fr.n
     table = robot.table
     return Dynamics(

@@ -168,10 +168,11 @@ def is_lossy(fric, j):
 
 
 @nb.njit(cache=True, inline="always")
-def held(ev, j):
+def held(mode, lim, fric, j):
     """Whether joint j is held at rest (q̇_j = q̈_j = 0): stuck in its friction, or at a hard
-    stop."""
-    return ev.mode[j] == 0.0 and (ev.lim[j] != 0.0 or is_lossy(ev.fric, j))
+    stop (``mode``, ``lim``, ``fric`` of :class:`Events`; the arrays, not the structure:
+    an inlined function's structure argument is a copy whose every array is counted)."""
+    return mode[j] == 0.0 and (lim[j] != 0.0 or is_lossy(fric, j))
 
 
 @nb.njit(cache=True, inline="always")
@@ -200,7 +201,7 @@ def hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork):
     for j in range(n):
         tf[j] = tau[j]
         ev.marg[j] = math.inf
-        if held(ev, j):
+        if held(ev.mode, ev.lim, ev.fric, j):
             stuck = True
             continue
         if not is_lossy(fric, j):
@@ -224,26 +225,26 @@ def hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork):
     return True
 
 
-@nb.njit(cache=True)
-def _mass(plant, q, A):
-    """H_d = H(q) + diag(J·i_r²) into A (n, n): the generated kernel or the CRBA."""
-    rt = plant.rtable
-    if plant.gen:
-        plant.gen_mass(address(q), address(A))
+@nb.njit(cache=True, inline="always")
+def _mass(gen, gen_mass, rt, cw, ctmp, q, A):
+    """H_d = H(q) + diag(J·i_r²) into A (n, n): the generated kernel ``gen_mass`` (with
+    ``gen``) or the CRBA on the body table ``rt`` (scratch ``cw``, ``ctmp``)."""
+    if gen:
+        gen_mass(address(q), address(A))
         for j in range(q.shape[0]):
             A[j, j] += rt[j, COL_JR]
     else:
-        crba_one(rt, q, True, plant.ev.cw, plant.ev.ctmp, A)
+        crba_one(rt, q, True, cw, ctmp, A)
 
 
-@nb.njit(cache=True)
-def _free_part(ev, A, M, n):
+@nb.njit(cache=True, inline="always")
+def _free_part(mode, lim, fric, A, M, n):
     """M (n, n): A with the held joints' rows and columns taken out (a unit row and column
-    each: q̈ or Δq̇ of a held joint is 0)."""
+    each: q̈ or Δq̇ of a held joint is 0); ``mode``, ``lim``, ``fric`` of :class:`Events`."""
     for i in range(n):
-        held_i = held(ev, i)
+        held_i = held(mode, lim, fric, i)
         for k in range(n):
-            M[i, k] = 0.0 if held_i or held(ev, k) else A[i, k]
+            M[i, k] = 0.0 if held_i or held(mode, lim, fric, k) else A[i, k]
         if held_i:
             M[i, i] = 1.0
 
@@ -263,7 +264,7 @@ def _constrained(plant, q, qd, tau, dist, qdd):
     rhs = ev.rhs
     frj = ev.frj
     gv = ev.gv
-    _mass(plant, q, A)
+    _mass(plant.gen, plant.gen_mass, rt, ev.cw, ev.ctmp, q, A)
     for i in range(n):
         s = 0.0
         for k in range(n):
@@ -284,9 +285,9 @@ def _constrained(plant, q, qd, tau, dist, qdd):
                     changed = True
         if it > 0 and not changed:
             break
-        _free_part(ev, A, M, n)
+        _free_part(mode, ev.lim, fric, A, M, n)
         for i in range(n):
-            if held(ev, i):
+            if held(ev.mode, ev.lim, ev.fric, i):
                 rhs[i] = 0.0
             else:
                 M[i, i] += (gv[i] - 1.0) * rt[i, COL_JR]
@@ -296,7 +297,7 @@ def _constrained(plant, q, qd, tau, dist, qdd):
                 qdd[j] = math.nan
             return False
     for s_ in range(n):
-        if not held(ev, s_):
+        if not held(ev.mode, ev.lim, ev.fric, s_):
             continue
         P = tau[s_] - dist[s_] - b[s_]
         for k in range(n):
@@ -335,9 +336,9 @@ def _release(ev, j, t):
 
 
 @nb.njit(cache=True, inline="always")
-def _has_stops(ev, j):
-    """Whether joint j has a hard stop."""
-    return ev.lims[j, 0] > -math.inf or ev.lims[j, 1] < math.inf
+def _has_stops(lims, j):
+    """Whether joint j has a hard stop (``lims`` of :class:`Events`)."""
+    return lims[j, 0] > -math.inf or lims[j, 1] < math.inf
 
 
 @nb.njit(cache=True)
@@ -368,13 +369,13 @@ def _impact(plant, x, n, j, t):
     for k in range(n):
         ev.tf[k] = x[k]
         ev.rhs[k] = 1.0 if k == j else 0.0
-    _mass(plant, ev.tf, ev.A)
-    _free_part(ev, ev.A, ev.M, n)
+    _mass(plant.gen, plant.gen_mass, plant.rtable, ev.cw, ev.ctmp, ev.tf, ev.A)
+    _free_part(ev.mode, ev.lim, ev.fric, ev.A, ev.M, n)
     if not cholesky_solve(ev.M, ev.rhs, u) or not u[j] > 0.0:
         return
     lam = -x[n + j] / u[j]
     for k in range(n):
-        if k != j and not held(ev, k):
+        if k != j and not held(ev.mode, ev.lim, ev.fric, k):
             x[n + k] += lam * u[k]
             if is_lossy(ev.fric, k) and ev.mode[k] * x[n + k] <= 0.0:
                 if x[n + k] == 0.0:
@@ -392,7 +393,7 @@ def release_worst(plant, t):
     worst = -1
     wm = 0.0
     for j in range(ev.mode.shape[0]):
-        if held(ev, j) and ev.marg[j] < wm:
+        if held(ev.mode, ev.lim, ev.fric, j) and ev.marg[j] < wm:
             worst = j
             wm = ev.marg[j]
     if worst < 0:
@@ -409,13 +410,13 @@ def event_values(plant, x, n, e):
     stop (rad, m) while away from its stops, 0 for the others."""
     ev = plant.ev
     for j in range(n):
-        if held(ev, j):
+        if held(ev.mode, ev.lim, ev.fric, j):
             e[j] = ev.marg[j]
         elif is_lossy(ev.fric, j):
             e[j] = ev.mode[j] * x[n + j]
         else:
             e[j] = 0.0
-        if ev.lim[j] == 0.0 and _has_stops(ev, j):
+        if ev.lim[j] == 0.0 and _has_stops(ev.lims, j):
             e[n + j] = min(x[j] - ev.lims[j, 0], ev.lims[j, 1] - x[j])
         else:
             e[n + j] = 0.0
@@ -446,10 +447,10 @@ def release_edge(plant, x, n, e0, e1, t):
     ev = plant.ev
     any_ = False
     for j in range(n):
-        if held(ev, j) and e0[j] <= 0.0 and e1[j] < 0.0:
+        if held(ev.mode, ev.lim, ev.fric, j) and e0[j] <= 0.0 and e1[j] < 0.0:
             _release(ev, j, t)
             any_ = True
-        elif (ev.lim[j] == 0.0 and _has_stops(ev, j) and e0[n + j] <= 0.0
+        elif (ev.lim[j] == 0.0 and _has_stops(ev.lims, j) and e0[n + j] <= 0.0
               and e1[n + j] < 0.0):
             _contact(plant, x, n, j, t)
             any_ = True
@@ -465,7 +466,7 @@ def switch(plant, x, n, e0, e1, t):
     ev = plant.ev
     for j in range(n):
         if e0[j] > 0.0 and e1[j] <= 0.0:
-            if held(ev, j):
+            if held(ev.mode, ev.lim, ev.fric, j):
                 _release(ev, j, t)
             elif is_lossy(ev.fric, j):
                 ev.mode[j] = 0.0

@@ -475,6 +475,9 @@ def test_store_all_runs(tmp_path):
         res, m = load_result(out / c["folder"])
         assert m["metrics"]["turn"]["max_error"] == pytest.approx(c["max_error"]["turn"],
                                                                   rel=1e-12)
+        # the plant as it ran is in the result, not a temporary file gone after the design
+        assert m["inputs"]["robot"].startswith("inputs/robot.yaml (the robot ")
+        assert (out / c["folder"] / "inputs" / "robot.yaml").is_file()
 
 
 def test_next_drive_up_applies_more_torque():

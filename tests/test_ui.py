@@ -1244,3 +1244,32 @@ def test_a_studys_notes_are_shown_on_its_page(tmp_path, monkeypatch):
             [f"note: {Done.notes[0]}"]
 
     _simulate_user(tmp_path / "ws", script)
+
+
+def test_a_request_cut_short_by_the_browser_ends_quietly():
+    """A page left while its files load: the file response sees the browser's disconnect
+    and sends nothing, and starlette's middlewares raise "No response returned." (one
+    traceback in the server's log per cut request). QuietDisconnect ends exactly that
+    case quietly; the same error for a client still there, or any other error, goes on."""
+    from manipcad.ui.security import NO_RESPONSE, QuietDisconnect
+
+    def app(error, disconnect: bool):
+        async def inner(scope, receive, send):
+            await receive()
+            raise error
+        messages = [{"type": "http.disconnect" if disconnect else "http.request",
+                     "body": b""}]
+
+        async def receive():
+            return messages[0]
+
+        async def send(message):
+            raise AssertionError("nothing is sent")
+
+        return QuietDisconnect(inner)({"type": "http"}, receive, send)
+
+    assert asyncio.run(app(RuntimeError(NO_RESPONSE), disconnect=True)) is None
+    with pytest.raises(RuntimeError, match=NO_RESPONSE):
+        asyncio.run(app(RuntimeError(NO_RESPONSE), disconnect=False))
+    with pytest.raises(ValueError):
+        asyncio.run(app(ValueError("bad"), disconnect=True))

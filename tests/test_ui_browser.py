@@ -380,12 +380,12 @@ def _pose_shown(page) -> tuple[list[float], list[float]]:
 
 
 def test_robots_and_identification_without_a_traceback(browser, tmp_path):
-    """Plain GETs of every page (no websocket ever opened) and the pages used leave no
-    traceback in the server's log (the designer flow tours every page and reads its log
-    too, and its screenshots check that no page shows an install path); the Robots page
-    draws the pose its sliders show, within the joint limits, and its caption follows
-    them; an upload over the size cap says so; a stored result gives the Identification
-    page its data."""
+    """Plain GETs of every page (no websocket ever opened), pages left while loading and
+    the pages used leave no traceback in the server's log (the designer flow tours every
+    page and reads its log too, and its screenshots check that no page shows an install
+    path); the Robots page draws the pose its sliders show, within the joint limits, and
+    its caption follows them; an upload over the size cap says so; a stored result gives
+    the Identification page its data."""
     from playwright.sync_api import expect
     from test_ui import _stored_puma_result
 
@@ -398,6 +398,10 @@ def test_robots_and_identification_without_a_traceback(browser, tmp_path):
         page = browser.new_page(viewport={"width": 1400, "height": 900})
         for path, _ in MENU:                                # no browser: never connected
             assert page.request.get(base + path).status == 200
+        for _ in range(2):                   # pages left while their files still load
+            _open(page, base + "/robots")
+            page.goto(base + "/drives")
+            page.goto(base + "/")
         _open(page, base + "/robots")
         _pick(page, "robot-select", "stanford")
         title = page.get_by_test_id("stick-view").locator(".gtitle")

@@ -47,6 +47,7 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
         HostCheck,
         TokenGate,
         is_loopback,
+        quiet_disconnects,
         token_for,
     )
 
@@ -65,6 +66,7 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
         url += f"?token={required}"
     elif is_loopback(host):        # no token: only loopback names (no DNS rebinding)
         app.add_middleware(HostCheck)
+    quiet_disconnects(app)         # a page left while loading: no traceback per cut request
     from manipcad.ui.worker import stop_spare
 
     # the worker that runs simulations, verifications and studies is started when a page

@@ -221,3 +221,58 @@ class BodyCap:
             if not started:
                 await self._refuse(scope, send, "")
             return None
+
+
+#: what starlette's ``BaseHTTPMiddleware`` (NiceGUI's own middlewares) raises when the
+#: application below it ends a request without a response, as a file response does when
+#: the browser has gone (a page left while its scripts and fonts were loading)
+NO_RESPONSE = "No response returned."
+
+
+class QuietDisconnect:
+    """The outermost ASGI layer: a request whose browser went away before the answer (it
+    sent ``http.disconnect``) and that the layers below then end with starlette's "No
+    response returned." RuntimeError ends quietly; there is no one to answer. Every other
+    exception, and that one for a client still there, goes on to the server as before.
+
+    Without it, leaving a page before it had loaded logged one "Exception in ASGI
+    application" traceback per file request cut short. ``manipcad ui`` wraps the whole
+    application in it (outside NiceGUI's own middlewares).
+
+    Args:
+        app: the ASGI application.
+    """
+
+    def __init__(self, app) -> None:
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        gone = False
+
+        async def watched():
+            nonlocal gone
+            message = await receive()
+            if message["type"] == "http.disconnect":
+                gone = True
+            return message
+
+        try:
+            return await self.app(scope, watched, send)
+        except RuntimeError as exc:
+            if gone and str(exc) == NO_RESPONSE:
+                return None
+            raise
+
+
+def quiet_disconnects(app) -> None:
+    """Wrap the whole middleware stack of the (FastAPI) ``app`` in
+    :class:`QuietDisconnect` when the stack is built (at its first request; NiceGUI adds
+    its own middlewares when it starts, so ``add_middleware`` would put this inside them)."""
+    build = app.build_middleware_stack
+
+    def built():
+        return QuietDisconnect(build())
+
+    app.build_middleware_stack = built

@@ -249,10 +249,11 @@ def _free_part(mode, lim, fric, A, M, n):
             M[i, i] = 1.0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _constrained(plant, q, qd, tau, dist, qdd):
     """q̈₀ in ``qdd`` made the hybrid plant's: gear factors and stuck joints (module
-    docstring)."""
+    docstring). Inlined into its one caller (a call passes every array of ``plant``: 4 %
+    of the adaptive PUMA job's CPU time)."""
     ev = plant.ev
     fric = ev.fric
     mode = ev.mode

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 
 import numpy as np
 import pytest
@@ -348,12 +349,12 @@ def test_forked_workers_never_block_on_an_undrained_pipe(tmp_path):
     script = tmp_path / "chatty.py"
     script.write_text(_PIPE_SCRIPT)
     proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE)
+                            stderr=subprocess.PIPE, start_new_session=True)
     try:
         # stdout is read only once the process ends: nothing drains its pipes before
         proc.wait(timeout=120)
     except subprocess.TimeoutExpired:
-        proc.kill()
+        os.killpg(proc.pid, signal.SIGKILL)     # the script and its stuck workers
         proc.communicate()
         pytest.fail("the sweep blocked: a worker is stuck writing to the inherited pipe")
     out, err = proc.communicate()
@@ -374,11 +375,11 @@ def test_forked_workers_never_wait_on_a_lock_held_at_the_fork(tmp_path):
     script = tmp_path / "locked.py"
     script.write_text(_LOCK_SCRIPT)
     proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE)
+                            stderr=subprocess.PIPE, start_new_session=True)
     try:
         out, err = proc.communicate(timeout=120)
     except subprocess.TimeoutExpired:
-        proc.kill()
+        os.killpg(proc.pid, signal.SIGKILL)     # the script and its stuck workers
         proc.communicate()
         pytest.fail("the cluster never started: a forked worker waits on a lock held at "
                     "the fork")

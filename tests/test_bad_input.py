@@ -174,16 +174,13 @@ def test_workspace_write_removes_leftovers_of_killed_writers(tmp_path):
 
 
 def test_claims_cleans_leftovers_and_a_failed_run_leaves_no_folder(tmp_path, monkeypatch):
-    import importlib
-
+    from manipcad.study import claims
     from manipcad.study.claims import run_claims
 
     def unreachable(*_a, **_k):
         raise InputError("--scheduler", "", "cannot reach tcp://192.0.2.1:8786")
 
-    # the module itself (run_claims imports Pool from it), not the package attribute:
-    # once, in a full run, 'manipcad' lacked the attribute 'parallel' here
-    monkeypatch.setattr(importlib.import_module("manipcad.parallel"), "Pool", unreachable)
+    monkeypatch.setattr(claims, "Pool", unreachable)  # the study's own name for the pool
     out = tmp_path / "claims"
     with pytest.raises(InputError, match="cannot reach"):
         run_claims(out, workers=2, progress=False)

@@ -87,7 +87,7 @@ def test_close_stops_a_running_child():
 
 
 def test_without_fork_runs_here_when_asked(monkeypatch):
-    monkeypatch.setattr(executor, "start_method", lambda: "spawn")
+    monkeypatch.setattr(child, "start_method", lambda: "spawn")
     calls = []
 
     def fn(x):

@@ -232,12 +232,12 @@ def test_bad_arguments(tmp_path, traj):
 
 def test_interrupted_run_leaves_nothing(tmp_path, traj, monkeypatch):
     """Ctrl-C while the results are written: no DIR, no temporary folder; an old DIR stays."""
-    import manipcad.report.plots as plots
+    import manipcad.store.results as results
 
     def interrupt(*_a, **_k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(plots, "plot_errors", interrupt)
+    monkeypatch.setattr(results, "plot_errors", interrupt)  # the store's own name for it
     out = tmp_path / "r"
     args = ("puma560", "-t", traj, "-r", EXAMPLES / "pid_puma.yaml", "-o", out)
     res = run(*args)
@@ -259,8 +259,9 @@ def test_interrupted_simulation_leaves_nothing(tmp_path, traj, monkeypatch):
     def interrupt(*_a, **_k):
         raise KeyboardInterrupt
 
-    # the module the CLI imports from (not an attribute of the package object)
-    monkeypatch.setattr(importlib.import_module("manipcad.sim"), "simulate", interrupt)
+    # the command's own name for simulate
+    monkeypatch.setattr(importlib.import_module("manipcad.cli.simulate"), "run_simulation",
+                        interrupt)
     out = tmp_path / "r"
     res = run("puma560", "-t", traj, "-r", EXAMPLES / "pid_puma.yaml", "-o", out)
     assert res.exit_code == 130 and not out.exists()

@@ -12,6 +12,7 @@ A circle is a strongly connected set of two modules or more.
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import manipcad
@@ -131,3 +132,65 @@ def test_the_graph_reads_deferred_and_by_name_imports():
 def test_no_import_circle_in_the_package():
     found = circles(import_graph())
     assert not found, "import circles:\n" + "\n".join(" <-> ".join(c) for c in found)
+
+
+# ------------------------------------------------------------- imports inside functions
+
+#: the mark of a function-level import's reason, on its line or the line above its group
+REASON = re.compile(r"#\s*deferred:\s*\S")
+
+
+def unexplained_deferred_imports(text: str) -> list[int]:
+    """The lines of the imports made inside a function without a stated reason.
+
+    An import inside a function says why it is not at the top of the module: a comment
+    ``# deferred: <reason>`` (an optional dependency, a measured start-up cost, ...) on
+    its first line, or above it in the run of imports it belongs to (or just above the run).
+    """
+    tree = ast.parse(text)
+    lines = text.splitlines()
+    bad = []
+    for fn in ast.walk(tree):
+        if not isinstance(fn, ast.FunctionDef | ast.AsyncFunctionDef):
+            continue
+        for block in ast.walk(fn):
+            for field in ("body", "orelse", "finalbody", "handlers"):
+                body = getattr(block, field, None)
+                if not isinstance(body, list):
+                    continue
+                run_start = None
+                for st in body:
+                    if not isinstance(st, ast.Import | ast.ImportFrom):
+                        run_start = None
+                        continue
+                    if run_start is None:
+                        run_start = st.lineno
+                    # its own line, the lines of its run above it, the line above the run
+                    marks = lines[max(run_start - 2, 0):st.lineno]
+                    if not any(REASON.search(m) for m in marks):
+                        bad.append(st.lineno)
+    return sorted(set(bad))
+
+
+def test_the_reason_checker_can_fail():
+    text = ("def f():\n"
+            "    import json\n"
+            "    # deferred: start-up cost\n"
+            "    import csv\n"
+            "    import zlib\n"
+            "    x = 1\n"
+            "    import gzip  # deferred: optional dependency\n"
+            "    import bz2\n")
+    assert unexplained_deferred_imports(text) == [2]
+    assert unexplained_deferred_imports("import json\n\ndef f():\n    return json\n") == []
+
+
+def test_every_import_inside_a_function_states_why():
+    bad = {}
+    for name, path in _modules().items():
+        lines = unexplained_deferred_imports(path.read_text(encoding="utf-8"))
+        if lines:
+            bad[name] = lines
+    assert not bad, ("imports inside functions without a '# deferred: <reason>' comment "
+                     "(move them to the top, or say why not):\n"
+                     + "\n".join(f"{m}: lines {v}" for m, v in sorted(bad.items())))

@@ -51,6 +51,7 @@ def configure() -> int | None:
     for var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ[var] = str(n)
     if "numpy" in sys.modules or "scipy" in sys.modules:  # BLAS already loaded
+        # deferred: start-up cost: threadpoolctl loaded on first use
         from threadpoolctl import threadpool_limits
 
         threadpool_limits(n, user_api="blas")

@@ -16,6 +16,8 @@ import sys
 import time
 from pathlib import Path
 
+from numba.core import config
+
 
 def configure() -> None:
     """Set NUMBA_CACHE_DIR to ~/.cache/manipcad/numba-<hash of the kernel sources>."""
@@ -40,6 +42,5 @@ def configure() -> None:
         return  # read-only home: numba's default (next to the sources) applies
     os.environ["NUMBA_CACHE_DIR"] = str(here)
     if "numba" in sys.modules:
-        from numba.core import config
 
         config.reload_config()

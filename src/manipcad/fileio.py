@@ -315,7 +315,7 @@ def scan_xml(text: str | bytes, source: str,
         ...
         manipcad.errors.InputError: f.urdf: declares the XML entity 'a': entity ...
     """
-    from xml.parsers import expat
+    from xml.parsers import expat  # deferred: start-up cost: xml loaded on first use
 
     parser = expat.ParserCreate()
 

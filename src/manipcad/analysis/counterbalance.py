@@ -38,8 +38,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from manipcad.dynamics import inverse_dynamics
 from manipcad.errors import InputError
 from manipcad.fileio import json_safe
+from manipcad.kinematics.forward import forward_kinematics
 from manipcad.model.robot import REVOLUTE, Robot
 
 SOURCE = "counterbalance"
@@ -121,7 +123,6 @@ def pendulum(mass: float = 1.0, length: float = 0.5) -> Robot:
 
 
 def _body_rotations(robot: Robot, q: np.ndarray) -> np.ndarray:
-    from manipcad.kinematics.forward import forward_kinematics
 
     return forward_kinematics(robot, q)[:, :, :3, :3]
 
@@ -158,7 +159,6 @@ def _check_q(robot: Robot, q) -> np.ndarray:
 
 def holding_torque(robot: Robot, q: np.ndarray) -> np.ndarray:
     """Q(q), the gravity constituent of every joint at each configuration, N·m (N): (N, n)."""
-    from manipcad.dynamics import inverse_dynamics
 
     z = np.zeros_like(q)
     return inverse_dynamics(robot, q, z, z, drives=False)

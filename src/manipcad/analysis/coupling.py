@@ -59,6 +59,7 @@ from manipcad.errors import InputError
 from manipcad.fileio import json_safe
 from manipcad.model.robot import COL_JR, REVOLUTE, Robot
 from manipcad.trajectories.base import Trajectory
+from manipcad.trajectories.io import load_trajectory
 
 CLASSES = ("decoupled", "inertial", "full")
 SOURCE = "coupling_analysis"
@@ -362,7 +363,6 @@ def _positive(x, name: str) -> float:
 
 def _trajectory(robot: Robot, trajectory) -> Trajectory:
     if isinstance(trajectory, str | Path):
-        from manipcad.trajectories.io import load_trajectory
 
         src = str(trajectory)
         traj = load_trajectory(trajectory, robot=robot)

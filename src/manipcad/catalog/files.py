@@ -229,6 +229,7 @@ def with_assumptions(gear: GearSpec) -> GearSpec:
     ``assumed``; any other gear is returned as it is."""
     if gear.type != "harmonic" or gear.efficiency is not None:
         return gear
+    # deferred: start-up cost: keeps manipcad.catalog.efficiency out of import manipcad
     from manipcad.catalog.efficiency import strain_wave_assumption
 
     eta, why = strain_wave_assumption()

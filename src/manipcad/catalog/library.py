@@ -496,6 +496,7 @@ def _assume_efficiency(row: dict[str, Any]) -> None:
     """A strain-wave gear row without a printed efficiency takes the stated assumption."""
     if row["type"] == "harmonic" and math.isnan(row["efficiency"]) \
             and "efficiency" not in row["assumed"]:
+        # deferred: start-up cost: keeps manipcad.catalog.efficiency out of import manipcad
         from manipcad.catalog.efficiency import strain_wave_assumption
 
         eta, why = strain_wave_assumption()

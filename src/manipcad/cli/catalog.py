@@ -16,6 +16,7 @@ from typing import Annotated, Any
 import typer
 from rich.markup import escape
 
+from manipcad import catalog
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import json_flag, ws_option
 from manipcad.cli.tables import Table
@@ -73,7 +74,6 @@ def list_parts(
     as_json: json_flag("Print JSON (every column).") = False,
 ) -> None:
     """List the library's motors and gears (SI units; '-' where the source prints none)."""
-    from manipcad import catalog
 
     mk = [m for m in makers.split(",") if m.strip()] if makers else None
     tables = {k: (catalog.motors(makers=mk, where=where, ws=ws) if k == "motor"
@@ -103,7 +103,6 @@ def show_part(
     as_json: json_flag("Print JSON.") = False,
 ) -> None:
     """Every field of one part with its unit, its source, and what it mounts on."""
-    from manipcad import catalog
 
     doc = catalog.describe(name, ws=ws)
     if doc["kind"] == "motor":

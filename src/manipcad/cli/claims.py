@@ -21,7 +21,7 @@ from rich.markup import escape
 
 from manipcad.cli.app import console, guarded
 from manipcad.cli.options import Scheduler, Workers, dt_option, progress_flag, ws_option
-from manipcad.cli.study import study_app
+from manipcad.cli.study import study_app, study_folder
 from manipcad.cli.tables import Table
 
 
@@ -47,7 +47,7 @@ def claims(
 ) -> None:
     """Claims maps: each claim's measured ratio over speed scale × load ratio; writes
     claims.json, claims.png and report.html into --out."""
-    from manipcad.cli.study import study_folder
+    # deferred: start-up cost: keeps manipcad.study.claims out of the CLI's start
     from manipcad.study.claims import run_claims
 
     with study_folder(out, ws) as folder:

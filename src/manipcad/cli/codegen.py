@@ -30,7 +30,11 @@ from rich import box
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import RobotArgument, json_flag
 from manipcad.cli.tables import Table
+from manipcad.codegen import c_identifier, generate
+from manipcad.control.files import load_regulators
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.fileio import atomic_write_text, writable_target
+from manipcad.model.load import load_robot
 
 
 @app.command()
@@ -51,8 +55,6 @@ def codegen(
                              "regulator's update as C (needs --lang c).")] = None,
 ) -> None:
     """Customized inverse dynamics, mass matrix, moment components and forward dynamics."""
-    from manipcad.codegen import c_identifier, generate
-    from manipcad.model.load import load_robot
 
     if lang not in ("numba", "c"):
         raise InputError("--lang", "", f"must be 'numba' or 'c', got {lang!r}")
@@ -74,8 +76,8 @@ def codegen(
     p = prefix or c_identifier(model.name)
     reg_code = None
     if regulators is not None:
+        # deferred: start-up cost: keeps manipcad.control.c_code out of the CLI's start
         from manipcad.control.c_code import regulators_c
-        from manipcad.control.files import load_regulators
 
         regs = load_regulators(regulators, model)
         reg_code = regulators_c(regs, model, p, source=Path(regulators).name)
@@ -84,7 +86,6 @@ def codegen(
         folder = Path(out)
         if folder.exists() and not folder.is_dir():
             raise InputError("--out", "", f"{folder} exists and is not a folder")
-        from manipcad.fileio import atomic_write_text, writable_target
 
         if lang == "c":
             hdr, src = gen.c_code(p)

@@ -22,10 +22,12 @@ from typing import Annotated
 import typer
 from rich import box
 
+from manipcad.analysis.coupling import coupling_analysis
 from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import RobotArgument, dt_option, json_flag
 from manipcad.cli.tables import Table, styled
 from manipcad.errors import ManipcadWarning
+from manipcad.model.load import load_robot
 
 STYLE = {"decoupled": "green", "inertial": "yellow", "full": "red"}
 
@@ -48,8 +50,6 @@ def coupling(
     as_json: json_flag() = False,
 ) -> None:
     """Coupling, velocity and gravity constituents next to each joint's own inertia."""
-    from manipcad.analysis.coupling import coupling_analysis
-    from manipcad.model.load import load_robot
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)  # data-set quirks, see robots show

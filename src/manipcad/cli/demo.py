@@ -9,7 +9,9 @@ from typing import Annotated
 import numpy as np
 import typer
 
+import manipcad
 from manipcad.cli.app import app, console, guarded
+from manipcad.cli.study import print_fig3
 from manipcad.cli.tables import Table
 
 
@@ -21,8 +23,7 @@ def demo(
         = Path("manipcad-demo"),
 ) -> None:
     """A dynamics tour of the built-in robots, then the paper's Fig. 3 study."""
-    import manipcad
-    from manipcad.cli.study import print_fig3
+    # deferred: start-up cost: keeps manipcad.study out of the CLI's start
     from manipcad.study import run_fig3
 
     for name in manipcad.catalog_names():

@@ -120,6 +120,7 @@ def design(
     folder = Path(out)
     with ExitStack() as stack:
         if ws is not None:
+            # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
             from manipcad.workspace import Workspace, check_name, resolve_input
 
             space = Workspace(ws)
@@ -158,6 +159,7 @@ def _run(requirements, robot, trajectory, out, lo, hi, uncertainty, samples, see
          progress, sources, compare_selection=True, store_runs="final"
          ) -> tuple[dict, bool]:
     """run_design with the command's arguments: (design.json, met)."""
+    # deferred: start-up cost: keeps manipcad.design out of the CLI's start
     from manipcad.design import DesignNotMet, run_design
 
     met = True

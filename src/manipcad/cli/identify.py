@@ -36,7 +36,17 @@ from rich import box
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.cli.options import RobotArgument, json_flag, ws_option
 from manipcad.cli.tables import Table, styled
+from manipcad.dynamics.identification import (
+    FRICTION,
+    METHODS,
+    check_estimate,
+    identify_payload,
+    link_frame,
+    load_torque_data,
+    result_torque_data,
+)
 from manipcad.errors import InputError, ManipcadWarning
+from manipcad.model.load import load_robot
 
 
 def parse_com(text: str | None) -> list[float] | None:
@@ -107,13 +117,6 @@ def identify(
     ws: ws_option("Workspace: the inputs may be its item names.") = None,
 ) -> None:
     """Identify an unknown payload mass from measured drive torques or currents."""
-    from manipcad.dynamics.identification import (
-        FRICTION,
-        METHODS,
-        check_estimate,
-        identify_payload,
-    )
-    from manipcad.model.load import load_robot
 
     if method not in METHODS:
         raise InputError("--method", "", f"{method!r}: expected one of {', '.join(METHODS)}")
@@ -122,6 +125,7 @@ def identify(
     if friction not in FRICTION:
         raise InputError("--friction", "", f"{friction!r}: expected one of "
                          f"{', '.join(FRICTION)}")
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import Workspace, resolve_input
 
     space = Workspace(ws) if ws is not None else None
@@ -186,10 +190,10 @@ def identify(
 def _load_data(data: str, model):
     """A CSV file (load_torque_data), or a stored result folder (its full-precision arrays)."""
 
-    from manipcad.dynamics.identification import load_torque_data, result_torque_data
 
     if not Path(data).is_dir():
         return load_torque_data(data, model)
+    # deferred: start-up cost: keeps manipcad.store.results out of the CLI's start
     from manipcad.store.results import load_result
 
     return result_torque_data(load_result(data)[0], model, data)
@@ -207,7 +211,6 @@ def _parse_link(text: str | None, robot):
         if not 1 <= k <= robot.n:
             raise InputError("--link", "", f"{item!r}: link numbers are 1..{robot.n}")
         return k - 1
-    from manipcad.dynamics.identification import link_frame
 
     try:
         link_frame(robot, item)

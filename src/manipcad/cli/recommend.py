@@ -34,6 +34,8 @@ from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import json_flag
 from manipcad.cli.tables import Table, styled
 from manipcad.errors import InputError, ManipcadWarning
+from manipcad.expert import Requirements
+from manipcad.expert import recommend as run
 
 
 def _json_default(v):
@@ -61,8 +63,6 @@ def recommend(
     as_json: json_flag() = False,
 ) -> None:
     """Recommend synthesis methods for a drive's requirements, least complexity first."""
-    from manipcad.expert import Requirements
-    from manipcad.expert import recommend as run
 
     if trajectory is not None and robot is None:
         raise InputError("--trajectory", "", "needs --robot (the trajectory moves a robot)")

@@ -23,8 +23,10 @@ from manipcad.cli.options import RobotArgument, json_flag, ws_option
 from manipcad.cli.tables import Table
 from manipcad.errors import ManipcadWarning
 from manipcad.fileio import json_safe
+from manipcad.model.load import catalog_names, load_robot
 from manipcad.model.robot import loader_notes
 from manipcad.model.tree_file import save_robot
+from manipcad.model.yaml_robot import load_gear, load_motor
 
 robots_app = typer.Typer(
     help="List the built-in catalog; show a robot's joints, links and drives.",
@@ -51,13 +53,12 @@ def list_catalog(
 ) -> None:
     """List the robots, motors and gears: the built-in catalog (read-only) and, with --ws, the
     workspace's own (SI units)."""
-    from manipcad.model.load import catalog_names, load_robot
-    from manipcad.model.yaml_robot import load_gear, load_motor
 
     sources: dict[str, list[tuple[str, str, str]]] = {k: [(n, n, "catalog")
                                                           for n in catalog_names(k)]
                                                       for k in ("robots", "motors", "gears")}
     if ws is not None:
+        # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
         from manipcad.workspace import Workspace
 
         space = Workspace(ws)
@@ -177,7 +178,7 @@ def show(
     ws: ws_option("Workspace: the robot may be its item name.") = None,
 ) -> None:
     """Show a robot: joints (type, parent, limits, mass, drive) and totals, SI units."""
-    from manipcad.model.load import load_robot
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import Workspace, resolve_input
 
     space = Workspace(ws) if ws is not None else None
@@ -240,7 +241,6 @@ def save(
 ) -> None:
     """Write a robot with its drives as one self-contained robot file (tree form) that
     loads back to the identical model: no URDF or catalog needed to read it."""
-    from manipcad.model.load import load_robot
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)

@@ -62,6 +62,7 @@ def robustness(
 ) -> None:
     """Robustness: each method's max error over arms with link masses, motor constants and
     payload off by up to ±PCT %; writes robustness.json and robustness.png into --out."""
+    # deferred: start-up cost: keeps manipcad.study.robustness out of the CLI's start
     from manipcad.study.robustness import METHODS, run_robustness
 
     doc = run_robustness(out, arm=arm, samples=samples, uncertainty=uncertainty / 100.0,

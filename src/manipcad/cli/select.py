@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 from typing import Annotated
 
@@ -29,7 +30,10 @@ from rich.markup import escape
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.cli.options import dt_option, force_flag, json_flag, payload_option, ws_option
 from manipcad.cli.tables import Table, styled
-from manipcad.errors import InputError
+from manipcad.cli.warmup import ensure_warm
+from manipcad.errors import InputError, ManipcadWarning
+from manipcad.model.load import load_robot
+from manipcad.trajectories import load_trajectory
 
 
 def _split(text: str | None) -> list[str] | None:
@@ -102,12 +106,11 @@ def select(
     inertia, or least power) drive that passes every size check on every trajectory at
     both ends of the payload range, drive masses included. Exit 1 when a joint has no
     feasible drive; 2 for bad input."""
-    import warnings
 
-    from manipcad.errors import ManipcadWarning
-    from manipcad.model.load import load_robot
+    # deferred: start-up cost: keeps manipcad.sizing.select out of the CLI's start
     from manipcad.sizing.select import NoFeasibleDrive, save_selection, select_drives
-    from manipcad.trajectories import load_trajectory
+
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import Workspace, resolve_input
 
     space = Workspace(ws) if ws is not None else None
@@ -143,7 +146,6 @@ def select(
         mounts[_joint(arm, name.strip(), "--mount")] = where.strip()
     if not math.isfinite(dt) or dt <= 0:
         raise InputError("--dt", "", f"must be a number > 0 s, got {dt}")
-    from manipcad.cli.warmup import ensure_warm
 
     ensure_warm("dynamics")
     try:
@@ -176,6 +178,7 @@ def select(
 
 def print_selection(sel, trajectories: list[str]) -> None:
     """The report tables of a :class:`~manipcad.sizing.select.Selection`."""
+    # deferred: start-up cost: keeps manipcad.sizing.select out of the CLI's start
     from manipcad.sizing.select import OBJECTIVES
 
     unit = OBJECTIVES[sel.objective][1]

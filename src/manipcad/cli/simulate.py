@@ -49,7 +49,13 @@ from manipcad.cli.options import (
     ws_option,
 )
 from manipcad.cli.tables import Table, styled
+from manipcad.cli.warmup import ensure_warm
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.model.load import CATALOG, load_robot
+from manipcad.sim import SimulationDiverged
+from manipcad.sim import simulate as run_simulation
+from manipcad.sim.simulate import JOINT_LIMITS
+from manipcad.trajectories import load_trajectory
 
 
 def _num(x: Any, fmt: str = ".4g") -> str:
@@ -63,7 +69,6 @@ def _num(x: Any, fmt: str = ".4g") -> str:
 
 def _robot_file(arg: str) -> Path | None:
     """The file a robot argument names: the file itself or the catalog entry."""
-    from manipcad.model.load import CATALOG
 
     p = Path(arg)
     if p.is_file():
@@ -204,13 +209,11 @@ def simulate(
         "checks say).") = False,
 ) -> None:
     """Simulate the closed loop (multibody + DC drives + sampled regulators) and save it."""
-    from manipcad.model.load import load_robot
-    from manipcad.sim import SimulationDiverged
-    from manipcad.sim import simulate as run_simulation
-    from manipcad.sim.simulate import JOINT_LIMITS
+    # deferred: start-up cost: keeps manipcad.store out of the CLI's start
     from manipcad.store import check_out_dir, result_document
+
+    # deferred: start-up cost: keeps manipcad.store.plan out of the CLI's start
     from manipcad.store.plan import check_numbers, plan_run
-    from manipcad.trajectories import load_trajectory
 
     check_numbers(dt, t_end, every, OPTION_NAMES)  # before anything is loaded
     if accuracy is not None and not (math.isfinite(accuracy) and accuracy > 0):
@@ -221,6 +224,7 @@ def simulate(
         raise InputError("--max-chatter", "", f"must be > 0 reversals/s, got {max_chatter}")
     if payload is not None and not (math.isfinite(payload) and payload >= 0):
         raise InputError("--payload", "", f"must be >= 0 kg, got {payload}")
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import Workspace, resolve_input
 
     space = Workspace(ws) if ws is not None else None
@@ -269,7 +273,6 @@ def simulate(
            "every": plan.every, "drives": not no_drives, "payload": payload,
            "robot_notes": notes, "integrator": integrator, "rtol": rtol, "atol": atol}
     every = plan.every
-    from manipcad.cli.warmup import ensure_warm
 
     ensure_warm("simulator")
     wall = time.perf_counter()
@@ -297,6 +300,7 @@ def simulate(
             err_console.print(f"[yellow]warning:[/] {w.message}", highlight=False,
                               soft_wrap=True)
     run["wall_time_s"] = wall
+    # deferred: start-up cost: keeps manipcad.sim.checks out of the CLI's start
     from manipcad.sim.checks import run_checks
 
     checks = run_checks(res, arm, accuracy=accuracy, payload=payload,
@@ -333,6 +337,7 @@ def simulate(
 def _store(space, res, out, inputs, arm, trajectory, regulators, run, force, *,
            status: str = "ok", message: str = "", csv: bool = False) -> Path:
     """Save a result into a folder, or store and index it in a workspace; its folder."""
+    # deferred: start-up cost: keeps manipcad.store out of the CLI's start
     from manipcad.store import save_result
 
     if space is None:

@@ -25,6 +25,7 @@ import warnings
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich import box
 from rich.markup import escape
@@ -40,8 +41,14 @@ from manipcad.cli.options import (
     ws_option,
 )
 from manipcad.cli.tables import Table, styled
+from manipcad.cli.warmup import ensure_warm
 from manipcad.errors import InputError, ManipcadWarning
-from manipcad.fileio import json_safe
+from manipcad.fileio import atomic_write, json_safe
+from manipcad.model.load import load_robot
+from manipcad.sizing import ratio_sweep, required_drive, torque_speed_plot
+from manipcad.sizing.plot import ratio_sweep_figure
+from manipcad.sizing.requirements import check_unit
+from manipcad.trajectories import load_trajectory
 
 _COLOUR = {"pass": "green", "fail": "red", "unknown": "grey50", "n/a": "grey50"}
 
@@ -94,9 +101,7 @@ def size(
     gear's efficiency, docs/catalog.md) says so; --strict takes assumed values as
     unknown. Exit 1 when a check fails, or cannot be made unless --allow-unknown; 2
     for bad input."""
-    from manipcad.model.load import load_robot
-    from manipcad.sizing import required_drive, torque_speed_plot
-    from manipcad.trajectories import load_trajectory
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import Workspace, resolve_input
 
     space = Workspace(ws) if ws is not None else None
@@ -119,9 +124,9 @@ def size(
                          f"{MIN_STEPS} steps: --dt {span / MIN_STEPS:.3g} or less)")
     if payload is not None and (not math.isfinite(payload) or payload < 0):
         raise InputError("--payload", "", f"must be a mass >= 0 kg, got {payload}")
-    from manipcad.cli.warmup import ensure_warm
 
     ensure_warm("dynamics")
+    # deferred: start-up cost: keeps manipcad.sizing.assumed out of the CLI's start
     from manipcad.sizing.assumed import assumed_passes, strict_requirements, strict_robot
 
     if strict:
@@ -136,8 +141,6 @@ def size(
     if sweep_plot is not None:
         if not sweeps:
             raise InputError("--sweep-plot", "", "needs --ratio-sweep LO:HI:N")
-        from manipcad.fileio import atomic_write
-        from manipcad.sizing.plot import ratio_sweep_figure
 
         fig = ratio_sweep_figure(sweeps)
         fmt = sweep_plot.suffix.lower().lstrip(".")
@@ -189,7 +192,6 @@ def exit_status(status: tuple[str, ...], allow_unknown: bool) -> int:
 
 
 def _print_tables(req, source: str) -> None:
-    from manipcad.sizing.requirements import check_unit
 
     title = (f"{req.robot.name}: drive requirements along {source} "
              f"(t_end = {req.t_end:g} s, dt = {req.dt:.3g} s"
@@ -321,9 +323,7 @@ def _sweeps(arm, traj, spec: str | None, joints: list[str] | None, t_end, dt, pa
         if joints:
             raise InputError("--sweep-joint", "", "needs --ratio-sweep LO:HI:N")
         return []
-    import numpy as np
 
-    from manipcad.sizing import ratio_sweep
 
     try:
         lo, hi, n = spec.split(":")

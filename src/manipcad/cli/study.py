@@ -58,8 +58,13 @@ def fig3(
 ) -> None:
     """Fig. 3 study: errors of the turning drive of the Fig. 2 arm under laws (2), every
     synthesis method; writes fig3.png, fig3.json and report.html into --out."""
+    # deferred: start-up cost: keeps manipcad.budget out of the CLI's start
     from manipcad.budget import check_steps
+
+    # deferred: start-up cost: keeps manipcad.study out of the CLI's start
     from manipcad.study import run_fig3
+
+    # deferred: start-up cost: keeps manipcad.study.fig3 out of the CLI's start
     from manipcad.study.fig3 import LAWS, TRACKING
 
     # refuse a run that cannot fit before allocating (per step: time, reference and
@@ -80,6 +85,7 @@ def study_folder(out: str, ws: Path | None):
     if ws is None:
         yield Path(out)
         return
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import Workspace
 
     space = Workspace(ws)
@@ -150,6 +156,7 @@ def pickup(
     """Pickup study: an unknown payload gripped mid-trajectory, identified online; each
     adaptive method with the true mass, the online estimate and no payload knowledge;
     writes pickup.json and pickup.png into --out."""
+    # deferred: start-up cost: keeps manipcad.study.pickup out of the CLI's start
     from manipcad.study.pickup import FORGETTING, run_pickup
 
     res = run_pickup(out, robot=robot, mass=mass, t_pick=t_pick, t_end=t_end, dt=dt,

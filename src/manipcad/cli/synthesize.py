@@ -25,6 +25,7 @@ prints each round and exits 1 when E is not reached (the file is written either 
 from __future__ import annotations
 
 import json
+import tempfile
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -35,8 +36,13 @@ from rich import box
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.cli.options import dt_option, force_flag, json_flag, ws_option
 from manipcad.cli.tables import Table
-from manipcad.control import realization_complexity
+from manipcad.control import METHODS, realization_complexity
+from manipcad.control import synthesize as run_synthesis
+from manipcad.control.files import regulators_document, save_regulators
 from manipcad.errors import InputError
+from manipcad.expert.engine import base_complexity
+from manipcad.model.load import load_robot
+from manipcad.trajectories import load_trajectory
 
 
 def _pairs(items: list[str] | None, flag: str) -> dict[str, Any]:
@@ -61,8 +67,6 @@ def _pairs(items: list[str] | None, flag: str) -> dict[str, Any]:
 
 def method_table() -> Table:
     """The registry as a table: method, paper section, signals, complexity, summary."""
-    from manipcad.control import METHODS
-    from manipcad.expert.engine import base_complexity
 
     t = Table(box=box.SIMPLE_HEAD, title="synthesis methods (manipcad.control.METHODS)")
     for col in ("method", "section", "ops", "stored", "signals it needs; what it is"):
@@ -120,14 +124,9 @@ def synthesize(
     = False,
 ) -> None:
     """Synthesize regulators (paper section 3 and baselines) and save them to a file."""
-    from manipcad.control import METHODS
-    from manipcad.control import synthesize as run_synthesis
-    from manipcad.control.files import regulators_document, save_regulators
-    from manipcad.model.load import load_robot
 
     if list_methods:
         if as_json:
-            from manipcad.expert.engine import base_complexity
 
             typer.echo(json.dumps([{"method": name, "section": m.section, "summary": m.summary,
                                     **base_complexity(None, name)}
@@ -146,6 +145,7 @@ def synthesize(
         raise InputError("--joint", "", "missing: give --joint J (repeatable) or --all")
     if joint and all_joints:
         raise InputError("--all", "", "give --joint or --all, not both")
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import Workspace, resolve_input
 
     space = Workspace(ws) if ws is not None else None
@@ -177,7 +177,6 @@ def synthesize(
                              f"{load_range!r}") from None
         options["load_range"] = (lo, hi)
     if trajectory is not None:
-        from manipcad.trajectories import load_trajectory
 
         options["reference"] = load_trajectory(trajectory, robot=arm)
     spec_d = _pairs(spec, "--spec") or None
@@ -188,6 +187,7 @@ def synthesize(
         raise InputError("--dt", "", f"must be in (0, 1) s, got {dt}")
     if (spec_d and "max_error" in spec_d and trajectory is not None and rounds > 0
             and not METHODS[method].spans):
+        # deferred: start-up cost: keeps manipcad.expert.verify out of the CLI's start
         from manipcad.expert.verify import synthesize_to_spec
 
         ref = options.pop("reference")
@@ -204,7 +204,6 @@ def synthesize(
     if out is not None and space is None:
         save_regulators(regs, out, robot=arm)
     elif out is not None:
-        import tempfile
 
         with tempfile.TemporaryDirectory() as tmp:
             path = save_regulators(regs, Path(tmp) / f"{out}.yaml", robot=arm)
@@ -244,7 +243,7 @@ def synthesize(
         style = "green" if coupled.reached else "red"
         console.print(f"[{style}]{coupled.why}[/]", highlight=False, soft_wrap=True)
     if out is not None:
-        import shlex
+        import shlex  # deferred: start-up cost: shlex loaded on first use
 
         run = (f"-r {shlex.quote(out.stem)} --ws {shlex.quote(str(space.root))}"
                if space is not None else f"-r {shlex.quote(str(out))}")

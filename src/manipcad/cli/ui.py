@@ -29,7 +29,10 @@ def ui_command(
         "generated and printed when --host is not loopback.")] = None,
 ) -> None:
     """Start the designer's web application over a workspace (local, Ctrl-C stops it)."""
+    # deferred: start-up cost: keeps manipcad.ui out of the CLI's start
     from manipcad.ui import serve
+
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import default_root
 
     serve(default_root(ws), host=host, port=port, show=open_browser, token=token)

@@ -32,8 +32,13 @@ from rich.markup import escape
 
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.cli.options import RobotArgument, dt_option, json_flag, payload_option
+from manipcad.cli.simulate import VERDICT_STYLE, checks_table
 from manipcad.cli.tables import Table, styled
+from manipcad.control import load_regulators
 from manipcad.errors import InputError, ManipcadWarning
+from manipcad.expert import Requirements
+from manipcad.model.load import load_robot
+from manipcad.trajectories import load_trajectory
 
 
 def _accuracy(accuracy: float | None, spec: list[str] | None,
@@ -56,7 +61,6 @@ def _accuracy(accuracy: float | None, spec: list[str] | None,
                 raise InputError("--spec", "", f"max_error: not a number: {value!r}") from None
         accuracy = pairs["max_error"]
     if requirements is not None:
-        from manipcad.expert import Requirements
 
         accuracy = Requirements.from_yaml(requirements).accuracy
         if accuracy is None:
@@ -91,12 +95,11 @@ def verify(
 ) -> None:
     """Simulate the robot with the regulators; check every rating, the accuracy asked and
     each regulator's promise."""
-    from manipcad.cli.simulate import VERDICT_STYLE, checks_table
-    from manipcad.control import load_regulators
+    # deferred: start-up cost: keeps manipcad.expert.verify out of the CLI's start
     from manipcad.expert.verify import verify as run_verify
-    from manipcad.model.load import load_robot
+
+    # deferred: start-up cost: keeps manipcad.sim.checks out of the CLI's start
     from manipcad.sim.checks import RunChecks
-    from manipcad.trajectories import load_trajectory
 
     if not (math.isfinite(dt) and dt > 0):
         raise InputError("--dt", "", f"must be > 0 s, got {dt}")

@@ -22,18 +22,21 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+import manipcad
 from manipcad.cli.app import app, console, err_console, guarded
+from manipcad.control import pid
+from manipcad.drives.model import DriveModel
+from manipcad.sim import simulate
 
 MARKER = "warm"
 
 
 def _dynamics() -> None:
-    import numpy as np
 
-    import manipcad
 
     arm = manipcad.load_robot("cylindrical")
     q = np.full((2, arm.n), 0.1)
@@ -44,15 +47,12 @@ def _dynamics() -> None:
 
 
 def _drives() -> None:
-    from manipcad.drives.model import DriveModel
 
     arm_drive = _arm().drives[0]
     DriveModel(arm_drive, H_ii=1.0).simulate(2e-4, 1e-4, U=1.0)
 
 
 def _simulator() -> None:
-    from manipcad.control import pid
-    from manipcad.sim import simulate
 
     arm = _arm()
     regs = [pid(j, kp=10.0, kd=1.0) for j in range(arm.n)]
@@ -62,7 +62,6 @@ def _simulator() -> None:
 
 
 def _arm():
-    import manipcad
 
     return manipcad.load_robot("cylindrical")
 
@@ -78,7 +77,6 @@ STEPS: dict[str, tuple[str, Callable[[], None]]] = {
 def cache_dir() -> Path | None:
     """The kernel cache folder in use, or None when numba's default (next to the
     sources) applies."""
-    import manipcad  # noqa: F401  (sets NUMBA_CACHE_DIR)
 
     d = os.environ.get("NUMBA_CACHE_DIR")
     return Path(d) if d else None

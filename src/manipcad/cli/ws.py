@@ -32,6 +32,7 @@ from manipcad.cli.app import app, console, guarded
 from manipcad.cli.options import force_flag
 from manipcad.cli.tables import Table
 from manipcad.errors import InputError
+from manipcad.fileio import atomic_write, json_safe, writable_target
 
 ws_app = typer.Typer(help="The workspace: add, list, compare and re-run robots, motors, "
                      "gears, trajectories, regulators, results and studies.",
@@ -45,6 +46,7 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead of a t
 
 def _complete_names(ctx: typer.Context, incomplete: str) -> list[str]:
     """Shell completion of item names from the workspace (--ws or the default)."""
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import Workspace
 
     try:
@@ -57,6 +59,7 @@ def _complete_names(ctx: typer.Context, incomplete: str) -> list[str]:
 
 
 def _open(ws: Path | None):
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import Workspace
 
     return Workspace(ws)
@@ -69,7 +72,6 @@ def _num(x: Any, fmt: str = ".3g") -> str:
 
 
 def _echo_json(doc: Any) -> None:
-    from manipcad.fileio import json_safe
 
     typer.echo(json.dumps(json_safe(doc), indent=2))
 
@@ -81,6 +83,7 @@ def init(folder: Annotated[Path | None, typer.Argument(
          = None, ws: WsOpt = None) -> None:
     """Make a workspace: robots/, motors/, gears/, trajectories/, regulators/,
     results/, studies/ and the index index.sqlite."""
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import Workspace
 
     w = Workspace.init(folder or ws)
@@ -192,7 +195,10 @@ def show(name: Annotated[str, typer.Argument(help="NAME or KIND/NAME.",
     if csv:
         if item.kind != "results":
             raise InputError(name, "", "--csv is for results")
+        # deferred: start-up cost: keeps manipcad.store.results out of the CLI's start
         from manipcad.store.results import load_result
+
+        # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
         from manipcad.workspace import results_dataframe
 
         res, doc = load_result(w.path(item))
@@ -218,6 +224,7 @@ def show(name: Annotated[str, typer.Argument(help="NAME or KIND/NAME.",
         table.add_row("settings sha256", item.provenance["settings_hash"][:12])
     console.print(table)
     if item.metrics:
+        # deferred: start-up cost: keeps manipcad.workspace.where out of the CLI's start
         from manipcad.workspace.where import METRICS
 
         mt = Table(title="metrics (SI units)", box=box.SIMPLE_HEAD)
@@ -251,8 +258,10 @@ def compare(names: Annotated[list[str], typer.Argument(help="Result names.",
                                "SVG or PDF by the suffix).")] = None,
             ws: WsOpt = None, as_json: JsonOpt = False) -> None:
     """Compare results: a metrics table (largest over joints) and overlaid plots."""
-    from manipcad.fileio import writable_target
+    # deferred: start-up cost: keeps manipcad.workspace.runs out of the CLI's start
     from manipcad.workspace.runs import COMPARE_HEADINGS, COMPARE_METRICS
+
+    # deferred: start-up cost: keeps manipcad.workspace.runs out of the CLI's start
     from manipcad.workspace.runs import compare as run_compare
 
     if plot is not None:
@@ -262,7 +271,6 @@ def compare(names: Annotated[list[str], typer.Argument(help="Result names.",
         if fig is None:
             raise InputError("--plot", "", "the results have different joints; no common "
                              "figure")
-        from manipcad.fileio import atomic_write
 
         fmt = plot.suffix.lower().lstrip(".") or "png"
         atomic_write(plot, lambda fh: fig.savefig(fh, dpi=100, format=fmt), binary=True)
@@ -290,6 +298,7 @@ def rerun(name: Annotated[str, typer.Argument(help="A result name.",
           ws: WsOpt = None, as_json: JsonOpt = False) -> None:
     """Re-run a result from its stored inputs and settings; show whether every array
     and metric is identical (exit status 1 if not)."""
+    # deferred: start-up cost: keeps manipcad.workspace.runs out of the CLI's start
     from manipcad.workspace.runs import rerun as run_again
 
     r = run_again(_open(ws), name)
@@ -348,6 +357,7 @@ def export(name: Annotated[str, typer.Argument(help="NAME or KIND/NAME.",
 @guarded
 def reindex(ws: WsOpt = None, as_json: JsonOpt = False) -> None:
     """Rebuild the index from the files (the files are the truth)."""
+    # deferred: start-up cost: keeps manipcad.workspace out of the CLI's start
     from manipcad.workspace import Workspace
 
     done = Workspace(ws, rebuild_index=True).reindex()

@@ -19,6 +19,7 @@ import re
 import shutil
 import subprocess
 import sys
+import sysconfig
 import time
 import warnings
 from pathlib import Path
@@ -33,8 +34,10 @@ from manipcad.codegen.cabi import CFUNC_SIGNATURES
 from manipcad.codegen.emit import AddTo, Check, Friction, IfDrives, Let, Store
 from manipcad.codegen.symbolic import Dynamics, dynamics, num
 from manipcad.dynamics._inputs import as_states
+from manipcad.dynamics.api import forward_dynamics, inverse_dynamics, mass_matrix
+from manipcad.dynamics.components import torque_components
 from manipcad.errors import ManipcadError, ManipcadWarning
-from manipcad.model.robot import Robot
+from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot
 
 #: the largest number of joints customized: the mass matrix alone has n(n+1)/2
 #: expressions whose trees grow with n, and numba's compile time with the code's
@@ -670,7 +673,6 @@ def _extension(path: Path, digest: str, n: int):
     costs about a microsecond, more than the dynamics); None when no C compiler
     or Python headers are available: the numba kernels then serve those calls.
     """
-    import sysconfig
 
     name = f"mcgen_{digest[:16]}"
     so = path / f"{name}{sysconfig.get_config_var('EXT_SUFFIX') or '.so'}"
@@ -879,7 +881,6 @@ class GeneratedDynamics:
             return tau
         m = self._m
         if m is None:
-            from manipcad.dynamics.api import inverse_dynamics
             return inverse_dynamics(self.robot, q, qd, qdd, drives=drives, use_generated=False)
         if _vectors(q, qd, qdd):
             tau = np.empty(self.n)
@@ -916,7 +917,6 @@ class GeneratedDynamics:
             return H
         m = self._m
         if m is None:
-            from manipcad.dynamics.api import mass_matrix
             return mass_matrix(self.robot, q, drives=drives, use_generated=False)
         if _vectors(q):
             H = np.empty((self.n, self.n))
@@ -953,7 +953,6 @@ class GeneratedDynamics:
         """
         m = self._m
         if m is None:
-            from manipcad.dynamics.components import torque_components
             tc = torque_components(self.robot, q, qd, np.zeros_like(np.asarray(q, float)))
             return MomentComponents(tc.H_ii, tc.velocity, tc.gravity)
         (Q, QD), single = as_states(self.n, q=q, qd=qd)
@@ -993,7 +992,6 @@ class GeneratedDynamics:
             return qdd
         m = self._m
         if m is None:
-            from manipcad.dynamics.api import forward_dynamics
             return forward_dynamics(self.robot, q, qd, tau, drives=drives, method="crba",
                                     use_generated=False)
         if _vectors(q, qd, tau):
@@ -1242,7 +1240,6 @@ def simulation_kernels(robot: Robot, table: np.ndarray, *, use_generated: bool =
         >>> simulation_kernels(arm, arm.table)[0]
         True
     """
-    from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR
 
     gen = find(robot) if use_generated else None
     drives = None

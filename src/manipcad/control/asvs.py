@@ -37,7 +37,7 @@ from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_Q, S_QD, S_QDDREF, S_QDREF, S_QI, S_QREF
 from manipcad.drives.dc import clip, dry_friction
 from manipcad.drives.laws import asvs_a, asvs_beta, asvs_c_stationary, asvs_gains, asvs_voltage
-from manipcad.drives.params import P_RATIO
+from manipcad.drives.params import P_RATIO, pack_drive
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
 
@@ -93,7 +93,6 @@ def asvs_update(p, s, sig, j, Ts):
 
 def slope(drive, H_ii: float, k_e: float) -> tuple[float, float, float]:
     """(a 1/s, β rad/(s²·V), c_max 1/s) of a drive at joint-side load H_ii (h* = 0)."""
-    from manipcad.drives.params import pack_drive
 
     return tuple(float(v) for v in sliding_slope(H_ii / drive.ratio ** 2, k_e,
                                                  pack_drive(drive, order=2)))

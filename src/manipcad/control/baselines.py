@@ -13,6 +13,7 @@ import math
 import numba as nb
 
 from manipcad._lazy import ct
+from manipcad.control.ace_de import synthesize_ace_de
 from manipcad.control.design import (
     DEFAULT_PERIOD,
     check_period,
@@ -113,7 +114,6 @@ def synthesize_none_sce(robot: Robot, joint, *, spec=None, period: float = DEFAU
     Returns:
         A :class:`~manipcad.control.regulator.Regulator` of method ``none_sce``.
     """
-    from manipcad.control.ace_de import synthesize_ace_de
 
     period = check_period(period)
     ref = synthesize_ace_de(robot, joint, spec=spec, period=period, load_range=load_range,

@@ -12,7 +12,9 @@ import numpy as np
 
 from manipcad._lazy import ct
 from manipcad.control.signals import NPARAM
+from manipcad.drives.linear import drive_gain, mechanical_time_constant
 from manipcad.drives.params import check_electrics, pack_drive
+from manipcad.dynamics import mass_matrix
 from manipcad.errors import ManipcadError, ModelError
 from manipcad.model.robot import Drive, Robot
 
@@ -77,7 +79,6 @@ def nominal_drive(robot: Robot, joint, load_range=None, H_nominal: float | None 
         (j, drive, (H_min, H_max) kg·m², H kg·m², K rad/(V·s) = k_u·k_p/i_r of the
         2nd-order model q/U = K/(s·(T_m·s + 1)), T_m s).
     """
-    from manipcad.drives.linear import drive_gain, mechanical_time_constant
 
     j, d = joint_drive(robot, joint)
     Hmin, Hmax = inertia_range(robot, j, load_range)
@@ -114,7 +115,6 @@ def inertia_range(robot: Robot, j: int, given=None, *, samples: int = 256,
         if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi):
             raise ManipcadError(f"load_range must satisfy 0 <= H_min <= H_max, got {given!r}")
         return lo, hi
-    from manipcad.dynamics import mass_matrix
 
     lim = (np.tile([-math.inf, math.inf], (robot.n, 1)) if robot.limits is None
            else np.array(robot.limits, dtype=float))

@@ -49,7 +49,9 @@ from manipcad.control.signals import S_I, S_Q, S_QD
 from manipcad.drives.dc import dry_friction, rigid_joint_torque
 from manipcad.drives.gear import gear_factor
 from manipcad.drives.params import P_J, P_KV, P_RATIO, pack_drives
-from manipcad.dynamics.rls import OnlinePayloadEstimator, payload_rls_step
+from manipcad.dynamics.counts import Counted, _counted, _plain, _Tally
+from manipcad.dynamics.identification import link_frame
+from manipcad.dynamics.rls import OnlinePayloadEstimator, payload_rls_step, rls_operation_counts
 from manipcad.dynamics.rnea import RNEA_WORK
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import COL_COM, COL_IC, COL_MASS, Robot, combine_bodies
@@ -243,14 +245,12 @@ class PayloadEstimator:
     @property
     def body(self) -> int:
         """The body (joint index) that carries the payload."""
-        from manipcad.dynamics.identification import link_frame
 
         return link_frame(self.robot, self.link)[0]
 
     @property
     def com_in_body(self) -> np.ndarray:
         """The payload's centre of mass in the body frame of :attr:`body`, m."""
-        from manipcad.dynamics.identification import link_frame
 
         _, R, p, _ = link_frame(self.robot, self.link)
         return R @ self.com + p
@@ -295,8 +295,6 @@ class PayloadEstimator:
         realization_complexity`): ``{"mul", "add", "func", "ops_per_period", "rls": {mul,
         add}, "signals", "period"}``. The two inverse-dynamics passes are in the totals;
         ``rls`` is the recursive least squares alone (4k + 2 mul)."""
-        from manipcad.dynamics.counts import Counted, _counted, _plain, _Tally
-        from manipcad.dynamics.rls import rls_operation_counts
 
         n = self.robot.n
         est = self.pack(self.period, 4, np.asarray(self.robot.table), feed=False)

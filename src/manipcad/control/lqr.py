@@ -360,6 +360,7 @@ def gain_table(drive: Drive, H_grid, h_grid, weights: Weights, order: int = 3, *
     Returns:
         :class:`GainTable` (the same whichever way the points ran).
     """
+    # deferred: start-up cost: keeps manipcad.parallel out of import manipcad
     from manipcad.parallel import run_tasks
 
     H_grid = np.asarray(H_grid, dtype=float)

@@ -28,6 +28,7 @@ from manipcad.control.method import Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import NPARAM, S_Q, S_QD, S_QDREF, S_QREF
 from manipcad.drives.linear import linearize
+from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
 
 # parameters (no drive block: the law does not read the drive)
@@ -88,7 +89,6 @@ def pid(joint: int | str, *, kp: float, ki: float = 0.0, kd: float = 0.0,
         check_finite(name, v, "pid")
     period = check_period(period)
     if not u_limit > 0:
-        from manipcad.errors import ManipcadError
 
         raise ManipcadError(f"pid u_limit must be > 0, got {u_limit}")
     p = np.zeros(NPARAM)

@@ -42,7 +42,7 @@ def _discrete(drive, H: float, T: float) -> tuple[np.ndarray, np.ndarray]:
     M = np.zeros((n + 1, n + 1))
     M[:n, :n] = A * T
     M[:n, n:] = B * T
-    from scipy.linalg import expm  # scipy.linalg on first use
+    from scipy.linalg import expm  # deferred: start-up cost: scipy.linalg on first use
 
     E = expm(M)
     return E[:n, :n], E[:n, n:]

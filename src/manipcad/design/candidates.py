@@ -22,8 +22,14 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from manipcad.control import METHODS as SYNTH
+from manipcad.control import synthesize
 from manipcad.control.complexity import realization_complexity
+from manipcad.control.design import inertia_range
+from manipcad.control.registry import method as entry
 from manipcad.errors import ManipcadError
+from manipcad.expert import recommend
+from manipcad.expert.engine import complexity_cost, load_rules
 
 #: methods with a knob that tightens the synthesis (see the module docstring)
 TIGHTENABLE = ("ace_de", "ace_tf", "lqr", "lqr_gs", "pid", "computed_torque")
@@ -62,8 +68,6 @@ def candidates(requirements, robot, trajectory, *, joint=None, max_methods: int 
     Returns:
         (the :class:`~manipcad.expert.engine.Recommendations`, the method names kept).
     """
-    from manipcad.control import METHODS as SYNTH
-    from manipcad.expert import recommend
 
     recs = recommend(requirements, robot, trajectory, joint=joint)
     kept = [r.method for r in recs if r.method in SYNTH][:max_methods]
@@ -93,7 +97,6 @@ class Synthesis:
 
 
 def _accepts(method: str, option: str) -> bool:
-    from manipcad.control.registry import method as entry
 
     try:
         return option in inspect.signature(entry(method).synthesize).parameters
@@ -112,7 +115,6 @@ def load_ranges(robots, joints) -> dict[int, tuple[float, float]]:
         >>> 0 < lo < hi
         True
     """
-    from manipcad.control.design import inertia_range
 
     out = {}
     for j in joints:
@@ -141,8 +143,6 @@ def synthesize_method(robot, method: str, joints, *, period: float, accuracy: fl
     Returns:
         :class:`Synthesis` (the refusals are kept, with their reasons, not raised).
     """
-    from manipcad.control import synthesize
-    from manipcad.expert.engine import complexity_cost, load_rules
 
     if weights is None:
         weights = load_rules().weights

@@ -35,7 +35,12 @@ from typing import Any
 import numpy as np
 
 from manipcad.analysis.counterbalance import apply_counterweights, fit_counterweight
+from manipcad.analysis.coupling import CLASSES, coupling_analysis
+from manipcad.dynamics.components import torque_components
+from manipcad.errors import ManipcadError
 from manipcad.model.robot import REVOLUTE, Robot
+from manipcad.sizing import required_drive
+from manipcad.sizing.select import select_drives
 
 #: gravity dominates a joint when RMS(Q_i) >= DOMINANT · RMS(P_i)
 DOMINANT = 0.5
@@ -77,7 +82,6 @@ _ORDER = {"pass": 0, "unknown": 1, "fail": 2, "n/a": 0}
 
 def size(robot: Robot, trajectories, *, dt: float = DT) -> Sizing:
     """:func:`manipcad.sizing.required_drive` over the trajectories, worst per joint."""
-    from manipcad.sizing import required_drive
 
     n = robot.n
     status = ["pass"] * n
@@ -124,7 +128,6 @@ def gravity_share(robot: Robot, trajectories, *, dt: float = DT) -> np.ndarray:
         >>> float(s[0]) == 0.0, bool(s[1] > 0.5)     # the turn has none, the lift mostly gravity
         (True, True)
     """
-    from manipcad.dynamics.components import torque_components
 
     num = np.zeros(robot.n)
     den = np.zeros(robot.n)
@@ -142,7 +145,6 @@ def gravity_share(robot: Robot, trajectories, *, dt: float = DT) -> np.ndarray:
 
 def coupling_classes(robot: Robot, trajectories) -> list[str]:
     """Each joint's coupling class, the most coupled over the trajectories."""
-    from manipcad.analysis.coupling import CLASSES, coupling_analysis
 
     worst = ["decoupled"] * robot.n
     for tr in trajectories:
@@ -242,8 +244,6 @@ def selected_drives(robot: Robot, trajectories, joints: list[int]) -> dict[str, 
     """The catalogue selection's choice for some joints, in one selection (least mass,
     default margin): {joint: {"drive": label, "mass": kg, "feasible": candidates that
     pass}}, or {joint: {"error": why}} for all when the selection refuses."""
-    from manipcad.errors import ManipcadError
-    from manipcad.sizing.select import select_drives
 
     try:
         sel = select_drives(robot, list(trajectories), joints=joints, verify=False)

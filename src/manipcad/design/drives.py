@@ -22,6 +22,7 @@ from typing import Any
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.model.robot import Drive, Robot
+from manipcad.sizing import select as sel
 
 #: where a robot made by the selection says so (select writes it into ``Robot.source``)
 SELECTED = "selected by manipcad select"
@@ -60,7 +61,6 @@ def peak_joint_torque(d: Drive) -> float:
 def select_drives(robot: Robot, trajectories, payloads, *, joints=None, makers=None,
                   objective: str = "mass", margin: float | None = None):
     """Drives for ``joints`` from the catalogue: (the robot with them, the report)."""
-    from manipcad.sizing import select as sel
 
     kw: dict[str, Any] = {"payload_range": (min(payloads), max(payloads)), "makers": makers,
                           "joints": joints, "objective": objective}
@@ -108,7 +108,6 @@ def next_drive_up(robot: Robot, joint: int, trajectories, payloads, *, makers=No
     Returns:
         (robot, label of the new drive) or (None, the reason).
     """
-    from manipcad.sizing import select as sel
 
     if SELECTED in robot.source:
         return None, ("the arm's drives come from the catalogue selection (their masses are "

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from manipcad.sim.checks import run_checks, worst
 from manipcad.sizing.limits import FAIL, PASS, UNKNOWN
 
 
@@ -44,7 +45,6 @@ def judge(result, robot, *, accuracy: float, judged: Sequence[int]) -> dict[str,
         {joint name: {check: {"value", "limit", "unit", "verdict"}}} (value and limit
         None where not finite).
     """
-    from manipcad.sim.checks import run_checks
 
     acc = {robot.joint_names[j]: float(accuracy) for j in judged}
     return run_checks(result, robot, accuracy=acc).to_dict()
@@ -61,7 +61,6 @@ def verdict(checks: dict[str, dict], *, strict: bool = False) -> str:
         >>> verdict({"a": {"verdict": "n/a"}, "b": {"verdict": "unknown"}}, strict=True)
         'fail'
     """
-    from manipcad.sim.checks import worst
 
     v = worst(c.get("verdict") for c in checks.values())
     return FAIL if strict and v == UNKNOWN else v

@@ -22,19 +22,28 @@ import json
 import math
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 from typing import Any
 
+from manipcad.codegen import generate
+from manipcad.control.c_code import regulators_c
+from manipcad.control.files import regulators_yaml
+from manipcad.design.drives import parts
 from manipcad.design.judge import margin, verdict
+from manipcad.errors import ManipcadError, ManipcadWarning
 from manipcad.fileio import atomic_write_text, json_safe
 from manipcad.model.tree_file import save_robot
+from manipcad.report.design import write_report
+from manipcad.store import save_result
+from manipcad.trajectories import save_trajectory
 
 #: the design.json format's version
 FORMAT = 1
 
 
 def _fmt_cmd(parts: list[str]) -> str:
-    import shlex
+    import shlex  # deferred: start-up cost: shlex loaded on first use
 
     return " ".join(shlex.quote(str(p)) for p in parts)
 
@@ -71,7 +80,6 @@ def worst_margins(runs: list[dict], joints: list[str]) -> dict[str, dict]:
 
 def _store_runs(folder: Path, runs: list[dict], results: dict, arm) -> None:
     """Every run as a result folder under ``folder`` (written beside, then swapped in)."""
-    from manipcad.store import save_result
 
     tmp = Path(tempfile.mkdtemp(prefix=".runs-new-", dir=folder.parent))
     try:
@@ -101,11 +109,7 @@ def _store_runs(folder: Path, runs: list[dict], results: dict, arm) -> None:
 
 def write_c(folder: Path, nominal, regs, prefix: str = "design") -> list[str]:
     """The drive processor's C99 (dynamics and regulators) into ``folder``; the file names."""
-    import warnings
 
-    from manipcad.codegen import generate
-    from manipcad.control.c_code import regulators_c
-    from manipcad.errors import ManipcadError, ManipcadWarning
 
     folder.mkdir(parents=True, exist_ok=True)
     with warnings.catch_warnings():
@@ -163,9 +167,6 @@ def write_outputs(out: Path, *, req, arm, nominal, trajectories, outcome, runs, 
                   decoupling, drive_info, recs, methods, designed, trace, settings, sources,
                   store_runs, wall, parts_before, stage_times=None) -> dict:
     """Write every file of the design folder; return the design.json document."""
-    from manipcad.control.files import regulators_yaml
-    from manipcad.design.drives import parts
-    from manipcad.trajectories import save_trajectory
 
     out.mkdir(exist_ok=True)
     save_robot(nominal, out / "robot.yaml")
@@ -191,7 +192,6 @@ def write_outputs(out: Path, *, req, arm, nominal, trajectories, outcome, runs, 
                           stage_times=stage_times or {})
     atomic_write_text(out / "design.json", json.dumps(json_safe(doc), indent=2,
                                                       ensure_ascii=False) + "\n")
-    from manipcad.report.design import write_report
 
     write_report(out / "report.html", doc, runs, png_dir=out / "figures")
     return doc

@@ -30,6 +30,10 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
+from manipcad.analysis.counterbalance import apply_counterweights
+from manipcad.control import synthesize
+from manipcad.control.files import regulators_document
+from manipcad.control.pid import PID_FF
 from manipcad.design import cases as C
 from manipcad.design.candidates import (
     TIGHTENABLE,
@@ -40,8 +44,17 @@ from manipcad.design.candidates import (
 from manipcad.design.decide import choose, closest, evaluate
 from manipcad.design.decouple import decouple
 from manipcad.design.drives import next_drive_up, parts, resolve_drives
+from manipcad.design.outputs import write_outputs
 from manipcad.design.sweep import run_sweep
 from manipcad.errors import InputError, ManipcadError
+from manipcad.expert import Requirements
+from manipcad.fileio import writable_folder
+from manipcad.model.load import load_robot
+from manipcad.parallel import Pool
+from manipcad.parallel.executor import check_workers, default_workers
+from manipcad.store.results import every_for
+from manipcad.study.claims import warm_worker
+from manipcad.trajectories import load_trajectory
 
 #: the label of the runs of a combination of methods (numbered: mix1, mix2, ...)
 DESIGN = "mix"
@@ -78,9 +91,6 @@ def _check_settings(period, dt, samples, max_methods, max_iterations, counterbal
 
 
 def _load(requirements, robot, trajectories):
-    from manipcad.expert import Requirements
-    from manipcad.model.load import load_robot
-    from manipcad.trajectories import load_trajectory
 
     req = Requirements.coerce(requirements)
     if req.accuracy is None:
@@ -143,9 +153,6 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
         DesignNotMet: no design meets the requirements within the rounds; the closest
             design's files are written and ``.doc`` holds its design.json.
     """
-    from manipcad.design.outputs import write_outputs
-    from manipcad.fileio import writable_folder
-    from manipcad.parallel.executor import check_workers
 
     t0 = time.perf_counter()
     store = {True: "final", False: "none"}.get(store_runs, store_runs)
@@ -191,7 +198,6 @@ def run_design(requirements, robot, trajectories, *, out: str | Path,
     for name, why in dec.rejected.items():
         trace.add("decouple", f"{name}: gravity dominates, no counterweight proposed: {why}")
     if dec.applied:
-        from manipcad.analysis.counterbalance import apply_counterweights
 
         arm = apply_counterweights(arm, dec.counterweights)
     nominal = C.with_payload(arm, mid)
@@ -371,12 +377,9 @@ def _stages(progress) -> _Stages:
 
 
 def _pool(stack: ExitStack, workers, scheduler):
-    from manipcad.parallel.executor import default_workers
 
     if scheduler is None and (workers or default_workers()) == 1:
         return None
-    from manipcad.parallel import Pool
-    from manipcad.study.claims import warm_worker
 
     warm_worker()       # the kernels loaded here: forked workers start with them
     return stack.enter_context(Pool(workers=workers, scheduler=scheduler, warm=warm_worker))
@@ -402,8 +405,6 @@ def _support(nominal, support: list[int], period: float) -> list:
     study drives them: poles at min(200 rad/s, 0.25/period), ζ = 1, k_i = k_p·ω_n/10,
     plus the velocity feed-forward k_ff = k_w·i_r/k_u that cancels the back-EMF at the
     reference speed."""
-    from manipcad.control import synthesize
-    from manipcad.control.pid import PID_FF
 
     regs = []
     bw = min(SUPPORT_BANDWIDTH, 0.25 / period)
@@ -435,7 +436,6 @@ def _label(method: str, level: int) -> str:
 
 
 def _document(nominal, regs) -> dict:
-    from manipcad.control.files import regulators_document
 
     regs = sorted(regs, key=lambda r: r.joints[0])
     return regulators_document(regs, robot=nominal)
@@ -465,7 +465,6 @@ def _case_id(label: str, p: dict, ti: int) -> str:
 def _sweep(docs, plants, trajs, payloads, dt, period, accuracy, designed, pool, workers,
            scheduler, cache_dir, progress, results, keep: bool = False,
            stored: bool = False) -> list[dict]:
-    from manipcad.store.results import every_for
 
     tasks, meta = [], []
     for label, doc in docs.items():

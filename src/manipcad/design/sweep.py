@@ -17,8 +17,11 @@ from typing import Any
 
 import numpy as np
 
+from manipcad.control.files import regulators_from_dict
 from manipcad.design.judge import FAIL, judge, tracking_check
 from manipcad.errors import ManipcadError, ManipcadWarning
+from manipcad.parallel import run_tasks
+from manipcad.sim import SimulationDiverged, simulate
 
 #: the task code's version (part of every cache key): change it when run_case's results change
 CASE_VERSION = "2"
@@ -62,8 +65,6 @@ def run_case(*, plant, trajectory, regulators: dict, dt: float, t_end: float, ev
         "peak": {"torque", "speed", "current"} per joint, "result": the
         SimulationResult or None}.
     """
-    from manipcad.control.files import regulators_from_dict
-    from manipcad.sim import SimulationDiverged, simulate
 
     names = list(plant.joint_names)
     out: dict[str, Any] = {"status": "ok", "message": ""}
@@ -117,7 +118,6 @@ def run_sweep(cases: list[dict], *, common: dict, workers: int | None = None,
     Returns:
         :class:`manipcad.parallel.executor.Results` in case order (``.computed``, ``.cached``).
     """
-    from manipcad.parallel import run_tasks
 
     if not cases:
         raise ManipcadError("no case to run")

@@ -29,6 +29,7 @@ import numba
 import numpy as np
 
 from manipcad._lazy import ct
+from manipcad.drives.linear import drive_gain, mechanical_time_constant
 from manipcad.drives.params import (
     P_J,
     P_KM,
@@ -388,7 +389,6 @@ def ace1_tf(drive: Drive, H_ii: float = 0.0, h_i: float = 0.0, *, T_1: float | N
         >>> round(float(ace1_tf(d, H_ii=0.01).dcgain()), 12)   # 1/(k_p k_w) = 1 without friction
         1.0
     """
-    from manipcad.drives.linear import drive_gain, mechanical_time_constant
 
     T_m = mechanical_time_constant(drive, H_ii, h_i)
     k_p = drive_gain(drive, H_ii, h_i)

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from manipcad.drives.dc import rigid_current, rigid_rhs
+from manipcad.drives.dc import rigid_current, rigid_rhs, static_current
 from manipcad.drives.linear import DriveLinearization, linearize
 from manipcad.drives.params import (
     KIND_ELASTIC,
@@ -232,7 +232,6 @@ class DriveModel:
         elif self.kind == KIND_ELASTIC:
             out = X[:, 4].copy()
         else:
-            from manipcad.drives.dc import static_current
             out = np.array([static_current(Us[k], X[k, 3], self.p) for k in range(X.shape[0])])
         return out if np.ndim(x) == 2 else out[:1]
 

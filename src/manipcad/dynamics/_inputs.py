@@ -7,7 +7,12 @@ import threading
 
 import numba as nb
 import numpy as np
+from numba import types as nt
 
+from manipcad.dynamics.aba import aba_vector
+from manipcad.dynamics.crba import crba_vector
+from manipcad.dynamics.forward_crba import crba_fd_vector
+from manipcad.dynamics.rnea import rnea_vector
 from manipcad.errors import ManipcadError
 
 #: the dummy external wrenches of a call without them
@@ -160,12 +165,7 @@ def vector_kernel(store: dict, name: str):
     Other types (readonly or strided vectors too) raise TypeError at the call,
     lengths other than n ValueError: the caller then takes the checked path.
     """
-    from numba import types as nt
 
-    from manipcad.dynamics.aba import aba_vector
-    from manipcad.dynamics.crba import crba_vector
-    from manipcad.dynamics.forward_crba import crba_fd_vector
-    from manipcad.dynamics.rnea import rnea_vector
 
     table = nt.Array(nt.float64, 2, "C", readonly=True)
     vec = nt.float64[::1]

@@ -17,7 +17,12 @@ from functools import cache
 
 import numpy as np
 
+from manipcad.dynamics.aba import ABA_WORK, aba_one
+from manipcad.dynamics.crba import CRBA_WORK, crba_one
+from manipcad.dynamics.rnea import RNEA_WORK, rnea_one
 from manipcad.errors import ManipcadError
+from manipcad.model.dh import rot_x
+from manipcad.model.robot import Robot
 
 
 class _Tally:
@@ -145,8 +150,6 @@ def _counted(a) -> np.ndarray:
 
 def _chain(n: int):
     """A generic n-joint chain of revolute joints with general placements and full inertias."""
-    from manipcad.model.dh import rot_x
-    from manipcad.model.robot import Robot
 
     rng = np.random.default_rng(0)
     Rs = np.array([rot_x(a) for a in rng.uniform(-1.5, 1.5, n)])
@@ -178,9 +181,6 @@ def operation_counts(algorithm: str, n: int) -> dict[str, int]:
         >>> operation_counts("rnea", 6)["mul"] > 0
         True
     """
-    from manipcad.dynamics.aba import ABA_WORK, aba_one
-    from manipcad.dynamics.crba import CRBA_WORK, crba_one
-    from manipcad.dynamics.rnea import RNEA_WORK, rnea_one
 
     if algorithm not in ("rnea", "crba", "aba") or int(n) < 1:
         raise ManipcadError(f"operation_counts needs algorithm rnea|crba|aba and n >= 1, "

@@ -121,7 +121,7 @@ def flag_threshold(k: int, dof: float = math.inf) -> float:
         >>> round(flag_threshold(5, dof=10), 2)
         5.69
     """
-    from scipy.stats import norm, t
+    from scipy.stats import norm, t  # deferred: start-up cost: scipy loaded on first use
 
     p = FLAG_ALPHA / (2 * max(int(k), 1))
     if not math.isfinite(dof) or dof > 1e4:
@@ -1029,7 +1029,7 @@ def _fit(G: np.ndarray, Y: np.ndarray, W: np.ndarray, lost: np.ndarray,
 
 def _estimate_com(robot, eq, sel, c0, body):
     """(com in the body frame, its 3×3 covariance) fitted with the mass."""
-    from scipy.optimize import least_squares
+    from scipy.optimize import least_squares  # deferred: start-up cost: scipy loaded on first use
 
     W = eq.mask[:, sel]
 

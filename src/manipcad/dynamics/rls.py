@@ -37,6 +37,7 @@ import math
 import numba as nb
 import numpy as np
 
+from manipcad.dynamics.counts import Counted, _counted, _plain, _Tally
 from manipcad.dynamics.identification import (
     MOTION_SPEED,
     _unit_payload_robot,
@@ -248,7 +249,6 @@ def rls_operation_counts(k: int) -> dict[str, int]:
         >>> rls_operation_counts(6)
         {'mul': 26, 'add': 20}
     """
-    from manipcad.dynamics.counts import Counted, _counted, _plain, _Tally
 
     if int(k) < 1:
         raise InputError("rls_operation_counts", "k", f"must be >= 1, got {k}")

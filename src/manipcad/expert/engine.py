@@ -37,7 +37,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from manipcad.control import realization_complexity
+from manipcad.control import METHODS as SYNTH
+from manipcad.control import realization_complexity, synthesize
 from manipcad.errors import InputError, ManipcadError
 from manipcad.expert.requirements import (
     FIELDS,
@@ -45,6 +46,10 @@ from manipcad.expert.requirements import (
     Requirements,
     derive,
 )
+from manipcad.model import load_robot
+from manipcad.model.hashing import robot_hash
+from manipcad.sim import simulate
+from manipcad.trajectories import load_trajectory
 
 RULES_FILE = Path(__file__).with_name("rules.yaml")
 METHODS = ("ace_tf", "ace_de", "asvs", "vss", "lqr_gs", "lqr", "none", "pid",
@@ -349,9 +354,6 @@ _COUNTED: dict = {}
 
 
 def _counted_complexity(method: str, robot) -> dict:
-    from manipcad.control import synthesize
-    from manipcad.model import load_robot
-    from manipcad.model.hashing import robot_hash
 
     candidates = []
     if robot is not None and robot.drives is not None:
@@ -441,6 +443,7 @@ class Recommendation:
         simulated)."""
         if self.checks is None:
             return "fail" if self.meets_accuracy is False else "unverified"
+        # deferred: start-up cost: keeps manipcad.sim.checks out of import manipcad
         from manipcad.sim.checks import RunChecks
 
         return RunChecks.from_dict(self.checks).verdict
@@ -593,11 +596,9 @@ def recommend(requirements: Requirements | dict | str | Path, robot=None, trajec
     if joint is not None:
         req = req.model_copy(update={"joint": joint})
     if robot is not None:
-        from manipcad.model import load_robot
 
         robot = load_robot(robot)
         if isinstance(trajectory, str | Path):
-            from manipcad.trajectories import load_trajectory
 
             trajectory = load_trajectory(trajectory, robot=robot)
     req, derived, notes = derive(req, robot, trajectory)
@@ -719,12 +720,9 @@ UNVERIFIED_NOTE = (
 def _verify(out: Recommendations, rb: RuleBase, robot, trajectory, *, top: int,
             dt: float) -> None:
     """Synthesize, simulate and re-rank ``out`` in place (see :func:`recommend`)."""
-    from manipcad.control import METHODS as SYNTH
-    from manipcad.control import synthesize
 
     if robot is None or trajectory is None:
         raise ManipcadError("verification needs a robot and a trajectory to simulate along")
-    from manipcad.sim import simulate
 
     req = out.requirements
     if req.accuracy is None:
@@ -748,6 +746,7 @@ def _verify(out: Recommendations, rb: RuleBase, robot, trajectory, *, top: int,
             except ManipcadError as exc:
                 raise ManipcadError(f"verify: cannot design the PID that drives the other "
                                     f"joint {robot.joint_names[j]!r}: {exc}") from None
+    # deferred: start-up cost: keeps manipcad.sim.checks out of import manipcad
     from manipcad.sim.checks import run_checks
 
     done, met = 0, False

@@ -75,9 +75,13 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, StrictBool, ValidationError, field_validator
 
+from manipcad.dynamics import inverse_dynamics, mass_matrix
 from manipcad.errors import InputError, ManipcadError
 from manipcad.fileio import read_yaml, validation_error
+from manipcad.model import load_robot
 from manipcad.model.yaml_robot import OptNum
+from manipcad.trajectories import load_trajectory
+from manipcad.trajectories.speed import gripper_speed
 
 COUPLING = ("decoupled", "inertial", "full")
 INDUCTANCE = ("negligible", "significant")
@@ -273,7 +277,6 @@ def _tm_factor(d) -> float:
 
 def derive_gripper_speed(robot, trajectory) -> Derivation:
     """Peak gripper speed along the trajectory, m/s (from the Jacobian)."""
-    from manipcad.trajectories.speed import gripper_speed
 
     t = _samples(trajectory)
     v = np.asarray(gripper_speed(robot, trajectory, t))
@@ -284,7 +287,6 @@ def derive_gripper_speed(robot, trajectory) -> Derivation:
 
 def _own_velocity_split(robot, trajectory, j: int) -> float:
     """Peak of the velocity constituent of joint j that is not proportional to q̇_j."""
-    from manipcad.dynamics import inverse_dynamics
 
     q, qd, _ = trajectory.sample(_samples(trajectory))
     qd_other = qd.copy()
@@ -297,6 +299,7 @@ def _own_velocity_split(robot, trajectory, j: int) -> float:
 def derive_coupling(robot, trajectory, joints: list[int]) -> Derivation:
     """The coupling class (worst over ``joints``) from the coupling analysis."""
     try:
+        # deferred: a missing analysis is reported as a requirement not derived
         from manipcad.analysis.coupling import coupling_analysis
     except ImportError as exc:
         return Derivation("coupling", error="cannot be derived: the coupling analysis "
@@ -331,7 +334,6 @@ def derive_inductance(robot, trajectory, joints: list[int]) -> Derivation:
         return Derivation("inductance", error="cannot be derived: no drive on the joint(s)")
     H_min = {}
     if trajectory is not None:
-        from manipcad.dynamics import mass_matrix
 
         q, _, _ = trajectory.sample(_samples(trajectory))
         H = mass_matrix(robot, q, drives=False)
@@ -357,7 +359,6 @@ def derive_inductance(robot, trajectory, joints: list[int]) -> Derivation:
 
 def derive_parameter_variation(robot, trajectory, joints: list[int]) -> Derivation:
     """``slow`` when ν = max |Ḣ_ii|·T_m/(H_ii + J·i_r²) < VARIATION_LIMIT for every drive."""
-    from manipcad.dynamics import mass_matrix
 
     driven = _driven(robot, joints)
     if not driven:
@@ -385,7 +386,6 @@ def derive_parameter_variation(robot, trajectory, joints: list[int]) -> Derivati
 
 def derive_load_variation(robot, trajectory, joints: list[int]) -> Derivation:
     """ρ = (J·i_r² + H_ii,max)/(J·i_r² + H_ii,min) along the trajectory, worst over ``joints``."""
-    from manipcad.dynamics import mass_matrix
 
     driven = _driven(robot, joints)
     if not driven:
@@ -432,11 +432,9 @@ def derive(req: Requirements, robot=None, trajectory=None, *, check: bool = True
         for f in todo:
             out[f] = Derivation(f, error="not given, and no robot to derive it from")
         return req, out, notes
-    from manipcad.model import load_robot
 
     robot = load_robot(robot)
     if isinstance(trajectory, str | Path):
-        from manipcad.trajectories import load_trajectory
 
         trajectory = load_trajectory(trajectory, robot=robot)
     if trajectory is not None and trajectory.n != robot.n:

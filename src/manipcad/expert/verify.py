@@ -26,7 +26,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from manipcad.analysis.coupling import coupling_analysis
+from manipcad.control import synthesize
 from manipcad.errors import ManipcadError, ManipcadWarning
+from manipcad.sim import simulate
+from manipcad.sim.checks import RunChecks, _per_joint, run_checks
 
 
 @dataclass
@@ -100,12 +104,9 @@ def verify(robot, trajectory, regulators, *, dt: float = 1e-4, factor: float = 2
         >>> checks[0].kept
         True
     """
-    from manipcad.analysis.coupling import coupling_analysis
-    from manipcad.sim import simulate
 
     if not (math.isfinite(factor) and factor >= 1):
         raise ManipcadError(f"factor must be >= 1, got {factor}")
-    from manipcad.sim.checks import _per_joint, run_checks
 
     t_end = float(trajectory.duration) if t_end is None else float(t_end)
     res = simulate(robot, t_end=t_end, dt=dt, trajectory=trajectory, regulators=regulators,
@@ -256,8 +257,6 @@ def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
         >>> d.reached, len(d.rounds)
         (True, 1)
     """
-    from manipcad.control import synthesize
-    from manipcad.sim.checks import RunChecks
 
     spec = dict(spec or {})
     if "max_error" not in spec:

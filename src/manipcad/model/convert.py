@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from manipcad.model.robot import Drive, Robot
+from manipcad.model.robot import Drive, Robot, combine_bodies
+from manipcad.model.urdf import align_z
 
 
 @dataclass
@@ -92,7 +93,6 @@ def robot_from_joints(name: str, joints: Sequence[SourceJoint], *, base: np.ndar
     Returns:
         The robot; its dynamics equal the source's.
     """
-    from manipcad.model.urdf import align_z
 
     base = np.eye(4) if base is None else np.asarray(base, dtype=float)
     n = len(joints)
@@ -152,7 +152,6 @@ def joints_from_bodies(bodies: Sequence[SourceBody]) -> list[SourceJoint]:
     bodies welded to the base do not move and are dropped. The joints of
     bodies below a welded one get the welded transforms in their ``A``.
     """
-    from manipcad.model.robot import combine_bodies
 
     joints: list[SourceJoint] = []
     anchor: list[tuple[int, np.ndarray]] = []  # per body: (joint index or -1, anchor <- body)

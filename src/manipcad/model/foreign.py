@@ -12,7 +12,11 @@ from pathlib import Path
 from typing import Any
 
 from manipcad.errors import InputError
+from manipcad.model.from_pinocchio import robot_from_pinocchio
+from manipcad.model.from_rtb import robot_from_rtb
+from manipcad.model.mjcf import load_mjcf, robot_from_mjcf_string, robot_from_mujoco
 from manipcad.model.robot import Robot
+from manipcad.model.urdf import load_urdf, robot_from_urdf_string
 
 
 def robot_from_object(obj: Any) -> Robot:
@@ -30,15 +34,12 @@ def robot_from_object(obj: Any) -> Robot:
     module = type(obj).__module__.split(".")[0]
     kind = type(obj).__name__
     if module == "roboticstoolbox" or hasattr(obj, "rne") and hasattr(obj, "links"):
-        from manipcad.model.from_rtb import robot_from_rtb
 
         return robot_from_rtb(obj)
     if module == "pinocchio" and kind == "Model" or hasattr(obj, "jointPlacements"):
-        from manipcad.model.from_pinocchio import robot_from_pinocchio
 
         return robot_from_pinocchio(obj)
     if module == "mujoco" and kind == "MjModel":
-        from manipcad.model.mjcf import robot_from_mujoco
 
         return robot_from_mujoco(obj)
     raise InputError("load_robot", "", f"got a {kind}; expected a catalog name, a file, "
@@ -50,10 +51,8 @@ def robot_from_xml_text(text: str | bytes) -> Robot:
     """A robot from URDF (``<robot>``) or MJCF (``<mujoco>``) text."""
     head = text[:4096].decode("utf-8", "replace") if isinstance(text, bytes) else text[:4096]
     if "<mujoco" in head:
-        from manipcad.model.mjcf import robot_from_mjcf_string
 
         return robot_from_mjcf_string(text.decode() if isinstance(text, bytes) else text)
-    from manipcad.model.urdf import robot_from_urdf_string
 
     return robot_from_urdf_string(text)
 
@@ -62,11 +61,9 @@ def load_xml_robot(path: Path) -> Robot:
     """An .xml/.mjcf file: MJCF (``<mujoco>``) through MuJoCo, URDF (``<robot>``) otherwise."""
     head = path.read_bytes()[:4096].decode("utf-8", "replace")
     if "<mujoco" in head:
-        from manipcad.model.mjcf import load_mjcf
 
         return load_mjcf(path)
     if "<robot" in head:
-        from manipcad.model.urdf import load_urdf
 
         return load_urdf(path)
     raise InputError(str(path), "", "an XML file that is neither MJCF (<mujoco>) nor URDF "

@@ -56,7 +56,7 @@ def robot_from_pinocchio(model, name: str | None = None) -> Robot:
         >>> robot_from_pinocchio(pin.buildSampleModelManipulator()).n
         6
     """
-    import pinocchio as pin
+    import pinocchio as pin  # deferred: optional dependency
 
     data = model.createData()
     pin.computeJointJacobians(model, data, pin.neutral(model))

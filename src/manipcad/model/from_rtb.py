@@ -21,6 +21,7 @@ import numpy as np
 
 from manipcad.errors import InputError
 from manipcad.model.convert import SourceBody, homogeneous, joints_from_bodies, robot_from_joints
+from manipcad.model.convert import robot_from_joints as _build
 from manipcad.model.robot import PRISMATIC, REVOLUTE, Drive, Robot
 
 
@@ -134,7 +135,6 @@ def robot_from_rtb(r, name: str | None = None) -> Robot:
         >>> robot_from_rtb(rtb.models.DH.Puma560()).n
         6
     """
-    from manipcad.model.convert import robot_from_joints as _build
 
     is_dh = hasattr(r, "mdh")
     bodies = _dh_bodies(r) if is_dh else _ets_bodies(r)

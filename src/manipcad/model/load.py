@@ -7,8 +7,10 @@ from pathlib import Path
 
 from manipcad.catalog.files import part_names
 from manipcad.errors import InputError
-from manipcad.fileio import check_readable
+from manipcad.fileio import check_readable, read_bytes, read_yaml, scan_xml
 from manipcad.model.robot import Robot
+from manipcad.model.tree_file import is_tree_file, load_tree_robot
+from manipcad.model.yaml_robot import load_yaml_robot
 
 CATALOG = resources.files("manipcad.model") / "catalog"
 
@@ -51,10 +53,12 @@ def load_robot(source: str | Path | Robot) -> Robot:
     if isinstance(source, Robot):
         return source
     if not isinstance(source, str | Path | bytes):
+        # deferred: start-up cost: keeps manipcad.model.foreign out of import manipcad
         from manipcad.model.foreign import robot_from_object
 
         return robot_from_object(source)
     if isinstance(source, bytes) or isinstance(source, str) and source.lstrip().startswith("<"):
+        # deferred: start-up cost: keeps manipcad.model.foreign out of import manipcad
         from manipcad.model.foreign import robot_from_xml_text
 
         return robot_from_xml_text(source)
@@ -76,16 +80,17 @@ def load_robot(source: str | Path | Robot) -> Robot:
 
 def _load_path(path: Path) -> Robot:
     if path.suffix.lower() == ".urdf":
+        # deferred: start-up cost: keeps manipcad.model.urdf out of import manipcad
         from manipcad.model.urdf import load_urdf
 
         return load_urdf(path)
     if path.suffix.lower() in (".xml", ".mjcf"):
+        # deferred: start-up cost: keeps manipcad.model.foreign out of import manipcad
         from manipcad.model.foreign import load_xml_robot
 
         return load_xml_robot(path)
-    from manipcad.model.tree_file import is_tree_file, load_tree_robot
+    # deferred: start-up cost: keeps manipcad.model.urdf_drives out of import manipcad
     from manipcad.model.urdf_drives import is_urdf_robot_file, load_urdf_robot
-    from manipcad.model.yaml_robot import load_yaml_robot, read_yaml
 
     data = read_yaml(path) if path.is_file() else None
     if is_urdf_robot_file(data):
@@ -126,8 +131,6 @@ def referenced_files(path: str | Path) -> list[tuple[str, str]]:
         >>> referenced_files(p)
         [('urdf', '/elsewhere/arm.urdf')]
     """
-    from manipcad.fileio import read_bytes, read_yaml, scan_xml
-
     path = Path(path)
     suffix = path.suffix.lower()
     found: list[tuple[str, str]] = []

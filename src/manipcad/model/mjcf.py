@@ -32,7 +32,7 @@ def _quat(q) -> np.ndarray:
 
 def _mujoco():
     try:
-        import mujoco
+        import mujoco  # deferred: optional dependency
     except ImportError:
         raise InputError("MJCF", "", "reading MJCF needs the mujoco package "
                          "(pip install mujoco)") from None

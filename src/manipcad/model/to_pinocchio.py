@@ -42,7 +42,7 @@ def to_pinocchio(robot: Robot, *, armature: bool = False):
         inertias, its joints in depth-first order, and ``order`` such that
         Pinocchio's joint k is our joint ``order[k]`` (pass ``q[order]``).
     """
-    import pinocchio as pin
+    import pinocchio as pin  # deferred: optional dependency
 
     model = pin.Model()
     model.name = robot.name

@@ -19,6 +19,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from manipcad.fileio import atomic_write_text
 from manipcad.model.robot import REVOLUTE, Robot
 
 
@@ -67,6 +68,7 @@ def robot_to_urdf(robot: Robot, path: str | Path | None = None) -> str:
         >>> manipcad.load_robot(text).n
         6
     """
+    # deferred: start-up cost: keeps manipcad.model.urdf out of import manipcad
     from manipcad.model.urdf import rpy_matrix
 
     used = set(robot.link_names)
@@ -124,7 +126,6 @@ def robot_to_urdf(robot: Robot, path: str | Path | None = None) -> str:
     lines.append("</robot>")
     text = "\n".join(lines) + "\n"
     if path is not None:
-        from manipcad.fileio import atomic_write_text
 
         atomic_write_text(path, text)
     return text

@@ -40,7 +40,7 @@ import numpy as np
 from pydantic import BeforeValidator, Field
 
 from manipcad.errors import InputError, ModelError
-from manipcad.fileio import dump_yaml
+from manipcad.fileio import atomic_write_text, dump_yaml
 from manipcad.model.robot import Drive, Robot
 from manipcad.model.yaml_robot import (
     DriveSpec,
@@ -289,7 +289,6 @@ def save_robot(robot: Robot, path: str | Path) -> Path:
             + dump_yaml(robot_to_dict(robot), sort_keys=False, allow_unicode=True,
                              default_flow_style=None,
                              width=100))
-    from manipcad.fileio import atomic_write_text
 
     return atomic_write_text(path, text)
 

@@ -46,6 +46,7 @@ import numpy as np
 from pydantic import Field
 
 from manipcad.errors import InputError, ModelError
+from manipcad.fileio import check_readable
 from manipcad.model.robot import Robot, mounts_tuple
 from manipcad.model.urdf import load_urdf
 from manipcad.model.yaml_robot import (
@@ -134,7 +135,6 @@ def build_urdf_robot(spec: UrdfRobotSpec, label: str, base_dir: Path) -> Robot:
     if not (urdf.exists() or urdf.is_symlink()):
         raise InputError(label, "urdf", f"no such file {str(urdf)!r} (a path relative to "
                          "this robot file)")
-    from manipcad.fileio import check_readable
 
     try:  # a directory, a FIFO, a device: say what it is (a FIFO is never opened)
         check_readable(urdf)

@@ -18,10 +18,12 @@ Example:
 from __future__ import annotations
 
 import gc
+import traceback
 from collections.abc import Callable
 from typing import Any
 
 from manipcad.errors import ManipcadError
+from manipcad.parallel.executor import start_method
 
 #: how long :meth:`ChildCall.close` waits for a child that is still running, s
 CLOSE_TIMEOUT = 5.0
@@ -38,7 +40,6 @@ class ChildTraceback(Exception):
 def _child(fn: Callable, args: tuple, conn) -> None:
     """In the child: ``fn(*args)`` sent back as ``(True, value, "")``, or ``(False, error,
     its traceback)``."""
-    import traceback
 
     # the inherited objects are left alone by this process's collector (their pages
     # stay shared with the parent instead of being copied as a collection touches them)
@@ -76,13 +77,12 @@ class ChildCall:
     """
 
     def __init__(self, fn: Callable, *args: Any) -> None:
-        from manipcad.parallel.executor import start_method
 
         self._fn, self._args = fn, args
         self._done: tuple[bool, Any, str] | None = None
         self._proc = self._conn = None
         if start_method() == "fork":
-            import multiprocessing
+            import multiprocessing  # deferred: start-up cost: multiprocessing loaded on first use
 
             ctx = multiprocessing.get_context("fork")
             self._conn, send = ctx.Pipe(duplex=False)

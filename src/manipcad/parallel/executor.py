@@ -28,10 +28,13 @@ import os
 import pickle
 import re
 import socket
+import stat
 import struct
+import sys
 import tempfile
 import threading
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
@@ -317,8 +320,7 @@ def _probe_scheduler(scheduler: str, timeout: float | None = None) -> None:
     timeout and, collected later, prints a traceback of its failed close; a server that
     is not a scheduler can make it read garbage (a frame length of exabytes).
     """
-    import asyncio
-    from concurrent.futures import ThreadPoolExecutor
+    import asyncio  # deferred: start-up cost: asyncio loaded on first use
 
     host, port = scheduler_address(scheduler)
     if port == 0:  # a cluster in this process: nothing to reach over the network
@@ -340,6 +342,7 @@ def _probe_scheduler(scheduler: str, timeout: float | None = None) -> None:
         raise fail(exc.strerror or str(exc)) from None
 
     async def identity():
+        # deferred: start-up cost: distributed loaded on first use
         from distributed.comm import connect
 
         comm = await connect(f"tcp://{host}:{port}" if ":" not in host
@@ -642,7 +645,9 @@ def progress_reporter(stack: ExitStack, show, desc: str, total: float,
         return report
     if not show:
         return lambda k: None
-    from rich.console import Console
+    from rich.console import Console  # deferred: start-up cost: rich loaded on first use
+
+    # deferred: start-up cost: rich loaded on first use
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     prog = stack.enter_context(Progress(
@@ -657,6 +662,7 @@ def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None, 
     """A Dask client of a new LocalCluster (``workers`` processes) or of ``scheduler``,
     closed with ``stack``. ``freeze``: freeze the objects alive while the workers fork
     (see below; False: the caller does, :class:`Pool`)."""
+    # deferred: start-up cost: distributed loaded on first use
     from distributed import Client, LocalCluster
 
     # not entered as context managers: a Pool starts them in another thread, and a
@@ -669,7 +675,7 @@ def _start_client(stack: ExitStack, workers: int | None, scheduler: str | None, 
             raise InputError(SOURCE, "scheduler", f"cannot connect to {scheduler}: "
                              f"{exc}") from None
     else:
-        import dask
+        import dask  # deferred: start-up cost: dask loaded on first use
 
         n = workers or default_workers()
         # the worker processes are forked (where fork exists): they start with this
@@ -714,7 +720,6 @@ def start_method() -> str:
         >>> start_method() in ("fork", "spawn")
         True
     """
-    import sys
 
     return "fork" if sys.platform.startswith("linux") else "spawn"
 
@@ -742,9 +747,6 @@ def _off_pipes_in_child() -> None:
     the child gets new stream objects on the same descriptors (a pipe's: /dev/null)."""
     if not _OFF_PIPES[0]:
         return
-    import logging
-    import stat
-    import sys
 
     def blocking(fd: int) -> bool:
         try:
@@ -875,7 +877,8 @@ class Pool:
         self._error: BaseException | None = None
         self._started = threading.Event()   # the client exists (or its start failed)
         if fork:  # the workers fork while this thread waits (no lock held by it)
-            import distributed  # noqa: F401 - here, so that its objects are frozen too
+            # deferred: here, before the workers fork, so that its objects are frozen too
+            import distributed  # noqa: F401
 
             forks = _count_forks()
             with forks:
@@ -954,7 +957,7 @@ class Pool:
 
 
 def _run_dask(client, func, batched, common, items, chunks, done, bar):
-    from distributed import as_completed
+    from distributed import as_completed  # deferred: start-up cost: distributed loaded on first use
 
     # the common arguments go to every worker once (a round trip before the first task:
     # 4 ms empty, 13 ms with the claims document), unless they are empty or the tasks no

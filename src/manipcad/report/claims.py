@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from manipcad.report.html import esc, figure, page, paragraph, section, table
+from manipcad.report.png import encode_rows, write_png
 
 #: a cell counts as saturated (hatched) above this fraction of time
 SATURATED = 0.01
@@ -71,9 +72,10 @@ def draw_panels(doc: Mapping[str, Any], ids: list[str], *, dpi: int = 100) -> np
     Returns:
         uint8 array (height, width, 4).
     """
+    # deferred: start-up cost: matplotlib loaded on first use
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.colors import LogNorm
-    from matplotlib.figure import Figure
+    from matplotlib.colors import LogNorm  # deferred: start-up cost: matplotlib loaded on first use
+    from matplotlib.figure import Figure  # deferred: start-up cost: matplotlib loaded on first use
 
     claims = doc["claims"]
     speeds = doc["grid"]["speed_scale"]
@@ -139,7 +141,6 @@ def draw_band(doc: Mapping[str, Any], ids: list[str], *, dpi: int = 100) -> dict
         "band": their :class:`~manipcad.report.png.Band`, "image": those rows (uint8,
         (stop - first, width, 4))}.
     """
-    from manipcad.report.png import encode_rows
 
     img = draw_panels(doc, ids, dpi=dpi)
     drawn = np.flatnonzero((img != 255).any(axis=(1, 2)))
@@ -164,7 +165,6 @@ def save_bands(parts: list[dict], path: str | Path, *, dpi: int = 100) -> Path:
     Returns:
         The path written.
     """
-    from manipcad.report.png import encode_rows, write_png
 
     h, w, _ = parts[0]["shape"]
     drawn = sorted((p for p in parts if p["span"][1] > p["span"][0]), key=lambda p: p["span"])
@@ -187,6 +187,7 @@ def save_bands(parts: list[dict], path: str | Path, *, dpi: int = 100) -> Path:
 
 
 def _hatch(k: int, i: int):
+    # deferred: start-up cost: matplotlib loaded on first use
     from matplotlib.patches import Rectangle
 
     return Rectangle((k - 0.5, i - 0.5), 1.0, 1.0, fill=False, hatch="///", edgecolor="0.3",

@@ -22,12 +22,16 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from manipcad.fileio import atomic_write_bytes, atomic_write_text
 from manipcad.report.html import esc, figure, fmt, page, paragraph, section, table
 
 
 def _canvas(w: float, h: float):
+    # deferred: start-up cost: matplotlib loaded on first use
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # deferred: start-up cost: matplotlib loaded on first use
 
     fig = Figure(figsize=(w, h))       # fixed margins: a layout engine costs seconds here
     FigureCanvasAgg(fig)
@@ -36,6 +40,7 @@ def _canvas(w: float, h: float):
 
 def _log(ax) -> None:
     """A log y axis with few ticks (their layout is what a log axis costs)."""
+    # deferred: start-up cost: matplotlib loaded on first use
     from matplotlib.ticker import LogLocator, NullLocator
 
     ax.set_yscale("log")
@@ -93,7 +98,6 @@ def envelope_figure(doc: Mapping[str, Any], runs: Sequence[Mapping[str, Any]]) -
 def ratings_figure(doc: Mapping[str, Any]) -> bytes:
     """Peak torque, speed and current of every joint over the final cases, as a fraction
     of the drive's joint-side rating (PNG bytes)."""
-    import numpy as np
 
     peaks, ratings = doc["peaks"], doc["ratings"]
     joints = [j for j in peaks if ratings.get(j)]
@@ -124,7 +128,6 @@ def ratings_figure(doc: Mapping[str, Any]) -> bytes:
 
 def methods_figure(doc: Mapping[str, Any]) -> bytes:
     """The worst-case error of every candidate on every designed joint (PNG bytes)."""
-    import numpy as np
 
     joints = list(doc["accuracy_joints"])
     labels = list(doc["candidates"])
@@ -284,7 +287,6 @@ def write_report(path: str | Path, doc: Mapping[str, Any],
                  ) -> Path:
     """Write report.html (see :func:`design_html`) and, with ``png_dir``, its figures as
     envelope.png, ratings.png and methods.png there."""
-    from manipcad.fileio import atomic_write_bytes, atomic_write_text
 
     figs = figures(doc, runs)
     if png_dir is not None:

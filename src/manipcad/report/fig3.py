@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from manipcad.fileio import atomic_write
 from manipcad.report.html import esc, figure, fmt, page, paragraph, section, table
 
 #: line styles of the tracking curves (the paper's curves 1-3 first)
@@ -51,8 +52,9 @@ def plot_fig3(tracking: Mapping[str, Any], steps: Mapping[str, Mapping[str, Any]
     Returns:
         The path written.
     """
+    # deferred: start-up cost: matplotlib loaded on first use
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # deferred: start-up cost: matplotlib loaded on first use
 
     titles = dict(titles or {})
     fig = Figure(figsize=(9.0, 13.0), layout="constrained")
@@ -126,7 +128,6 @@ def plot_fig3(tracking: Mapping[str, Any], steps: Mapping[str, Mapping[str, Any]
         ax3.text(0.5, 0.5, "no run (see 'skipped' in fig3.json)", ha="center", va="center",
                  transform=ax3.transAxes, color="0.4")
     fig.suptitle("Fig. 3 study: errors of the turning servo drive (cylindrical arm of Fig. 2)")
-    from manipcad.fileio import atomic_write
 
     return atomic_write(path, lambda fh: fig.savefig(fh, dpi=dpi, format="png"), binary=True)
 

@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from manipcad.fileio import atomic_write
+
 #: line style per case
 _STYLE = {"true_mass": ("k", "-"), "online": ("tab:blue", "-"), "nominal": ("tab:red", "--")}
 
@@ -28,8 +30,9 @@ def plot_pickup(data: Mapping[str, Any], runs: Mapping[str, Mapping[str, Any]],
     Returns:
         The path written.
     """
+    # deferred: start-up cost: matplotlib loaded on first use
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # deferred: start-up cost: matplotlib loaded on first use
 
     methods = list(runs)
     fig = Figure(figsize=(9.0, 3.0 * (1 + len(methods))), layout="constrained")
@@ -71,6 +74,5 @@ def plot_pickup(data: Mapping[str, Any], runs: Mapping[str, Mapping[str, Any]],
         ax.set_xlabel("t, s")
         ax.set_ylabel("|ε|, rad")
         ax.legend(fontsize=7, loc="lower right")
-    from manipcad.fileio import atomic_write
 
     return atomic_write(path, lambda fh: fig.savefig(fh, dpi=dpi, format="png"), binary=True)

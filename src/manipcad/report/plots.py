@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from manipcad.fileio import atomic_write
+
 
 def joint_units(joint_types: Sequence[str] | None, n: int) -> list[str]:
     """Position unit per joint: "rad" (revolute), "m" (prismatic), "rad|m" if unknown."""
@@ -121,8 +123,9 @@ def compare_figure(results: Sequence, labels: Sequence[str], *,
 
 
 def _figure(width: float, height: float):
+    # deferred: start-up cost: matplotlib loaded on first use
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # deferred: start-up cost: matplotlib loaded on first use
 
     fig = Figure(figsize=(width, height), layout="constrained")
     FigureCanvasAgg(fig)
@@ -152,7 +155,6 @@ def plot_errors(result, path: str | Path, *, joint_types: Sequence[str] | None =
         >>> plot_errors(res, "/tmp/errors.png", joint_types=arm.joint_types)  # doctest: +SKIP
         PosixPath('/tmp/errors.png')
     """
-    from manipcad.fileio import atomic_write
 
     fig = errors_figure(result, joint_types=joint_types, title=title)
     return atomic_write(path, lambda fh: fig.savefig(fh, dpi=dpi, format="png"), binary=True)

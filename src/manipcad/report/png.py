@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from manipcad.fileio import atomic_write_bytes
+
 #: zlib's compression level (6: zlib's default, as Pillow's PNG writer)
 LEVEL = 6
 _MOD = 65521  # Adler-32's modulus
@@ -129,6 +131,5 @@ def write_png(path: str | Path, bands: list[Band], *, dpi: float = 100.0) -> Pat
            + _chunk(b"IHDR", struct.pack(">IIBBBBB", width, at, 8, 6, 0, 0, 0))
            + _chunk(b"pHYs", struct.pack(">IIB", ppm, ppm, 1))
            + _chunk(b"IDAT", stream) + _chunk(b"IEND", b""))
-    from manipcad.fileio import atomic_write_bytes
 
     return atomic_write_bytes(path, png)

@@ -9,6 +9,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from manipcad.fileio import atomic_write
+
 
 def plot_robustness(doc: Mapping[str, Any], path: str | Path, *, dpi: int = 100) -> Path:
     """Box plots of each method's max |ε| (rad, log scale) over the perturbed arms, the
@@ -22,8 +24,9 @@ def plot_robustness(doc: Mapping[str, Any], path: str | Path, *, dpi: int = 100)
     Returns:
         The path written.
     """
+    # deferred: start-up cost: matplotlib loaded on first use
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # deferred: start-up cost: matplotlib loaded on first use
 
     methods = list(doc["methods"])
     data = [[v for v in doc["max_error"][m] if v is not None and v > 0] for m in methods]
@@ -50,7 +53,6 @@ def plot_robustness(doc: Mapping[str, Any], path: str | Path, *, dpi: int = 100)
                  f"{doc['samples']} samples; speed scale {s['speed_scale_run']:g}"
                  + (" (time-scaled)" if s["time_scaled"] else "")
                  + "\nboxes 25-75 %, whiskers 5-95 %; red: the nominal arm", fontsize=8)
-    from manipcad.fileio import atomic_write
 
     return atomic_write(path, lambda fh: fig.savefig(
         fh, dpi=dpi, format=Path(path).suffix.lower().lstrip(".") or "png"), binary=True)

@@ -59,6 +59,7 @@ from typing import Any
 
 import numpy as np
 
+from manipcad.dynamics import inverse_dynamics
 from manipcad.errors import ManipcadError
 from manipcad.model.payload import apply_payload
 from manipcad.model.robot import PRISMATIC, Robot
@@ -298,7 +299,6 @@ def gear_output_torque(result, robot: Robot) -> np.ndarray:
     """The gear output torque P_rigid (N·m or N) along a run, (K, n): the rigid-body
     inverse dynamics of the simulated q, q̇ and q̈ (q̈ by central differences of the
     recorded q̇); with a pickup in the run, the robot after it from the pickup's time."""
-    from manipcad.dynamics import inverse_dynamics
 
     qdd = _accelerations(result.t, result.qd)
     tau = inverse_dynamics(robot, result.q, result.qd, qdd, drives=False)

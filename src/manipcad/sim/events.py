@@ -57,7 +57,7 @@ from manipcad.drives.gear import gear_factor, holding_band
 from manipcad.dynamics.aba import aba_one
 from manipcad.dynamics.crba import CRBA_WORK, crba_one
 from manipcad.dynamics.forward_crba import cholesky_solve
-from manipcad.model.robot import COL_BV, COL_JR
+from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR
 from manipcad.sim.borrow import address
 
 #: columns of :attr:`Events.fric` (joint side, N·m or N; η -): kinetic friction against
@@ -142,7 +142,6 @@ def friction_table(dtable: np.ndarray, rtable: np.ndarray, efficiency, kinds,
         ...                np.array([[3.0, 2.5]])).tolist()
         [[2.0, 2.0, 3.0, 2.5, 0.9]]
     """
-    from manipcad.model.robot import COL_FCN, COL_FCP
 
     n = rtable.shape[0]
     out = np.zeros((n, 5))

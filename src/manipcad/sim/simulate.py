@@ -6,23 +6,31 @@ import math
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from html import escape
 
 import numba as nb
 import numpy as np
+import pandas as pd
 
 from manipcad.codegen import simulation_kernels
 from manipcad.control.registry import kind_of
 from manipcad.control.regulator import Regulator
 from manipcad.control.signals import MODEL_SIGNALS, NPARAM, NSTATE
 from manipcad.drives.params import (
+    KIND_ELASTIC,
+    KIND_ELASTIC_STATIC,
     KIND_NONE,
     KIND_RIGID,
     KIND_RIGID_STATIC,
     P_KIND,
+    P_L,
+    P_R,
+    P_RATIO,
     joint_referred_terms,
     pack_drives,
     state_offsets,
 )
+from manipcad.dynamics import forward_dynamics
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning, refuse_renamed
 from manipcad.model.payload import apply_payload
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot, require_robot
@@ -30,6 +38,7 @@ from manipcad.sim import adaptive as _adaptive
 from manipcad.sim import loop as _loop
 from manipcad.sim.adaptive import STATS, TABLEAUS
 from manipcad.sim.direct import DirectCall
+from manipcad.sim.events import events_part, friction_table
 from manipcad.sim.loop import Control, Plant, Record, Reference, Work
 from manipcad.sim.metrics import joint_metrics
 
@@ -130,8 +139,8 @@ class SimulationResult:
             >>> res.to_dataframe().columns[0]
             'turn.q [rad]'
         """
-        import pandas as pd
 
+        # deferred: start-up cost: keeps manipcad.sim.series out of import manipcad
         from manipcad.sim.series import series_columns
 
         types = joint_types if joint_types is not None else (self.joint_types or None)
@@ -147,7 +156,6 @@ class SimulationResult:
 
     def _repr_html_(self) -> str:
         """The per-joint metrics as an HTML table (Jupyter)."""
-        from html import escape
 
         def cell(x) -> str:
             return "—" if x is None or (isinstance(x, float) and np.isnan(x)) else f"{x:.4g}"
@@ -334,10 +342,12 @@ def simulate(
         raise ManipcadError(f"every must be >= 1, got {every}")
     robot = apply_payload(robot, payload)[0]
     # the payload picked up mid-run, the online estimator and what the model knows
+    # deferred: start-up cost: keeps manipcad.sim.pickup out of import manipcad
     from manipcad.sim import pickup as pk
 
     model_payload = pk.model_payload_of(model_payload, estimator)
     picked = None if pickup is None else pk.picked_robot(robot, pickup, t_end, dt)
+    # deferred: start-up cost: keeps manipcad.budget out of import manipcad
     from manipcad.budget import check_steps
 
     # the reference is sampled chunk by chunk: memory follows the kept samples (t, q, q̇, U,
@@ -369,7 +379,6 @@ def simulate(
     x_qd = np.zeros(n) if qd0 is None else _vec(qd0, n, "qd0")
     # a joint that moves no mass (and no rotor) has no acceleration: say so by name here,
     # as the dynamics API does, rather than as NaN at t = 0
-    from manipcad.dynamics import forward_dynamics
 
     try:
         forward_dynamics(robot, x_q, x_qd, np.zeros(n), drives=bool(drives) and robot.has_drives,
@@ -546,7 +555,6 @@ def _electrical_cause(robot: Robot, dtable: np.ndarray, dt: float) -> str | None
         >>> print(_electrical_cause(arm, pack_drives(arm.drives), 2e-3))  # doctest: +ELLIPSIS
         joint 'wrist_roll''s drive: the step dt = 0.002 s is too large ... use dt <= 0.00025 s, ...
     """
-    from manipcad.drives.params import KIND_ELASTIC, P_L, P_R
 
     worst = None
     for j, nm in enumerate(robot.joint_names):
@@ -824,7 +832,6 @@ def _events(robot: Robot, dtable, rtable, drives: bool, qd0, nx: int, stops=None
     """The plant's stick-slip friction, gear losses and hard stops (:mod:`manipcad.sim.events`):
     the rigid drives' joint-referred dry friction and gear efficiencies; ``stops`` (n, 2)
     the joints' hard stops, rad or m, or None."""
-    from manipcad.sim.events import events_part, friction_table
 
     kinds = dtable[:, P_KIND].astype(np.int64)
     rigid = drives & ((kinds == KIND_RIGID) | (kinds == KIND_RIGID_STATIC))
@@ -837,7 +844,6 @@ def _events(robot: Robot, dtable, rtable, drives: bool, qd0, nx: int, stops=None
 
 def _drive_initial_state(dtable, off, q, qd) -> np.ndarray:
     """Drive states at rest with the joint: zero current, motor at i_r·q (elastic kinds)."""
-    from manipcad.drives.params import KIND_ELASTIC, KIND_ELASTIC_STATIC, P_RATIO
 
     xd = np.zeros(off[-1])
     for j in range(len(q)):

@@ -98,7 +98,7 @@ def torque_speed_figure(req: DriveRequirements, *, dpi: int = 120):
         >>> len(torque_speed_figure(req).axes)
         3
     """
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # deferred: start-up cost: matplotlib loaded on first use
 
     fig = Figure(figsize=(5.0 * min(req.n, 3), 4.2 * math.ceil(req.n / 3)), dpi=dpi)
     cols = min(req.n, 3)
@@ -174,7 +174,7 @@ def ratio_sweep_figure(sweeps):
         >>> len(ratio_sweep_figure(sw).axes)
         2
     """
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # deferred: start-up cost: matplotlib loaded on first use
 
     sweeps = sweeps if isinstance(sweeps, list | tuple) else [sweeps]
     fig = Figure(figsize=(6.0, 3.6 * len(sweeps)))

@@ -71,7 +71,9 @@ from typing import Any
 
 import numpy as np
 
+from manipcad.catalog import compatible_pairs, drive_fields, gears, motors
 from manipcad.errors import InputError, ManipcadError
+from manipcad.fileio import atomic_write_text, dump_yaml, json_safe
 from manipcad.model.robot import (
     DRIVE_MOUNTS,
     PRISMATIC,
@@ -80,6 +82,7 @@ from manipcad.model.robot import (
     combine_bodies,
     mounts_tuple,
 )
+from manipcad.model.tree_file import robot_to_dict
 from manipcad.sizing.limits import (
     ALL_LIMITS,
     FAIL,
@@ -92,6 +95,7 @@ from manipcad.sizing.limits import (
 )
 from manipcad.sizing.motion import SampledMotion, sample_motion
 from manipcad.sizing.motor import joint_torque, motor_series
+from manipcad.sizing.requirements import required_drive
 from manipcad.sizing.stats import (
     peak,
     time_mean,
@@ -334,7 +338,6 @@ def catalogue_table(prismatic: bool = False, ws: Any = None) -> CandidateTable:
         >>> len(t) > 10000, bool(t.part(0).drive.ratio == t.ratio[0])
         (True, True)
     """
-    from manipcad.catalog import compatible_pairs, drive_fields, gears, motors
 
     m = motors(ws=ws)
     # a part without the numbers a Drive needs (rotor or gear inertia, a positive
@@ -444,7 +447,6 @@ class Candidate:
         """JSON-ready: motor, gear, maker, gear_type, ratio, mass (kg), rotor_inertia
         (J·i_r², kg·m²), objective, feasible, binding, binding_margin, worst_margin,
         reason, checks {name: {required, rating, margin, status}}."""
-        from manipcad.fileio import json_safe
 
         d = self.part.drive
         worst = [v[2] for v in self.checks.values() if math.isfinite(v[2])]
@@ -1123,7 +1125,6 @@ def _verify(robot: Robot, drives: list, masses: dict[int, float], mounts: dict[i
     """The selected joints that ``size`` (:func:`required_drive`) does not pass on some case,
     by the drive checks (:data:`ALL_LIMITS`): the joint's own position, speed and torque
     limits are the trajectory's, which no drive changes."""
-    from manipcad.sizing.requirements import required_drive
 
     arm = with_drive_masses(robot, masses, mounts).replace(drives=tuple(drives))
     bad = set()
@@ -1148,8 +1149,6 @@ def save_selection(selection: Selection, path: Any) -> Any:
     Returns:
         The path written.
     """
-    from manipcad.fileio import atomic_write_text, dump_yaml
-    from manipcad.model.tree_file import robot_to_dict
 
     lines = ["# manipcad robot, tree form (docs/robot-files.md); SI units: m, rad, kg, kg·m²,",
              "# drive fields as in robot files (motor side J kg·m², R Ω, L H, k_m N·m/A, ...).",

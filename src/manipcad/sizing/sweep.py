@@ -189,6 +189,7 @@ def _evaluate_grid(ev: _Evaluator, grid: np.ndarray, *, workers: int | None,
     """``ev(grid)``, cell by cell through :func:`manipcad.parallel.run_tasks`."""
     if workers == 1 and scheduler is None and cache_dir is None:
         return ev(grid)
+    # deferred: start-up cost: keeps manipcad.parallel out of import manipcad
     from manipcad.parallel import run_tasks
 
     chunk = max(1, min(_BLOCK // max(1, ev.t.shape[0]), math.ceil(grid.size / 16)))
@@ -247,7 +248,7 @@ def _refine_min(ev: _Evaluator, key: str, lo: float, hi: float, x0: float, v0: f
             return math.inf
         return float(val[key][0])
 
-    from scipy.optimize import minimize_scalar  # on first use
+    from scipy.optimize import minimize_scalar  # deferred: start-up cost: scipy on first use
 
     res = minimize_scalar(f, bounds=(math.log(lo), math.log(hi)), method="bounded",
                           options={"xatol": 1e-10})

@@ -14,7 +14,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from manipcad.control.files import load_regulators
 from manipcad.errors import InputError
+from manipcad.sim.simulate import period_too_long
+from manipcad.store.results import every_for
 
 #: how the run's numbers are named in messages: Python's keywords by default; the CLI
 #: passes its option names ({"dt": "--dt", "t_end": "--t-end", "every": "--every"})
@@ -105,8 +108,6 @@ def plan_run(robot, trajectory, regulator_files: Sequence[str | Path] = (), *, d
         >>> plan.t_end > 0, plan.every, plan.regulators
         (True, 1, [])
     """
-    from manipcad.control.files import load_regulators
-    from manipcad.store.results import every_for
 
     check_numbers(dt, t_end, every, names)
     robot_source = robot.name if robot_source is None else robot_source
@@ -135,7 +136,6 @@ def plan_run(robot, trajectory, regulator_files: Sequence[str | Path] = (), *, d
         raise InputError(names["dt"], "", f"{dt:g} s is longer than the run ({t_end:g} s)")
     for reg, path in zip(regs, files, strict=True):
         if reg.period > t_end:
-            from manipcad.sim.simulate import period_too_long
 
             raise InputError(path, "period", period_too_long(
                 reg.period, robot.joint_names[reg.joints[0]], t_end))

@@ -30,6 +30,7 @@ folder (one with ``metrics.json``).
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import zipfile
 import zlib
@@ -41,9 +42,11 @@ from typing import Any
 import numpy as np
 
 from manipcad.errors import InputError
-from manipcad.fileio import dump_yaml, json_safe
+from manipcad.fileio import atomic_write, dump_yaml, json_safe
 from manipcad.folders import clean_stale, write_folder
+from manipcad.report.plots import plot_errors
 from manipcad.sim.series import SERIES, result_arrays, series_columns, series_units  # noqa: F401
+from manipcad.sim.simulate import SimulationResult
 from manipcad.version import __version__
 
 #: file names inside a result folder
@@ -163,7 +166,6 @@ def every_for(dt: float, periods: Sequence[float] = ()) -> int:
         >>> every_for(1e-4)
         1
     """
-    import math
 
     steps = [int(round(float(p) / dt)) for p in periods]
     steps = [k for k in steps if k >= 1]
@@ -261,7 +263,6 @@ def _write_all(tmp: Path, result, inputs: Mapping[str, Any], joint_types, status
                                  encoding="utf-8")
 
     if plot:
-        from manipcad.report.plots import plot_errors
 
         title = None
         if status != "ok":
@@ -281,7 +282,6 @@ def write_csv(result, path: str | Path, *, joint_types: Sequence[str] | None = N
     Returns:
         The path written.
     """
-    from manipcad.fileio import atomic_write
 
     columns = series_columns(result, joint_types)
     header = [h for h, _ in columns]
@@ -343,7 +343,6 @@ def load_result(out_dir: str | Path):
             not an npz archive, an array missing or of the wrong shape, JSON
             that does not parse.
     """
-    from manipcad.sim.simulate import SimulationResult
 
     out = Path(out_dir)
     if not out.is_dir():

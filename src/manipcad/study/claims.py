@@ -74,6 +74,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import functools
+import gc
 import json
 import math
 import os
@@ -86,10 +87,20 @@ from typing import Any
 
 import numpy as np
 
+import manipcad
+from manipcad.control import synthesize
+from manipcad.control.design import inertia_range
+from manipcad.dynamics import mass_matrix
 from manipcad.errors import InputError, ManipcadWarning
 from manipcad.fileio import json_safe, writable_folder
 from manipcad.folders import clean_stale, temp_dir
 from manipcad.model.robot import Robot
+from manipcad.parallel import Pool, Split, run_tasks
+from manipcad.parallel.child import ChildCall
+from manipcad.parallel.executor import check_workers, default_workers, progress_reporter
+from manipcad.report.claims import claims_html, draw_band, panel_groups, save_bands
+from manipcad.sim import SimulationDiverged, simulate
+from manipcad.sizing import required_drive
 from manipcad.study.fig3 import (
     LAWS,
     LIFT,
@@ -100,6 +111,7 @@ from manipcad.study.fig3 import (
     control_period,
     support_regulators,
 )
+from manipcad.trajectories import cosine, gripper_speed
 
 #: the grids: speed scales (1 included) and load ratios (1.4 to 10)
 #: (None: the arm's own load ratio, the arm unchanged; on the light arm the cell at speed
@@ -208,7 +220,6 @@ def turn_load_range(arm: Robot, stroke: float = STROKE) -> tuple[float, float]:
         >>> round(lo, 4), round(hi, 4)
         (0.4738, 0.7652)
     """
-    from manipcad.dynamics import mass_matrix
 
     j, k = arm.joint_index(TURN), arm.joint_index(REACH)
     q = np.zeros((201, arm.n))
@@ -360,7 +371,6 @@ def laws(speed_scale: float, stroke: float = STROKE):
         >>> laws(2.0).duration
         0.8
     """
-    from manipcad.trajectories import cosine
 
     s = float(speed_scale)
     amp = list(LAWS["amplitude"])
@@ -379,7 +389,6 @@ def sizing_failures(arm: Robot, speed_scale: float, stroke: float = STROKE) -> l
         >>> sizing_failures(manipcad.load_robot("cylindrical"), 1.0)
         []
     """
-    from manipcad.sizing import required_drive
 
     req = required_drive(arm, laws(speed_scale, stroke), dt=1e-3)
     return [f"{arm.joint_names[j]}: {name}" for name, c in req.checks.items()
@@ -494,8 +503,6 @@ def cell_plan(*, speed_scale: float, load_ratio: float, arm: Robot, dt: float,
         >>> len(runs), runs[0]["label"], runs[0]["t_end"], round(state["step_t_end"], 3)
         (14, 'none_sce', 1.6, 0.514)
     """
-    from manipcad.control.design import inertia_range
-    from manipcad.trajectories import gripper_speed
 
     cell_arm, info = row if row is not None else arm_with_load_ratio(
         arm, load_ratio, max_payload=max_payload)
@@ -541,8 +548,6 @@ def claims_run(*, arm: Robot, label: str, method: str, options: dict, dt: float,
         {"rise_time": s, "overshoot": fraction, "sliding_rate": 1/s} (step), values None
         where not finite}; metrics None when skipped.
     """
-    from manipcad.control import synthesize
-    from manipcad.sim import SimulationDiverged, simulate
 
     out = {"label": label, "skipped": None, "diverged": False, "warning": None,
            "saturation": 0.0, "metrics": None}
@@ -636,14 +641,11 @@ def warm_worker() -> None:
     (spawned, ``--scheduler``) spent 0.22-0.24 s per study in the collector without,
     0.02 s with. Cyclic garbage among the frozen objects is not collected later
     (reference counting still frees the rest)."""
-    import gc
 
-    import matplotlib.backends.backend_agg  # noqa: F401 - imported ahead (see above)
+    # deferred: the warm-up itself: imported ahead in the worker (see above)
+    import matplotlib.backends.backend_agg  # noqa: F401
     import matplotlib.figure  # noqa: F401
 
-    import manipcad
-    from manipcad.control import synthesize
-    from manipcad.sim import simulate
 
     arm = manipcad.load_robot(ARMS["light"][0])
     period = control_period(1e-4)
@@ -749,7 +751,6 @@ def resolve_arm(arm: str | Robot, study: str = "claims") -> tuple[Robot, str, fl
         >>> robot.name, m
         ('cylindrical arm, heavy preset (5 kg payload)', 5.0)
     """
-    import manipcad
 
     if isinstance(arm, Robot):
         robot, arm_name, max_payload = arm, arm.name, MAX_PAYLOAD
@@ -807,7 +808,6 @@ def run_claims(out_dir: str | Path, *, arm: str | Robot = "light", grid: str = "
         >>> doc = run_claims("/tmp/claims", workers=1)  # doctest: +SKIP
         >>> sorted(doc["claims"])  # doctest: +SKIP
     """
-    from manipcad.parallel.executor import check_workers
 
     check_workers(workers, scheduler, "study claims")
     if grid not in GRIDS:
@@ -841,9 +841,6 @@ def _run_claims(out: Path, robot: Robot, arm_name: str, max_payload: float, g: d
                 size: Callable[[], list[dict]], dt: float, workers: int | None,
                 scheduler: str | None, progress: bool | Callable[[float], None]) -> dict:
     """:func:`run_claims` once its arguments are checked and ``out`` exists."""
-    from manipcad.parallel import Pool
-    from manipcad.parallel.child import ChildCall
-    from manipcad.parallel.executor import default_workers
 
     with ExitStack() as stack:
         # a fresh run on a cluster: the rows are sized in a child process forked first,
@@ -874,7 +871,6 @@ def _compute_cells(out: Path, robot: Robot, max_payload: float, g: dict, sized: 
                    scheduler: str | None) -> tuple[list[dict], Any]:
     """The grid's cells (a time-scaled cell of a row once), computed or from the cache:
     the tasks and their results."""
-    from manipcad.parallel import Split, run_tasks
 
     targets, S = g["load_ratio"], len(g["speed_scale"])
     mine = list({(targets[i], s_run): {"speed_scale": s_run, "load_ratio": targets[i]}
@@ -993,7 +989,6 @@ def _cells_progress(stack: ExitStack, progress, total: int):
     fraction of the computed cells done, shown in whole cells of the grid's ``total`` (a
     time-scaled cell is computed once for several) as a bar (or given as a fraction 0..1
     to a callable ``progress``); False without progress."""
-    from manipcad.parallel.executor import progress_reporter
 
     if not progress:
         return False
@@ -1065,8 +1060,6 @@ def _write(out: Path, doc: dict, pool=None) -> None:
     group's rows encoded there (:func:`manipcad.report.claims.draw_band`): the same
     pixels as drawn whole.
     """
-    from manipcad.parallel import run_tasks
-    from manipcad.report.claims import claims_html, draw_band, panel_groups, save_bands
 
     tmp = temp_dir(out / "claims")  # named as the folder writer's: cleaned if we die
     try:

@@ -54,11 +54,19 @@ from typing import Any
 
 import numpy as np
 
-from manipcad.control import realization_complexity
+import manipcad
+from manipcad.control import pid, realization_complexity, synthesize
+from manipcad.control.regulator import u_limit
+from manipcad.drives.linear import drive_gain, mechanical_time_constant
+from manipcad.dynamics import mass_matrix
 from manipcad.errors import InputError, ManipcadError
 from manipcad.fileio import json_safe, writable_folder
 from manipcad.folders import write_folder
 from manipcad.model.robot import Robot
+from manipcad.report.fig3 import fig3_html, plot_fig3
+from manipcad.sim import SimulationDiverged, simulate
+from manipcad.sim.checks import run_checks
+from manipcad.trajectories import cosine, gripper_speed
 from manipcad.version import __version__
 
 #: the robot of the study (catalog name)
@@ -152,7 +160,6 @@ def control_period(dt: float, period: float = 1e-4) -> float:
 
 def _pid_design(drive, H: float, wn: float, zeta: float) -> tuple[float, float]:
     """PD gains (k_p V/unit, k_d V·s/unit) placing the poles of K/(s(T s + 1)) at ω_n, ζ."""
-    from manipcad.drives.linear import drive_gain, mechanical_time_constant
 
     K = drive.k_u * drive_gain(drive, H, 0.0) / drive.ratio
     T = mechanical_time_constant(drive, H, 0.0)
@@ -171,9 +178,6 @@ def support_regulators(robot: Robot, period: float, *, bandwidth: float = 200.0)
     k_ff = k_w·i_r/k_u cancels the back-EMF at the reference speed; the output
     is clipped at the amplifier's limit.
     """
-    from manipcad.control import pid
-    from manipcad.control.regulator import u_limit
-    from manipcad.dynamics import mass_matrix
 
     H = mass_matrix(robot, np.zeros(robot.n), drives=False)
     out = []
@@ -192,7 +196,6 @@ def support_regulators(robot: Robot, period: float, *, bandwidth: float = 200.0)
 
 def turn_inertia(robot: Robot) -> dict[str, float]:
     """H_11 (links only, kg·m²) at the smallest (q3 = 0) and largest (q3 = 0.5 m) reach."""
-    from manipcad.dynamics import mass_matrix
 
     j, k = robot.joint_index(TURN), robot.joint_index(REACH)
     out = {}
@@ -386,7 +389,9 @@ class _CallbackBar:
 def _progress(enabled):
     if callable(enabled):
         return _CallbackBar(enabled)
-    from rich.console import Console
+    from rich.console import Console  # deferred: start-up cost: rich loaded on first use
+
+    # deferred: start-up cost: rich loaded on first use
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -466,11 +471,6 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
         >>> sorted(res.files)  # doctest: +SKIP
         ['fig3.json', 'fig3.png', 'report.html']
     """
-    import manipcad
-    from manipcad.report.fig3 import fig3_html, plot_fig3
-    from manipcad.sim import SimulationDiverged, simulate
-    from manipcad.sim.checks import run_checks
-    from manipcad.trajectories import cosine, gripper_speed
 
     t_end = _check_args(dt, t_end, step, step_t_end)
     out = writable_folder(out_dir)
@@ -484,7 +484,6 @@ def run_fig3(out_dir: str | Path, *, dt: float = 1e-4, methods: Sequence[str] | 
     period = control_period(dt)
     traj = cosine(list(LAWS["amplitude"]), list(LAWS["omega"]), LAWS["duration"])
     support = support_regulators(arm, period)
-    from manipcad.control import synthesize
 
     data: dict[str, Any] = {
         "study": "fig3",

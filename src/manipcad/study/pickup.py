@@ -41,10 +41,19 @@ from typing import Any
 
 import numpy as np
 
+import manipcad
+from manipcad.control import synthesize
+from manipcad.control.design import inertia_range
+from manipcad.control.estimator import PayloadEstimator
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.fileio import json_safe, writable_folder
 from manipcad.folders import write_folder
 from manipcad.model.robot import Robot
+from manipcad.report.pickup import plot_pickup
+from manipcad.sim import simulate
+from manipcad.sim.simulate import INTEGRATORS
+from manipcad.study.fig3 import LAWS, LIFT, REACH, TURN, support_regulators
+from manipcad.trajectories import cosine
 from manipcad.version import __version__
 
 #: the adaptive methods of the study (they read H_ii, c_i, Q_i or look up a table over H_ii)
@@ -117,8 +126,6 @@ def _check(mass, t_pick, t_end, dt, current_noise, forgetting) -> None:
 
 def _setup(arm: Robot, period: float, t_end: float):
     """(joints under study, trajectory, support regulators) for the arm."""
-    from manipcad.study.fig3 import LAWS, LIFT, REACH, TURN, support_regulators
-    from manipcad.trajectories import cosine
 
     if set((TURN, LIFT, REACH)) <= set(arm.joint_names):
         traj = cosine(list(LAWS["amplitude"]), list(LAWS["omega"]), max(LAWS["duration"],
@@ -167,12 +174,6 @@ def run_pickup(out_dir: str | Path, *, robot: Robot | str | None = None, mass: f
         >>> sorted(res.data["max_error_after_pickup"])  # doctest: +SKIP
         ['ace_de', 'ace_tf', 'asvs', 'lqr_gs']
     """
-    import manipcad
-    from manipcad.control import synthesize
-    from manipcad.control.design import inertia_range
-    from manipcad.control.estimator import PayloadEstimator
-    from manipcad.sim import simulate
-    from manipcad.sim.simulate import INTEGRATORS
 
     _check(mass, t_pick, t_end, dt, current_noise, forgetting)
     if integrator not in INTEGRATORS:
@@ -300,7 +301,6 @@ def findings(data: dict) -> list[str]:
 
 
 def _write(out: Path, data: dict, runs: dict) -> dict[str, Path]:
-    from manipcad.report.pickup import plot_pickup
 
     with write_folder(out) as tmp:
         (tmp / "pickup.json").write_text(json.dumps(json_safe(data), indent=2,

@@ -44,9 +44,15 @@ from typing import Any
 
 import numpy as np
 
+from manipcad.control import synthesize
+from manipcad.control.registry import METHODS as REGISTRY
 from manipcad.errors import InputError, ManipcadWarning
 from manipcad.fileio import json_safe, writable_folder
 from manipcad.model.robot import Robot
+from manipcad.parallel import run_tasks
+from manipcad.parallel.executor import check_workers
+from manipcad.report.robustness import plot_robustness
+from manipcad.sim import SimulationDiverged, simulate
 from manipcad.study.claims import feasible_speed_scale, laws, resolve_arm
 from manipcad.study.fig3 import (
     LAWS,
@@ -118,8 +124,6 @@ def robustness_sample(*, sample: int, arm: Robot, payload: float, uncertainty: f
         {"max_error": {method: rad or None}, "diverged": [methods], "skipped":
         {method: reason}, "factors": see :func:`perturbed_arm`}.
     """
-    from manipcad.control import synthesize
-    from manipcad.sim import SimulationDiverged, simulate
 
     nominal = arm.with_payload(payload, np.asarray(arm.tool_p, dtype=float), link=REACH) \
         if payload > 0 else arm
@@ -150,7 +154,6 @@ def robustness_sample(*, sample: int, arm: Robot, payload: float, uncertainty: f
 
 
 def _check(samples, uncertainty, methods, speed_scale, seed, dt, t_end):
-    from manipcad.control.registry import METHODS as REGISTRY
 
     if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= 10000:
         raise InputError("--samples", "", f"must be a whole number in [1, 10000], got "
@@ -216,10 +219,8 @@ def run_robustness(out_dir: str | Path, *, arm: str | Robot = "light", samples: 
         >>> from manipcad.study.robustness import run_robustness
         >>> doc = run_robustness("/tmp/rob", samples=4, workers=1)  # doctest: +SKIP
     """
-    from manipcad.parallel import run_tasks
 
     methods = _check(samples, uncertainty, methods, speed_scale, seed, dt, t_end)
-    from manipcad.parallel.executor import check_workers
 
     check_workers(workers, scheduler, "study robustness")
     out = writable_folder(out_dir)
@@ -280,7 +281,6 @@ def run_robustness(out_dir: str | Path, *, arm: str | Robot = "light", samples: 
 
 def _write(out: Path, doc: dict) -> None:
     """robustness.json and robustness.png, each written to a temporary file and renamed."""
-    from manipcad.report.robustness import plot_robustness
 
     tmp = Path(tempfile.mkdtemp(prefix=".robustness.", dir=out))
     try:

@@ -47,6 +47,7 @@ from manipcad.kinematics.forward import frames, resolve_point
 from manipcad.kinematics.inverse import KinematicsError, inverse_kinematics
 from manipcad.kinematics.jacobian import _jacobian_from_frames, jacobian_dot
 from manipcad.kinematics.rotations import rotation_vector
+from manipcad.model.load import catalog_names, load_robot
 from manipcad.model.robot import Robot
 from manipcad.trajectories.base import Trajectory, floats, positive, vector
 from manipcad.trajectories.quintic import quintic_profile
@@ -90,7 +91,6 @@ def path_profile(kind: str, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
 
 def _robot_and_ref(robot: Robot | str | Path) -> tuple[Robot, str | None]:
     """The robot and the name a file should use for it (None: find it when saving)."""
-    from manipcad.model.load import load_robot
 
     if isinstance(robot, Robot):
         return robot, None
@@ -111,7 +111,6 @@ def catalog_name_of(robot: Robot) -> str:
         >>> catalog_name_of(manipcad.load_robot("puma560"))
         'puma560'
     """
-    from manipcad.model.load import catalog_names, load_robot
 
     try:
         names = catalog_names()
@@ -207,7 +206,8 @@ class CartesianTrajectory(Trajectory):
                     f"t = {t:.4g} s (q = {np.array2string(q, precision=4)})", q=q.copy())
             return qd
 
-        from scipy.integrate import solve_ivp  # lazy: 1-3 s of import, rarely needed
+        # deferred: start-up cost: scipy.integrate, 1-3 s of import, rarely needed
+        from scipy.integrate import solve_ivp
 
         try:
             sol = solve_ivp(rates, (0.0, T), self.q_start, method="DOP853", rtol=_RTOL,

@@ -49,6 +49,7 @@ from manipcad.fileio import (
     read_yaml,
     validation_error,
 )
+from manipcad.model.load import load_robot
 from manipcad.model.robot import Robot
 from manipcad.trajectories.base import Trajectory
 from manipcad.trajectories.cartesian import circle, line
@@ -256,7 +257,6 @@ def _check_finite_samples(traj: Trajectory, source: str, kind: str) -> None:
 
 def _resolve_robot(source: str, ref: str | None, robot: Robot | None,
                    base_dir: Path | None) -> Robot:
-    from manipcad.model.load import load_robot
 
     if robot is not None:
         return robot

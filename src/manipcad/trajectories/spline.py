@@ -35,7 +35,8 @@ class SplineTrajectory(Trajectory):
 
     def __init__(self, times: np.ndarray, points: np.ndarray) -> None:
         self.times, self.points = times, points
-        from scipy.interpolate import CubicSpline  # 1 s to import: on first use
+        # deferred: start-up cost: scipy.interpolate, 1 s to import, on first use
+        from scipy.interpolate import CubicSpline
 
         self._q = CubicSpline(times, points, axis=0, bc_type="clamped")
         self._qd = self._q.derivative(1)

@@ -16,6 +16,19 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from manipcad.errors import InputError
+from manipcad.ui.logic import MAX_UPLOAD, open_workspace
+from manipcad.ui.security import (
+    MULTIPART_SLACK,
+    BodyCap,
+    HostCheck,
+    TokenGate,
+    is_loopback,
+    quiet_disconnects,
+    token_for,
+)
+from manipcad.ui.worker import stop_spare
+
 #: seconds a page's connection may stall before NiceGUI drops it (and the page reloads)
 RECONNECT_TIMEOUT = 10.0
 
@@ -36,20 +49,10 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
     Raises:
         InputError: a workspace that cannot be opened or made, a bad port.
     """
-    from nicegui import app, ui
+    from nicegui import app, ui  # deferred: start-up cost: nicegui loaded on first use
 
-    from manipcad.errors import InputError
+    # deferred: start-up cost: manipcad.ui.pages loads fastapi, nicegui
     from manipcad.ui import pages
-    from manipcad.ui.logic import MAX_UPLOAD, open_workspace
-    from manipcad.ui.security import (
-        MULTIPART_SLACK,
-        BodyCap,
-        HostCheck,
-        TokenGate,
-        is_loopback,
-        quiet_disconnects,
-        token_for,
-    )
 
     if not 0 < int(port) < 65536:
         raise InputError("--port", "", f"must be 1..65535, got {port}")
@@ -67,7 +70,6 @@ def serve(ws: str | Path, *, host: str = "127.0.0.1", port: int = 8080, show: bo
     elif is_loopback(host):        # no token: only loopback names (no DNS rebinding)
         app.add_middleware(HostCheck)
     quiet_disconnects(app)         # a page left while loading: no traceback per cut request
-    from manipcad.ui.worker import stop_spare
 
     # the worker that runs simulations, verifications and studies is started when a page
     # that runs them is opened (pages.prestart), not here: a session that only looks at

@@ -16,6 +16,7 @@ torques N·m (N), voltages V, currents A.
 
 from __future__ import annotations
 
+import io
 import json
 import tempfile
 import warnings
@@ -25,12 +26,40 @@ from typing import Any
 
 import numpy as np
 
+from manipcad.control import save_regulators, synthesize
+from manipcad.control.lqr import GAIN_NAMES
+from manipcad.control.registry import METHODS
+from manipcad.dynamics.identification import (
+    check_estimate,
+    identify_payload,
+    load_torque_data,
+    result_torque_data,
+)
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.expert import Requirements, recommend
+from manipcad.fileio import dump_yaml
 from manipcad.kinematics.forward import stick_points, tool_pose
+from manipcad.model import catalog_names, load_robot
+from manipcad.model.load import referenced_files
 from manipcad.model.robot import loader_notes
 from manipcad.model.tree_file import save_robot
+from manipcad.model.yaml_robot import DriveSpec, build_drive, load_gear, load_motor
 from manipcad.report.projection import VIEW, project
+from manipcad.sim.checks import RunChecks
+from manipcad.sim.metrics import armature_voltage
+from manipcad.sizing import ratio_sweep, torque_speed_plot
+from manipcad.sizing.limits import voltage_limit
+from manipcad.sizing.plot import ratio_sweep_figure
+from manipcad.sizing.select import save_selection, select_drives
+from manipcad.store.results import METRICS_JSON, load_result
+from manipcad.trajectories import (
+    gripper_speed,
+    load_trajectory,
+    save_trajectory,
+    trajectory_from_dict,
+)
 from manipcad.workspace import Workspace, check_name
+from manipcad.workspace.runs import COMPARE_METRICS
 
 #: largest upload accepted, bytes (robot, trajectory, regulator files are far smaller)
 MAX_UPLOAD = 2_000_000
@@ -102,7 +131,6 @@ def robot_choices(ws: Workspace) -> list[str]:
         >>> "puma560" in robot_choices(open_workspace(tempfile.mkdtemp()))
         True
     """
-    from manipcad.model import catalog_names
 
     return list(catalog_names()) + [i.ref for i in ws.list("robots")]
 
@@ -127,7 +155,6 @@ def load_robot_ref(ws: Workspace, ref: str):
         >>> arm.n
         3
     """
-    from manipcad.model import catalog_names, load_robot
 
     if ref in catalog_names():
         source = ref
@@ -317,7 +344,7 @@ def stick_view(robot, q: Sequence[float], azimuth: float = VIEW[0],
 def stick_figure(robot, q: Sequence[float]):
     """A Plotly 3-D figure of :func:`stick_points` (axes in m, equal scale): the
     interactive WebGL view (turned with the mouse), drawn on demand."""
-    import plotly.graph_objects as go
+    import plotly.graph_objects as go  # deferred: start-up cost: plotly loaded on first use
 
     segs = stick_points(robot, q)
     xs, ys, zs = [], [], []
@@ -383,7 +410,6 @@ def _self_contained(path: Path) -> None:
     Raises:
         InputError: naming the field and the file it names.
     """
-    from manipcad.model.load import referenced_files
 
     refs = referenced_files(path)
     if refs:
@@ -414,7 +440,6 @@ def make_trajectory(form: Mapping[str, Any], robot):
         ...                  "q_end": [1.0, 0.1, 0.2], "duration": 1.0}, arm).duration
         1.0
     """
-    from manipcad.trajectories import trajectory_from_dict
 
     traj = trajectory_from_dict(dict(form), "trajectory form", robot=robot)
     if traj.n != robot.n:
@@ -429,7 +454,6 @@ def trajectory_preview(traj, robot, samples: int = 201) -> dict[str, Any]:
     Returns:
         ``{"t": (K,) s, "q": (K, n) rad|m, "qd": (K, n), "speed": (K,) m/s}``.
     """
-    from manipcad.trajectories import gripper_speed
 
     duration = float(traj.duration) if np.isfinite(traj.duration) else 1.0
     t = np.linspace(0.0, duration, samples)
@@ -439,7 +463,6 @@ def trajectory_preview(traj, robot, samples: int = 201) -> dict[str, Any]:
 
 def save_trajectory_to(ws: Workspace, traj, name: str, *, force: bool = False):
     """Save a trajectory into the workspace as ``trajectories/NAME`` (the file schema)."""
-    from manipcad.trajectories import save_trajectory
 
     check_name(name, "name")
     with tempfile.TemporaryDirectory() as tmp:
@@ -449,7 +472,6 @@ def save_trajectory_to(ws: Workspace, traj, name: str, *, force: bool = False):
 
 def load_trajectory_ref(ws: Workspace, name: str, robot):
     """Load ``trajectories/NAME`` from the workspace (name checked)."""
-    from manipcad.trajectories import load_trajectory
 
     check_name(name, "trajectory")
     return load_trajectory(ws.resolve("trajectories", name), robot=robot)
@@ -473,7 +495,6 @@ def recommend_for(form: Mapping[str, Any], robot=None, trajectory=None, *,
         InputError: a bad field (naming ``requirements form``, the field and why);
             the expert system's incomplete/contradictory errors.
     """
-    from manipcad.expert import Requirements, recommend
 
     data = {k: v for k, v in form.items() if v not in (None, "")}
     if "transmission" in data:
@@ -504,7 +525,6 @@ def synthesize_to(ws: Workspace, robot, method: str, *, joints: str | Sequence =
         ``(regulators, item)``: the list of :class:`~manipcad.control.Regulator` and
         the workspace item.
     """
-    from manipcad.control import save_regulators, synthesize
 
     check_name(name, "name")
     options = {} if period is None else {"period": float(period)}
@@ -519,7 +539,6 @@ def synthesize_to(ws: Workspace, robot, method: str, *, joints: str | Sequence =
 
 def methods() -> list[str]:
     """The registry's synthesis method names."""
-    from manipcad.control.registry import METHODS
 
     return list(METHODS)
 
@@ -537,7 +556,6 @@ def result_rows(ws: Workspace, where: str | None = None) -> list[dict[str, Any]]
     Raises:
         InputError: a bad filter (naming ``where``).
     """
-    from manipcad.workspace.runs import COMPARE_METRICS
 
     rows = []
     for item in ws.list("results", where=where or None):
@@ -564,8 +582,6 @@ def check_rows(ws: Workspace, name: str) -> tuple[list[dict[str, Any]], str]:
         digits and "fail" marked "✗ fail", the summary line); ([], "") for a result
         stored without checks.
     """
-    from manipcad.sim.checks import RunChecks
-    from manipcad.store.results import METRICS_JSON
 
     doc = json.loads((ws.path(ws.get(f"results/{name}")) / METRICS_JSON).read_text())
     if not isinstance(doc.get("checks"), dict):
@@ -592,10 +608,9 @@ def overlay_figure(ws: Workspace, names: Sequence[str], quantity: str = "error")
     Returns:
         A ``plotly.graph_objects.Figure``.
     """
-    import plotly.graph_objects as go
-    from plotly.subplots import make_subplots
+    import plotly.graph_objects as go  # deferred: start-up cost: plotly loaded on first use
+    from plotly.subplots import make_subplots  # deferred: start-up cost: plotly loaded on first use
 
-    from manipcad.store.results import load_result
 
     loaded = []
     for name in names:
@@ -652,8 +667,6 @@ def result_series(res, quantity: str, folder: str | Path | None = None) -> np.nd
                          f"{', '.join(RESULT_SERIES)}")
     if quantity not in ("voltage", "power"):
         return np.asarray(getattr(res, quantity))
-    from manipcad.model import load_robot
-    from manipcad.sim.metrics import armature_voltage
 
     path = Path(folder or "") / "inputs" / "robot.yaml"
     if folder is None or not path.is_file():
@@ -673,7 +686,7 @@ def result_series(res, quantity: str, folder: str | Path | None = None) -> np.nd
 
 def series_figure(t, y, labels: Sequence[str], title: str, yunit: str):
     """A Plotly figure of columns of ``y`` (K, m) against ``t`` (K,) s."""
-    import plotly.graph_objects as go
+    import plotly.graph_objects as go  # deferred: start-up cost: plotly loaded on first use
 
     fig = go.Figure([go.Scatter(x=np.asarray(t), y=np.asarray(y)[:, k], mode="lines",
                                 name=lab) for k, lab in enumerate(labels)])
@@ -702,7 +715,6 @@ def drive_rows(req) -> list[dict[str, Any]]:
 def torque_speed_png(req) -> bytes:
     """The torque-speed figure of :func:`manipcad.torque_speed_plot` (the motors'
     envelopes and the required points), as PNG bytes for the page."""
-    from manipcad.sizing import torque_speed_plot
 
     with tempfile.TemporaryDirectory() as tmp:
         return torque_speed_plot(req, Path(tmp) / "torque-speed.png").read_bytes()
@@ -724,7 +736,6 @@ def identify_upload(robot, filename: str, data: bytes, *, com: Sequence[float] |
     Raises:
         InputError: too big, not .csv, or the loader's error naming the file.
     """
-    from manipcad.dynamics.identification import load_torque_data
 
     base = Path(filename or "").name or "upload.csv"
     if len(data) > MAX_UPLOAD:
@@ -748,7 +759,6 @@ def _identify(robot, d, source: str, com: Sequence[float] | None):
     """:func:`~manipcad.dynamics.identification.identify_payload` on measured data ``d``
     (a :class:`~manipcad.dynamics.identification.TorqueData`): its torques, else its
     currents; a nan estimate refused naming ``source``."""
-    from manipcad.dynamics.identification import check_estimate, identify_payload
 
     kw = {"tau": d.tau} if d.tau is not None else {"current": d.current}
     with warnings.catch_warnings():
@@ -774,8 +784,6 @@ def identify_result(ws: Workspace, name: str, robot, *, com: Sequence[float] | N
     Raises:
         InputError: no such result, other joints, data that determine no estimate.
     """
-    from manipcad.dynamics.identification import result_torque_data
-    from manipcad.store.results import load_result
 
     name = name.removeprefix("results/")
     check_name(name, "result")
@@ -853,8 +861,6 @@ def part_source(ws: Workspace, kind: str, ref: str) -> str:
         >>> part_source(open_workspace(tempfile.mkdtemp()), "motors", "maxon_re40_148877")
         'maxon_re40_148877'
     """
-    from manipcad.model.load import catalog_names
-
     if ref in catalog_names(kind):
         return ref
     head, _, name = ref.partition("/")
@@ -884,9 +890,6 @@ def library_rows(ws: Workspace, kind: str) -> list[dict[str, Any]]:
         >>> rows[0]["origin"], "ratio" in rows[0]
         ('catalog', True)
     """
-    from manipcad.model.load import catalog_names
-    from manipcad.model.yaml_robot import load_gear, load_motor
-
     if kind not in ("motors", "gears"):
         raise InputError("library", "", f"{kind!r}: expected motors or gears")
     load = load_motor if kind == "motors" else load_gear
@@ -936,7 +939,6 @@ def add_part(ws: Workspace, kind: str, name: str, form: Mapping[str, Any], *,
         ...          source="test").ref
         'gears/g50'
     """
-    from manipcad.fileio import dump_yaml
 
     if kind not in ("motors", "gears"):
         raise InputError("library", "", f"{kind!r}: expected motors or gears")
@@ -988,7 +990,6 @@ def attach_drive(ws: Workspace, robot, joint: int | str, motor: str, gears: Sequ
         >>> item.ref, arm.drives[0].gear
         ('robots/arm2', 'maxon_gp42c_43')
     """
-    from manipcad.model.yaml_robot import DriveSpec, build_drive
 
     check_name(name, "name")
     try:
@@ -1025,9 +1026,8 @@ def required_series_figures(req) -> dict[str, Any]:
     Returns:
         ``{"current": Figure, "voltage": Figure, "power": Figure}``.
     """
-    import plotly.graph_objects as go
+    import plotly.graph_objects as go  # deferred: start-up cost: plotly loaded on first use
 
-    from manipcad.sizing.limits import voltage_limit
 
     palette = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
                "#7f7f7f", "#bcbd22", "#17becf")
@@ -1078,7 +1078,6 @@ def ratio_sweep_for(robot, traj, joint: int | str, lo: float, hi: float, n: int)
     Raises:
         InputError: bad bounds (naming ``sweep form``), or ratio_sweep's own errors.
     """
-    from manipcad.sizing import ratio_sweep
 
     lo, hi, n = float(lo), float(hi), int(n)
     if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi and 2 <= n <= 100000):
@@ -1090,9 +1089,7 @@ def ratio_sweep_for(robot, traj, joint: int | str, lo: float, hi: float, n: int)
 def ratio_sweep_png(sweep) -> bytes:
     """:func:`manipcad.sizing.plot.ratio_sweep_figure` (the figure of ``size --sweep-plot``),
     as PNG bytes for the page."""
-    import io
 
-    from manipcad.sizing.plot import ratio_sweep_figure
 
     buf = io.BytesIO()
     ratio_sweep_figure(sweep).savefig(buf, format="png", dpi=110)
@@ -1141,7 +1138,6 @@ def select_drives_along(robot, traj, *, payload_range: Sequence[float] = (0.0, 0
     """The selection of :func:`select_drives_for` without the workspace's index (so it may
     run in a worker thread): ``traj`` a trajectory, ``parts`` the workspace folder whose
     motor and gear files join the catalogue (None: the catalogue alone)."""
-    from manipcad.sizing.select import select_drives
 
     def names(text: str) -> list[str] | None:
         out = [x.strip() for x in str(text or "").split(",") if x.strip()]
@@ -1156,7 +1152,6 @@ def select_drives_along(robot, traj, *, payload_range: Sequence[float] = (0.0, 0
 def save_selected(ws: Workspace, sel, name: str, *, force: bool = False):
     """Save a selection's robot into the workspace as ``robots/NAME`` (the file
     :func:`manipcad.sizing.select.save_selection` writes); returns the item."""
-    from manipcad.sizing.select import save_selection
 
     check_name(name, "name")
     with tempfile.TemporaryDirectory() as tmp:
@@ -1209,10 +1204,9 @@ def gain_table_figure(reg):
         >>> gain_table_figure(manipcad.synthesize(arm, "turn", "pid")) is None
         True
     """
-    import plotly.graph_objects as go
-    from plotly.subplots import make_subplots
+    import plotly.graph_objects as go  # deferred: start-up cost: plotly loaded on first use
+    from plotly.subplots import make_subplots  # deferred: start-up cost: plotly loaded on first use
 
-    from manipcad.control.lqr import GAIN_NAMES
 
     table = (reg.design or {}).get("table")
     if table is None or len(table.H) < 2:

@@ -21,10 +21,26 @@ from __future__ import annotations
 import itertools
 import multiprocessing as mp
 import queue
+import shutil
+import tempfile
 import threading
 import time
+import warnings
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
+
+from manipcad.control import synthesize
+from manipcad.design import DesignNotMet, run_design
+from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.model import load_robot
+from manipcad.sim import SimulationDiverged, simulate
+from manipcad.sim.checks import run_checks
+from manipcad.store.plan import NAMES, plan_run
+from manipcad.study import run_fig3
+from manipcad.study.claims import run_claims
+from manipcad.ui.logic import load_robot_ref, load_trajectory_ref, open_workspace, recommend_for
+from manipcad.workspace import Workspace, check_name
 
 
 @dataclass
@@ -87,11 +103,7 @@ class StudySpec:
         Raises:
             InputError: a bad name, kind or argument (the study functions' own checks).
         """
-        import tempfile
-        from pathlib import Path
 
-        from manipcad.errors import InputError
-        from manipcad.workspace import Workspace, check_name
 
         check_name(self.name, "study name")
         if self.study not in ("fig3", "claims"):
@@ -103,12 +115,10 @@ class StudySpec:
         with tempfile.TemporaryDirectory() as tmp:
             folder = Path(tmp) / "study"
             if self.study == "fig3":
-                from manipcad.study import run_fig3
 
                 run_fig3(folder, dt=self.dt, t_end=self.t_end, methods=self.methods,
                          progress=cb)
             else:
-                from manipcad.study.claims import run_claims
 
                 run_claims(folder, grid=self.grid, workers=1, dt=self.dt, progress=cb)
             files = sorted(p.name for p in folder.iterdir() if p.is_file())
@@ -141,12 +151,6 @@ class VerifySpec:
         Raises:
             InputError: a bad reference or form field (the API's own checks).
         """
-        from manipcad.ui.logic import (
-            load_robot_ref,
-            load_trajectory_ref,
-            open_workspace,
-            recommend_for,
-        )
 
         ws = open_workspace(self.workspace)
         arm, _ = load_robot_ref(ws, self.robot)
@@ -194,13 +198,7 @@ class DesignSpec:
         Raises:
             InputError: a bad name, reference or form field (the API's own checks).
         """
-        import shutil
-        import tempfile
-        from pathlib import Path
 
-        from manipcad.design import DesignNotMet, run_design
-        from manipcad.ui.logic import load_robot_ref, load_trajectory_ref, open_workspace
-        from manipcad.workspace import check_name
 
         check_name(self.name, "design name")
         ws = open_workspace(self.workspace)
@@ -248,13 +246,7 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
         InputError: a bad reference or value; ManipcadError: the run failed
             (diverged at t, joint).
     """
-    import warnings
 
-    from manipcad.errors import ManipcadError, ManipcadWarning
-    from manipcad.sim import SimulationDiverged, simulate
-    from manipcad.store.plan import NAMES, plan_run
-    from manipcad.ui.logic import load_robot_ref, load_trajectory_ref, open_workspace
-    from manipcad.workspace import check_name
 
     ws = open_workspace(spec.workspace)
     arm, _ = load_robot_ref(ws, spec.robot)
@@ -288,7 +280,6 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
                                        status="diverged", message=str(exc))
                 raise ManipcadError(f"{exc}; the partial result is {item.name}") from None
             raise ManipcadError(f"{exc}; nothing was stored") from None
-        from manipcad.sim.checks import run_checks
 
         res.checks = run_checks(res, arm).to_dict()   # every rating (docs/checks.md)
         item = ws.store_result(res, name=spec.name, robot=arm, trajectory=spec.trajectory,
@@ -300,18 +291,12 @@ def _warm() -> None:
     """What a spare worker does while it waits: the imports of a run and a run of two
     steps (which loads the compiled kernels from their cache), so the designer's run
     starts at once. A failure here is left to the real run to report."""
-    import warnings
 
     try:
-        import manipcad.control.files  # noqa: F401
+        # deferred: the warm-up itself: what a run imports, loaded while the worker waits
         import manipcad.store.plan  # noqa: F401
         import manipcad.store.results  # noqa: F401
         import manipcad.workspace  # noqa: F401
-        from manipcad.control import synthesize
-        from manipcad.errors import ManipcadWarning
-        from manipcad.model import load_robot
-        from manipcad.sim import simulate
-        from manipcad.ui import logic  # noqa: F401
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ManipcadWarning)
@@ -332,9 +317,7 @@ def _work(inbox, out, cancel, done) -> None:
     the number of each job just before its last message is sent (the worker is then
     free for the next job).
     """
-    import warnings
 
-    from manipcad.errors import ManipcadError, ManipcadWarning
 
     _warm()
     while True:
@@ -371,9 +354,7 @@ def _pass_notes(number: int, caught, out) -> None:
     """A job's warnings: manipcad's own (a joint beyond its limits, ...) go to the page as
     ``(number, "note", text)`` messages, each text once (they used to reach the server's
     log only, with the module's install path); others to stderr as Python shows them."""
-    import warnings
 
-    from manipcad.errors import ManipcadWarning
 
     said: set[str] = set()
     for w in caught:

@@ -21,6 +21,7 @@ reports and ``reindex`` / the next write cleans.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import re
@@ -28,21 +29,29 @@ import secrets
 import shlex
 import shutil
 import tempfile
+import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from html import escape
 from pathlib import Path
 from typing import Any
 
-from manipcad.errors import InputError
+from manipcad.catalog.files import PARTS
+from manipcad.errors import InputError, ManipcadWarning
 from manipcad.fileio import atomic_write_text, json_safe
+from manipcad.folders import clean_stale, install_folder, leftovers, temp_dir
+from manipcad.model.load import CATALOG, load_robot, referenced_files
 from manipcad.model.tree_file import save_robot
+from manipcad.store.results import load_result, save_result, write_csv
 from manipcad.version import __version__
 from manipcad.workspace.index import Index
 from manipcad.workspace.kinds import (
     BUNDLE_MANIFEST,
     content_hash,
     detect_kind,
+    file_hash,
+    regulator_robot_name,
     result_metrics,
     validate_item,
 )
@@ -132,7 +141,6 @@ class ItemList(list):
     """A list of :class:`Item` that Jupyter shows as a table."""
 
     def _repr_html_(self) -> str:
-        from html import escape
 
         rows = "".join(
             f"<tr><td>{escape(i.kind)}</td><td>{escape(i.name)}</td>"
@@ -440,7 +448,6 @@ class Workspace:
             raise InputError(str(src), "", f"a {kind[:-1]} file ends in "
                              f"{', '.join(_SUFFIXES)}")
         if robot is None and kind == "regulators":
-            from manipcad.workspace.kinds import regulator_robot_name
 
             named = regulator_robot_name(src)  # a workspace robot of that name checks it
             robot = str(self.find("robots", named)) if named and self.find("robots", named) \
@@ -467,7 +474,6 @@ class Workspace:
                     shutil.rmtree(copy_from.parent, ignore_errors=True)
             target = folder / f"{name}{copy_from.suffix.lower()}"
         else:
-            from manipcad.folders import temp_dir
 
             tmp = temp_dir(folder / name)
             shutil.rmtree(tmp)
@@ -485,7 +491,6 @@ class Workspace:
         ``.NAME.partial-PID-*`` files and folders, nested ones included, of processes that
         no longer run; :func:`manipcad.folders.clean_stale`). Every write does it
         first, so a SIGKILL's leftovers last only until the next write."""
-        from manipcad.folders import clean_stale
 
         folder = self.root / kind
         return clean_stale(folder) if folder.is_dir() else []
@@ -531,7 +536,6 @@ class Workspace:
     def _commit(self, kind: str, name: str, tmp: Path, target: Path, meta: dict[str, Any],
                 facts: dict[str, Any], force: bool) -> Item:
         """Install ``tmp`` as ``target`` and index it, in one write transaction."""
-        from manipcad.folders import install_folder
 
         try:
             with self.index.write() as db:
@@ -605,7 +609,6 @@ class Workspace:
         An input whose bytes equal a workspace item's (same kind, same hash) is
         recorded with that item's name.
         """
-        from manipcad.workspace.kinds import file_hash
 
         roles = {"robot": "robots", "trajectory": "trajectories", "regulator": "regulators"}
         inputs: dict[str, Any] = {}
@@ -633,7 +636,6 @@ class Workspace:
                 settings = {"settings": doc.get("settings"), "run": doc.get("run")}
             except ValueError:
                 pass
-        import hashlib
 
         sett = hashlib.sha256(json.dumps(json_safe(settings), sort_keys=True).encode())
         return {"inputs": inputs, "settings_hash": sett.hexdigest()}
@@ -665,7 +667,6 @@ class Workspace:
         Raises:
             InputError: name taken (without ``force``) or unsafe, an input not found.
         """
-        from manipcad.store.results import save_result
 
         if name is None:
             name = datetime.now(UTC).strftime("result-%Y%m%d-%H%M%S-") + secrets.token_hex(2)
@@ -689,7 +690,6 @@ class Workspace:
             inputs["regulator"] = [self.find("regulators", r) or Path(r) for r in regulators]
         run_doc = dict(run or {})
         folder = self.root / "results"
-        from manipcad.folders import temp_dir
 
         staging = temp_dir(folder / name)
         shutil.rmtree(staging)
@@ -802,7 +802,6 @@ class Workspace:
             (a file the index lacks), "outside" (a link leaving the workspace),
             "leftover" (a dead writer's temporary file or folder). Empty when clean.
         """
-        from manipcad.folders import leftovers
 
         problems: list[Problem] = []
         seen = set()
@@ -841,7 +840,6 @@ class Workspace:
             {"items": count indexed, "skipped": count of files that do not load}
             and the skipped items' errors under "errors".
         """
-        from manipcad.folders import clean_stale
 
         for kind in KINDS:
             if (self.root / kind).is_dir():
@@ -887,8 +885,6 @@ class Workspace:
         Raises:
             InputError: no such item, or the bundle folder exists.
         """
-        from manipcad.folders import install_folder, temp_dir
-        from manipcad.store.results import load_result, write_csv
 
         item = self.get(ref)
         out = Path(to) / item.name
@@ -976,10 +972,7 @@ def _check_bundle_hash(bundle: Path, p: Path, entry: Mapping[str, Any], k: int) 
 
 def _robot_quiet(robot_file: Path):
     """A robot file's robot (its data warnings are the loader's business, shown at add)."""
-    import warnings
 
-    from manipcad.errors import ManipcadWarning
-    from manipcad.model.load import load_robot
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
@@ -994,7 +987,6 @@ def _joint_types(robot_file: Path) -> tuple[str, ...]:
 def _references_files(robot_file: Path) -> bool:
     """Whether a robot YAML file names other files (``urdf:``, motor or gear paths:
     :func:`manipcad.model.load.referenced_files`)."""
-    from manipcad.model.load import referenced_files
 
     return robot_file.suffix.lower() in (".yaml", ".yml") and bool(
         referenced_files(robot_file))
@@ -1032,8 +1024,6 @@ def catalog_items(kind: str | None = None) -> ItemList:
         >>> [i.name for i in catalog_items("gear")][:2]
         ['ballscrew_d16_p10_l800', 'belt_at5_z20_omega']
     """
-    from manipcad.catalog.files import PARTS
-    from manipcad.model.load import CATALOG
 
     kinds = ("robots", "motors", "gears") if kind is None else (kind_of(kind),)
     out = ItemList()
@@ -1045,7 +1035,6 @@ def catalog_items(kind: str | None = None) -> ItemList:
         for entry in sorted(folder.iterdir(), key=lambda e: e.name):
             if not entry.name.endswith((".yaml", ".urdf")):
                 continue
-            import hashlib
 
             digest = hashlib.sha256(entry.read_bytes()).hexdigest()
             out.append(Item(kind=k, name=entry.name.rsplit(".", 1)[0],

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 
 def results_dataframe(result, joint_types: Sequence[str] | None = None):
@@ -53,7 +54,6 @@ def result_html(result, joint_types: Sequence[str] | None = None) -> str:
         True
     """
     if joint_types is not None:
-        from dataclasses import replace
 
         result = replace(result, joint_types=tuple(joint_types))
     return result._repr_html_()

@@ -10,13 +10,21 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+import warnings
 from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from manipcad.errors import InputError
+from manipcad.control import load_regulators
+from manipcad.errors import InputError, ManipcadWarning
+from manipcad.fileio import read_yaml
+from manipcad.model.load import catalog_names, load_robot
+from manipcad.model.yaml_robot import load_gear, load_motor
+from manipcad.store.results import load_result
+from manipcad.trajectories import load_trajectory
+from manipcad.trajectories.io import SCHEMAS
 from manipcad.workspace.names import kind_of
 
 #: the marker of a bundle folder made by ``ws export``
@@ -62,7 +70,6 @@ def content_hash(path: Path, skip: Collection[str] = ()) -> str:
 
 
 def _yaml_data(path: Path) -> Any:
-    from manipcad.fileio import read_yaml
 
     return read_yaml(path, unique_keys=False)
 
@@ -99,7 +106,6 @@ def detect_kind(path: Path) -> str:
     data = _yaml_data(path)
     if not isinstance(data, dict):
         raise InputError(src, "", "expected a mapping; cannot tell the kind (give --kind)")
-    from manipcad.trajectories.io import SCHEMAS
 
     joints = data.get("joints")
     if "urdf" in data or isinstance(joints, list) and joints and all(
@@ -136,7 +142,6 @@ def validate_item(kind: str, path: Path, *, robot=None) -> dict[str, Any]:
     kind = kind_of(kind)
     src = str(path)
     if kind == "results":
-        from manipcad.store.results import load_result
 
         res, doc = load_result(path)
         return {"summary": f"{doc.get('robot', '')}: {len(res.t)} samples to "
@@ -154,17 +159,14 @@ def validate_item(kind: str, path: Path, *, robot=None) -> dict[str, Any]:
         return {"summary": f"{r.name}: {r.n} joints {kinds}"
                            + (", drives" if r.has_drives else "")}
     if kind == "motors":
-        from manipcad.model.yaml_robot import load_motor
 
         m = load_motor(str(path.resolve()))
         return {"summary": f"J = {m.J:g} kg·m², R = {m.R:g} Ω, k_m = {m.k_m:g} N·m/A"}
     if kind == "gears":
-        from manipcad.model.yaml_robot import load_gear
 
         g = load_gear(str(path.resolve()))
         return {"summary": f"{g.type}, ratio {g.ratio:g}"}
     if kind == "trajectories":
-        from manipcad.trajectories import load_trajectory
 
         t = load_trajectory(path, robot=robot)
         return {"summary": f"{type(t).__name__}, {t.n} joints, {float(t.duration):g} s"}
@@ -173,7 +175,6 @@ def validate_item(kind: str, path: Path, *, robot=None) -> dict[str, Any]:
 
 
 def _load_any_robot(path: Path):
-    from manipcad.model.load import load_robot
 
     return load_robot(path)
 
@@ -199,12 +200,10 @@ def _check_regulator(path: Path, robot) -> str:
     if robot is None:
         name = regulator_robot_name(path)
         if name is not None:
-            from manipcad.model.load import catalog_names, load_robot
 
             if name in catalog_names("robots"):
                 robot = _quiet(load_robot, name)
     if robot is not None:
-        from manipcad.control import load_regulators
 
         regs = _quiet(load_regulators, path, robot)
         return f"{len(regs)} joints of {robot.name}"
@@ -230,9 +229,7 @@ def _check_regulator(path: Path, robot) -> str:
 
 def _quiet(fn, *args):
     """Call a loader with its data warnings silenced (shown where the data is used)."""
-    import warnings
 
-    from manipcad.errors import ManipcadWarning
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)

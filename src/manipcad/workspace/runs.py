@@ -9,7 +9,13 @@ from typing import Any
 
 import numpy as np
 
+from manipcad.control.files import load_regulators
 from manipcad.errors import InputError
+from manipcad.model.load import load_robot
+from manipcad.report.plots import compare_figure
+from manipcad.sim import simulate
+from manipcad.store.results import SERIES, load_result
+from manipcad.trajectories import load_trajectory
 from manipcad.workspace.core import Workspace
 
 #: the columns of ``ws compare`` (largest over the joints; SI units)
@@ -37,8 +43,6 @@ def compare(ws: Workspace, refs: list[str], *, quantities=("error", "tau", "curr
     Raises:
         InputError: no such result, or an item that is not a result.
     """
-    from manipcad.report.plots import compare_figure
-    from manipcad.store.results import load_result
 
     if not refs:
         raise InputError("ws compare", "", "name at least one result")
@@ -92,7 +96,6 @@ def rerun(ws: Workspace, ref: str) -> Rerun:
     Raises:
         InputError: not a result, or its stored inputs are incomplete (named).
     """
-    from manipcad.store.results import SERIES, load_result
 
     item = ws.get(ref)
     if item.kind != "results":
@@ -125,10 +128,6 @@ def rerun(ws: Workspace, ref: str) -> Rerun:
 
 def run_from_folder(folder: Path, doc: dict[str, Any]):
     """Simulate again from a result folder's ``inputs/`` and recorded settings."""
-    from manipcad.control.files import load_regulators
-    from manipcad.model.load import load_robot
-    from manipcad.sim import simulate
-    from manipcad.trajectories import load_trajectory
 
     inputs = folder / "inputs"
     run = dict(doc.get("settings") or {})

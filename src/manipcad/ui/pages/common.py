@@ -60,7 +60,7 @@ async def connected() -> dict[str, Any]:
     ends here, cancelled, with nothing logged (reading the tab's state of a deleted
     client raised RuntimeError, a traceback in the server log for every such request).
     """
-    import asyncio
+    import asyncio  # deferred: start-up cost: asyncio loaded on first use
 
     client = ui.context.client
     await client.connected()
@@ -153,7 +153,7 @@ async def off_loop(fn, *args: Any, **kwargs: Any) -> Any:
     payload, ... may take seconds, during which the server keeps answering every tab
     (their bounds are the loaders' own work budgets). Open the workspace inside ``fn``
     (a workspace's index connection belongs to the thread that opened it)."""
-    from nicegui import run
+    from nicegui import run  # deferred: start-up cost: nicegui loaded on first use
 
     return await run.io_bound(fn, *args, **kwargs)
 

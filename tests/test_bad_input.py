@@ -811,10 +811,10 @@ def test_robots_show_takes_ws(tmp_path):
 def test_recommend_footer_says_the_order_it_shows(monkeypatch):
     """The --verify footer said "ranked by score" while the list is ordered by the verdict
     of every check, then cost: the footer prints the list's own order."""
-    import manipcad.expert as expert
+    import manipcad.cli.recommend as command  # the command's own name for recommend: run
     from manipcad.expert.engine import RULES_ORDER, VERIFIED_ORDER
 
-    real = expert.recommend
+    real = command.run
     seen = []
 
     def verified(*args, verify=False, **kw):  # the rules' list, marked as _verify marks it
@@ -826,7 +826,7 @@ def test_recommend_footer_says_the_order_it_shows(monkeypatch):
     res, out = cli("recommend", EXAMPLES / "requirements_fig3.yaml")
     assert res.exit_code == 0, out
     assert RULES_ORDER in " ".join(out.split())
-    monkeypatch.setattr(expert, "recommend", verified)
+    monkeypatch.setattr(command, "run", verified)
     res, out = cli("recommend", EXAMPLES / "requirements_fig3.yaml")
     flat = " ".join(out.split())
     assert seen == [RULES_ORDER] and VERIFIED_ORDER in flat and "ranked by score" not in flat

@@ -44,6 +44,7 @@ import numpy as np
 from manipcad.errors import InputError
 from manipcad.fileio import atomic_write, dump_yaml, json_safe
 from manipcad.folders import clean_stale, write_folder
+from manipcad.model.tree_file import save_robot
 from manipcad.report.plots import plot_errors
 from manipcad.sim.series import SERIES, result_arrays, series_columns, series_units  # noqa: F401
 from manipcad.sim.simulate import SimulationResult
@@ -310,8 +311,6 @@ def _write_input(folder: Path, key: str, value: Any) -> None:
         shutil.copyfile(src, folder / f"{key}{src.suffix}")
         return
     if _is_robot(value):           # its self-contained tree form, which loads back identical
-        from manipcad.model.tree_file import save_robot
-
         save_robot(value, folder / f"{key}.yaml")
         return
     if hasattr(value, "to_dict"):

@@ -217,6 +217,7 @@ def test_bad_arguments(tmp_path, traj):
         (("--t-end", "-1"), "--t-end: must be > 0"),
         (("--payload", "-2"), "--payload: must be >= 0"),
         (("--every", "0"), "--every: must be >= 1"),
+        (("--joint-limits", "bounce"), "must be one of warn, stop, ignore, hard-stop"),
     ]:
         res = run("puma560", "-t", traj, "-o", out, *args)
         assert res.exit_code == 2, both(res)
@@ -344,3 +345,15 @@ def test_subprocess_divergence_one_line_on_stderr(tmp_path, traj):
              and not ln.startswith("warning:") and "triangle" not in ln]
     assert any("diverged at t = " in ln for ln in lines), proc.stderr
     assert not (tmp_path / "r").exists()
+
+
+def test_hard_stops_from_the_command_line(tmp_path, traj):
+    """--joint-limits hard-stop runs the limits as mechanical stops (docs/simulation.md)."""
+    out = tmp_path / "r"
+    res = run("puma560", "-t", traj, "-r", EXAMPLES / "pid_puma.yaml", "-o", out,
+              "--joint-limits", "hard-stop", "--json")
+    assert res.exit_code == 0, both(res)
+    assert json.loads(res.stdout)["settings"]["joint_limits"] == "hard-stop"
+    res = run("puma560", "-t", traj, "-r", EXAMPLES / "pid_puma.yaml", "-o", out, "--force",
+              "--json")
+    assert res.exit_code == 0 and "joint_limits" not in json.loads(res.stdout)["settings"]

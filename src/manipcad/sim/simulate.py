@@ -83,7 +83,8 @@ class SimulationResult:
         robot: the robot's name; joint_names, joint_types: its joints ("revolute" in rad,
             "prismatic" in m; ``units`` maps each joint to its unit).
         settings: dt, t_end and the regulators' descriptions (and the pickup, the
-            estimator and the model's payload when given).
+            estimator and the model's payload when given; ``joint_limits: "hard-stop"``
+            when the limits were modelled as stops).
         payload_estimate: with ``estimator=``: (M, 2), the time (s) and the online payload
             estimate (kg) after each of the estimator's samples; else None.
         checks: the run's checks against every rating, ``{joint: {check: {value, limit,
@@ -462,6 +463,8 @@ def simulate(
         settings={"dt": dt, "t_end": t_end, "drives": bool(drives), "order": order,
                   "regulators": described, "generated": bool(gen[0]),
                   "integrator": integrator,
+                  # the limits modelled as stops change the plant: the result says so
+                  **({"joint_limits": "hard-stop"} if stops is not None else {}),
                   **({"pickup": picked[2]} if picked is not None else {}),
                   **({"estimator": estimator.describe()} if estimator is not None else {}),
                   **({"model_payload": model_payload}

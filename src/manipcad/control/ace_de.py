@@ -77,6 +77,14 @@ FIELDS = {"kp_V_per_rad": R_KP, "kd_V_s_per_rad": R_KD, "kfv_V_s_per_rad": R_KFV
 
 
 @nb.njit(cache=True)
+def _shaft_qdd(p, i, w, Hs, hs, m_load, fric, r):
+    """q̈ from the measured current by the shaft equation, rad/s² (m/s²):
+    i_r·q̈ = (k_m·i − (h*+k_v)·ω_m − m_load − M_f(ω_m))/(J+H*), the load terms as given
+    (already multiplied by the gear factor)."""
+    return (p[P_KM] * i - (hs + p[P_KV]) * w - m_load - fric) / ((p[P_J] + Hs) * r)
+
+
+@nb.njit(cache=True)
 def ace_de_update(p, s, sig, j, Ts):
     """Law (3) after the SCE: the drive made the constant-coefficient nominal model, V.
 
@@ -98,12 +106,10 @@ def ace_de_update(p, s, sig, j, Ts):
     fric = dry_friction(w, p) if p[AD_FRIC] != 0.0 else 0.0
     eta = p[AD_ETA]
     f = 1.0 / eta
-    qdd = (p[P_KM] * sig[j, S_I] - (f * Hd / r2 + p[P_KV]) * w - f * tau / r - fric) / (
-        (p[P_J] + f * H / r2) * r)
+    qdd = _shaft_qdd(p, sig[j, S_I], w, f * H / r2, f * Hd / r2, f * tau / r, fric, r)
     if gear_factor(eta, H * qdd + Hd * qd + tau, qd) != f:
         f = eta
-        qdd = (p[P_KM] * sig[j, S_I] - (f * Hd / r2 + p[P_KV]) * w - f * tau / r - fric) / (
-            (p[P_J] + f * H / r2) * r)
+        qdd = _shaft_qdd(p, sig[j, S_I], w, f * H / r2, f * Hd / r2, f * tau / r, fric, r)
     md = torque_rate(f * tau / r, s, Ts)
     U = sce_output(p, sig, j)
     Uk = law3_voltage(U, qd, qdd, f * H / r2, f * Hd / r2, f * Hd / r2, f * Hdd / r2,

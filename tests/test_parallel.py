@@ -338,27 +338,39 @@ if __name__ == "__main__":
 """
 
 
+def _run_script(script, text: str, *, drain: bool, why: str) -> tuple[bytes, bytes]:
+    """Run ``text`` as the file ``script`` in a session of its own, its stdout and stderr
+    pipes drained while it runs (``drain``) or read only once it has ended; fail with
+    ``why`` (the script and its workers killed) after 120 s, or on a non-zero exit."""
+    import subprocess
+    import sys
+
+    script.write_text(text)
+    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, start_new_session=True)
+    try:
+        if drain:
+            out, err = proc.communicate(timeout=120)
+        else:
+            proc.wait(timeout=120)
+            out, err = proc.communicate()
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)     # the script and its stuck workers
+        proc.communicate()
+        pytest.fail(why)
+    assert proc.returncode == 0, err.decode()[-2000:]
+    return out, err
+
+
 def test_forked_workers_never_block_on_an_undrained_pipe(tmp_path):
     """A forked worker inherits the caller's stderr; when that is a pipe nobody reads until
     the caller ends (pytest-xdist's, ``subprocess.run(capture_output=True)``), a worker's
     log past the pipe buffer blocked it for good. The workers leave such pipes; a worker's
     stderr is /dev/null there and the sweep finishes."""
-    import subprocess
-    import sys
-
-    script = tmp_path / "chatty.py"
-    script.write_text(_PIPE_SCRIPT)
-    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, start_new_session=True)
-    try:
-        # stdout is read only once the process ends: nothing drains its pipes before
-        proc.wait(timeout=120)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)     # the script and its stuck workers
-        proc.communicate()
-        pytest.fail("the sweep blocked: a worker is stuck writing to the inherited pipe")
-    out, err = proc.communicate()
-    assert proc.returncode == 0, err.decode()[-2000:]
+    # stdout is read only once the process ends: nothing drains its pipes before
+    out, err = _run_script(tmp_path / "chatty.py", _PIPE_SCRIPT, drain=False,
+                           why="the sweep blocked: a worker is stuck writing to the "
+                               "inherited pipe")
     assert out.decode().strip().splitlines()[-1] == os.devnull
     assert b"worker log line" not in err
 
@@ -369,19 +381,7 @@ def test_forked_workers_never_wait_on_a_lock_held_at_the_fork(tmp_path):
     buffer lock; a worker forked then inherited the lock held, and its first log line
     (Dask's "Start worker at") waited on it for ever: the cluster never started. The
     forked workers get new stream objects (a pipe's: /dev/null) and the sweep finishes."""
-    import subprocess
-    import sys
-
-    script = tmp_path / "locked.py"
-    script.write_text(_LOCK_SCRIPT)
-    proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, start_new_session=True)
-    try:
-        out, err = proc.communicate(timeout=120)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)     # the script and its stuck workers
-        proc.communicate()
-        pytest.fail("the cluster never started: a forked worker waits on a lock held at "
-                    "the fork")
-    assert proc.returncode == 0, err.decode()[-2000:]
+    out, _ = _run_script(tmp_path / "locked.py", _LOCK_SCRIPT, drain=True,
+                         why="the cluster never started: a forked worker waits on a lock "
+                             "held at the fork")
     assert out.decode().strip().splitlines()[-1] == os.devnull

@@ -17,12 +17,17 @@ in its own file so the python-control comparison above stays as it was.
   generated kernels), positions kept every 1 ms or only at the end; MuJoCo RK4 at dt
   1e-4 with the PD in Python; MuJoCo Euler at dt 1e-4 with its own position actuators
   (kp, kv); Drake's Simulator with its default error-controlled integrator (RK3,
-  default accuracy) and a PidController, at a tighter accuracy, and recording only the
-  end state: with the diagram built in the timed call (URDF parsed, as the issue
-  measured) and built once before (only the rewind and ``AdvanceTo`` timed). Accuracy:
-  max |Δq| against each model's own truth (manipcad: RK4 at dt 1e-5 with the same
-  sampling; the continuous PD: Drake at accuracy 1e-10, cross-checked with MuJoCo RK4
-  at dt 1e-5). The rows that record only the end state are compared at the end.
+  default accuracy) and a continuous PidController, at a tighter accuracy, and recording
+  only the end state: with the diagram built in the timed call (URDF parsed) and built
+  once before (only the rewind and ``AdvanceTo`` timed). Accuracy: max |Δq| against each
+  law's own truth (manipcad: RK4 at dt 1e-5 with the same sampling; the continuous PD:
+  Drake at accuracy 1e-10, cross-checked with MuJoCo RK4 at dt 1e-5).
+* **Like for like against Drake** (:func:`ur5_like_for_like`): the same law sampled the
+  same way in both (the PD at 1 kHz: Drake's PidController behind a ZeroOrderHold of
+  1 ms, agreeing with our RK4 at dt 1e-5 to 1e-12 rad), and the continuous PD (ours
+  sampled at 100 kHz, its nearest twin), each at several tolerances, end state only,
+  Drake's diagram built once; each of our rows (its kernels, generated or general, in
+  its name) paired with the fastest Drake row of its law at least as accurate.
 """
 
 from __future__ import annotations
@@ -246,13 +251,15 @@ def ur5_mujoco(t_end, dt, own_actuators=False):
     return out
 
 
-def ur5_drake(t_end, accuracy=None, record=True, built=None):
+def ur5_drake(t_end, accuracy=None, record=True, built=None, period=None):
     """Drake's Simulator, default integrator; positions every 1 ms (``record``: the
     run stops at each, as our adaptive one stops at each sample) or only at t_end
     (rows of nan before). The diagram (URDF parsed, plant finalized, PID connected) and
     the Simulator are built in the call, or ``built`` (:func:`ur5_drake_built`) is
-    rewound to t = 0 and the start state and run again."""
-    sim, plant, integ = built if built is not None else ur5_drake_built(accuracy)
+    rewound to t = 0 and the start state and run again. ``period`` (s): the PD sampled
+    and held as ours (a ZeroOrderHold on the state, started at the start state); None:
+    Drake's continuous PD."""
+    sim, plant, integ, zoh = built if built is not None else ur5_drake_built(accuracy, period)
     ctx = sim.get_mutable_context()
     pctx = plant.GetMyMutableContextFromRoot(ctx)
     if built is not None:
@@ -260,6 +267,9 @@ def ur5_drake(t_end, accuracy=None, record=True, built=None):
         plant.SetVelocities(pctx, np.zeros(6))
         integ.ResetStatistics()
     plant.SetPositions(pctx, UR5_Q0)
+    if zoh is not None:
+        zoh.SetVectorState(zoh.GetMyMutableContextFromRoot(ctx),
+                           np.concatenate([UR5_Q0, np.zeros(6)]))
     sim.Initialize()
     n = int(round(t_end / 1e-3))
     out = np.full((n + 1, 6), np.nan)
@@ -274,8 +284,10 @@ def ur5_drake(t_end, accuracy=None, record=True, built=None):
     return out, integ.get_num_steps_taken(), type(integ).__name__
 
 
-def ur5_drake_built(accuracy=None):
-    """The UR5 PD job's Drake diagram and Simulator: (simulator, plant, integrator)."""
+def ur5_drake_built(accuracy=None, period=None):
+    """The UR5 PD job's Drake diagram and Simulator: (simulator, plant, integrator,
+    zero-order hold or None). ``period``: the PD sees the state through a ZeroOrderHold
+    of that period (the law sampled as ours samples it); None: continuously."""
     from pydrake.all import (
         ConstantVectorSource,
         DiagramBuilder,
@@ -283,6 +295,7 @@ def ur5_drake_built(accuracy=None):
         Parser,
         PidController,
         Simulator,
+        ZeroOrderHold,
     )
 
     b = DiagramBuilder()
@@ -291,7 +304,13 @@ def ur5_drake_built(accuracy=None):
     plant.Finalize()
     pidc = b.AddSystem(PidController(UR5_KP, np.zeros(6), UR5_KD))
     ref = b.AddSystem(ConstantVectorSource(np.concatenate([UR5_Q1, np.zeros(6)])))
-    b.Connect(plant.get_state_output_port(), pidc.get_input_port_estimated_state())
+    zoh = None
+    if period is None:
+        b.Connect(plant.get_state_output_port(), pidc.get_input_port_estimated_state())
+    else:
+        zoh = b.AddSystem(ZeroOrderHold(period, 12))
+        b.Connect(plant.get_state_output_port(), zoh.get_input_port())
+        b.Connect(zoh.get_output_port(), pidc.get_input_port_estimated_state())
     b.Connect(ref.get_output_port(), pidc.get_input_port_desired_state())
     b.Connect(pidc.get_output_port_control(), plant.get_applied_generalized_force_input_port())
     diagram = b.Build()
@@ -299,14 +318,94 @@ def ur5_drake_built(accuracy=None):
     integ = sim.get_mutable_integrator()
     if accuracy is not None:
         integ.set_target_accuracy(accuracy)
-    return sim, plant, integ
+    return sim, plant, integ, zoh
+
+
+def ur5_like_for_like(robot, rounds: int, t_end: float) -> dict:
+    """Against Drake like for like: the same PD law sampled the same way, only the end
+    state kept by both, Drake's diagram built once, each at several tolerances; every
+    row's error is against its law's own truth (Drake at accuracy 1e-10, cross-checked
+    with our RK4 at dt 1e-5). The ratios pair each of our rows with the fastest Drake
+    row at least as accurate. Which kernels each of our rows uses is in its name."""
+    end = int(round(t_end / 1e-3))
+    laws = {"PD sampled at 1 kHz": 1e-3, "continuous PD": None}
+    truth = {law: ur5_drake(t_end, 1e-10, record=False, period=p)[0][end]
+             for law, p in laws.items()}
+    ours_rk4 = ur5_manipcad(robot, t_end, 1e-5, 1e-3)[0][end]
+    print(f"\nlike for like: the 1 kHz law's truth, Drake (accuracy 1e-10, ZeroOrderHold) "
+          f"vs manipcad RK4 dt 1e-5: {np.abs(truth['PD sampled at 1 kHz'] - ours_rk4).max():.1e}"
+          " rad")
+    cases = {}  # name: (law, kind, fn)
+    for law, period in laws.items():
+        for acc in (None, 1e-4, 1e-6, 1e-8):
+            built = ur5_drake_built(acc, period)
+            cases[f"Drake default integrator, accuracy {acc or 'default'}, {law}"] = (
+                law, "drake", lambda b=built, p=period: ur5_drake(t_end, record=False,
+                                                                 built=b, period=p))
+    # ours: the sampled law at its own sample times; the continuous law has no twin in
+    # manipcad (regulators are digital): its closest is the PD sampled every 1e-5 s
+    for integ in ("adaptive-bs32", "adaptive"):
+        for gen in (True, False):
+            for rtol in (1e-4, 1e-6, 1e-8):
+                kern = "generated" if gen else "general"
+                cases[f"manipcad {integ}, rtol {rtol:g}, {kern} kernels, PD sampled at 1 kHz"] = (
+                    "PD sampled at 1 kHz", "ours",
+                    lambda i=integ, g=gen, r=rtol: ur5_manipcad(
+                        robot, t_end, 1e-4, 1e-3, i, record=False, use_generated=g, rtol=r,
+                        atol=r * 1e-2))
+    for rtol in (1e-6, 1e-8):
+        cases[f"manipcad adaptive-bs32, rtol {rtol:g}, generated kernels, PD sampled at "
+              "100 kHz (continuous PD)"] = (
+            "continuous PD", "ours",
+            lambda r=rtol: ur5_manipcad(robot, t_end, 1e-5, 1e-5, "adaptive-bs32",
+                                        record=False, use_generated=True, rtol=r,
+                                        atol=r * 1e-2))
+    for _law, _k, fn in cases.values():  # warm-up
+        fn()
+    wall = {c: [] for c in cases}
+    err = {}
+    for _ in range(rounds):
+        for c, (law, _k, fn) in cases.items():
+            out, w = _timed(fn)
+            wall[c].append(w)
+            err[c] = float(np.abs(out[0][end] - truth[law]).max())
+    med = {c: statistics.median(w) for c, w in wall.items()}
+    cw = max(len(c) for c in cases)
+    print(f"\nUR5 like for like, only the end state kept, {t_end:g} s, medians of "
+          f"{rounds} rounds:")
+    print(f"{'case':{cw}s} {'RTF':>8s} {'max |Δq|, rad':>14s}")
+    for c in cases:
+        print(f"{c:{cw}s} {t_end / med[c]:8.1f} {err[c]:14.2e}")
+    pairs = {}
+    print("\nat equal accuracy (each of our rows against the fastest Drake row of the same "
+          "law at least as accurate):")
+    for c, (law, kind, _fn) in cases.items():
+        if kind != "ours":
+            continue
+        peers = [d for d, (lw, k, _f) in cases.items() if k == "drake" and lw == law
+                 and err[d] <= err[c]]
+        if not peers:
+            # none as accurate: against the most accurate Drake row of the law
+            d = min((d for d, (lw, k, _f) in cases.items() if k == "drake" and lw == law),
+                    key=err.get)
+            pairs[c] = {"peer": d, "ratio": med[d] / med[c], "error": err[c],
+                        "peer_error": err[d], "peer_less_accurate": True}
+            print(f"  {c}: no Drake row reaches {err[c]:.1e} rad; {med[d] / med[c]:.2f}x the "
+                  f"most accurate, {d} ({err[d]:.1e} rad)")
+            continue
+        d = min(peers, key=med.get)
+        pairs[c] = {"peer": d, "ratio": med[d] / med[c], "error": err[c],
+                    "peer_error": err[d]}
+        print(f"  {c}: {med[d] / med[c]:.2f}x {d} ({err[c]:.1e} / {err[d]:.1e} rad)")
+    return {"rows": {c: {"rtf_median": t_end / med[c], "max_dq_rad": err[c]} for c in cases},
+            "equal_accuracy": pairs}
 
 
 OURS_END_BS32_GENERAL = "manipcad adaptive-bs32, PD at 1 kHz, only the end state"
 OURS_END = "manipcad adaptive, PD at 1 kHz, generated, only the end state"
 OURS_END_BS32 = "manipcad adaptive-bs32, PD at 1 kHz, generated, only the end state"
-DRAKE_END = "Drake default integrator, only the end state"
-DRAKE_END_BUILT = "Drake default integrator, only the end state, diagram built once"
+DRAKE_END = "Drake default integrator, continuous PD, only the end state"
+DRAKE_END_BUILT = "Drake default integrator, continuous PD, only the end state, diagram built once"
 
 
 def ur5_part(rounds: int, t_end: float) -> dict:
@@ -363,13 +462,13 @@ def ur5_part(rounds: int, t_end: float) -> dict:
     }
     steps = {}
     if have_drake:
-        cases["Drake default integrator (accuracy default)"] = (
+        cases["Drake default integrator (accuracy default), continuous PD"] = (
             lambda: ur5_drake(t_end), truth_cont)
         cases[DRAKE_END] = (lambda: ur5_drake(t_end, record=False), truth_cont)
         built = ur5_drake_built()
         cases[DRAKE_END_BUILT] = (lambda: ur5_drake(t_end, record=False, built=built),
                                   truth_cont)
-        cases["Drake default integrator, accuracy 1e-6"] = (
+        cases["Drake default integrator, accuracy 1e-6, continuous PD"] = (
             lambda: ur5_drake(t_end, 1e-6), truth_cont)
     for fn, _ in cases.values():  # warm-up
         fn()
@@ -389,24 +488,8 @@ def ur5_part(rounds: int, t_end: float) -> dict:
         r["ratio"] = statistics.median(r["ratios"])
     _table(f"UR5 rigid, torque PD to a fixed pose, {t_end:g} s (ratio column: x the first "
            "row)", list(rows.values()), t_end)
-    against = {}
-    if have_drake:
-        # issue 9's target: >= 2x Drake's default integrator at equal accuracy; like for
-        # like, each recording only the end state
-        print("\nagainst Drake's default integrator, both recording only the end state "
-              "(median of the per-round ratios; ratio of the RTF medians):")
-        for ours in (OURS_END, OURS_END_BS32, OURS_END_BS32_GENERAL):
-            for peer in (DRAKE_END, DRAKE_END_BUILT):
-                per_round = [d / o for o, d in zip(rows[ours]["wall"], rows[peer]["wall"],
-                                                   strict=True)]
-                med = statistics.median(rows[peer]["wall"]) / statistics.median(
-                    rows[ours]["wall"])
-                against[f"{ours} / {peer}"] = {"median_per_round": statistics.median(
-                    per_round), "ratio_of_medians": med, "min_per_round": min(per_round)}
-                print(f"  {ours} / {peer}: {statistics.median(per_round):.2f}x "
-                      f"({med:.2f}x; rounds {min(per_round):.2f}-{max(per_round):.2f}); "
-                      f"max |Δq| {rows[ours]['dq']:.1e} / {rows[peer]['dq']:.1e} rad")
+    against = ur5_like_for_like(robot, rounds, t_end) if have_drake else {}
     return {**{c: {"rtf_median": statistics.median(t_end / w for w in r["wall"]),
                    "ratio_to_first_median": r["ratio"], "max_dq_rad": r["dq"],
                    "steps": r.get("steps")} for c, r in rows.items()},
-            "against_drake": against}
+            "against_drake_like_for_like": against}

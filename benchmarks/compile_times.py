@@ -16,7 +16,8 @@ A step reuses what earlier steps compiled (callees with the same signature), so 
 figures depend on the order, which is the prewarm's.
 
 This is what a user's first simulation costs on a fresh install, and most of what the
-test suite's first minute and a half is spent on (docs/performance.md, "Compile and the test suite").
+test suite's first minute and a half is spent on (docs/performance.md, "Compile and the
+test suite").
 It measures, it does not compare: there is no peer for numba's compile of our code.
 """
 

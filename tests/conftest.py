@@ -118,7 +118,7 @@ FILE_SECONDS = {
     "tests/test_claims.py": 16, "tests/test_cli_simulate.py": 14, "tests/test_expert.py": 13,
     "tests/test_dynamics_pinocchio.py": 13, "tests/test_study.py": 12,
     "tests/test_ws_commands.py": 11, "tests/test_trajectories.py": 10,
-    "tests/test_control_registry.py": 10, "tests/test_parallel.py": 9,
+    "tests/test_control_registry.py": 10, "tests/test_readme.py": 10, "tests/test_parallel.py": 9,
 }
 
 

@@ -11,6 +11,7 @@ import pytest
 import manipcad
 from manipcad.errors import InputError, ManipcadError
 from manipcad.parallel import Pool, TaskFailed, run_tasks, task_key
+from manipcad.parallel.executor import check_workers
 from manipcad.sizing import ratio_sweep
 from manipcad.trajectories import cosine
 
@@ -385,3 +386,28 @@ def test_forked_workers_never_wait_on_a_lock_held_at_the_fork(tmp_path):
                          why="the cluster never started: a forked worker waits on a lock "
                              "held at the fork")
     assert out.decode().strip().splitlines()[-1] == os.devnull
+
+
+def test_a_scheduler_is_probed_once_per_command(dask_scheduler, monkeypatch):
+    """A command checks --scheduler before any work (check_workers), then its Pool checks
+    the arguments and starts the client: the scheduler is asked once, not three times;
+    one that has not answered is asked again (a refused port still fails each time)."""
+    from manipcad.parallel import executor
+
+    executor._ANSWERED.clear()
+    calls = []
+    connect = executor.socket.create_connection
+
+    def counted(address, *args, **kwargs):
+        calls.append(address)
+        return connect(address, *args, **kwargs)
+
+    monkeypatch.setattr(executor.socket, "create_connection", counted)
+    check_workers(None, dask_scheduler)
+    with Pool(scheduler=dask_scheduler) as pool:
+        assert run_tasks(pow, [{"base": 3, "exp": 2}], pool=pool, progress=False) == [9]
+    assert len(calls) == 1, calls
+    for _ in range(2):
+        with pytest.raises(InputError, match="refused"):
+            check_workers(None, "tcp://127.0.0.1:9")
+    assert len(calls) == 3, calls

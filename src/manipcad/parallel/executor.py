@@ -24,6 +24,7 @@ import dataclasses
 import gc
 import hashlib
 import logging
+import math
 import os
 import pickle
 import re
@@ -33,6 +34,7 @@ import struct
 import sys
 import tempfile
 import threading
+import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import ExitStack
@@ -47,6 +49,10 @@ SOURCE = "run_tasks"
 #: how long to try to reach a scheduler given by address, s (a plain TCP connect, then
 #: the scheduler's identity, each within this time, before any Dask client is made)
 CONNECT_TIMEOUT = 3.0
+# a scheduler that answered a probe less than PROBE_FRESH s ago is not probed again (a
+# command checks --scheduler before any work, then its pool and client start): s
+PROBE_FRESH = 30.0
+_ANSWERED: dict[tuple[str, int], float] = {}  # (host, port): time.monotonic() of the answer
 #: a scheduler's address: tcp://HOST:PORT or HOST:PORT (HOST a name, IPv4 or [IPv6])
 _ADDRESS = re.compile(r"(?:tcp://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9]"
                       r"(?:[A-Za-z0-9._-]*[A-Za-z0-9])?):(?P<port>[0-9]{1,5})")
@@ -325,6 +331,8 @@ def _probe_scheduler(scheduler: str, timeout: float | None = None) -> None:
     host, port = scheduler_address(scheduler)
     if port == 0:  # a cluster in this process: nothing to reach over the network
         return
+    if time.monotonic() - _ANSWERED.get((host, port), -math.inf) < PROBE_FRESH:
+        return  # it answered moments ago (a command's early check, then its pool's start)
     timeout = CONNECT_TIMEOUT if timeout is None else timeout
 
     def fail(why: str) -> InputError:
@@ -365,6 +373,7 @@ def _probe_scheduler(scheduler: str, timeout: float | None = None) -> None:
         why = (f"{type(reply).__name__} {reply}".strip() if isinstance(reply, Exception)
                else "it answered something else")
         raise fail(f"no Dask scheduler answered within {timeout:g} s ({why})")
+    _ANSWERED[(host, port)] = time.monotonic()
 
 
 def check_workers(workers: Any, scheduler: Any, source: str = SOURCE) -> int | None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 import shutil
 import subprocess
@@ -378,7 +379,6 @@ def test_design_page_in_the_simulated_user(tmp_path, monkeypatch):
     from nicegui.testing.user_simulation import user_simulation
 
     from manipcad.ui import pages, worker
-    from manipcad.ui.pages import design as page
 
     _ui_workspace(tmp_path)
     ran = []
@@ -396,7 +396,8 @@ def test_design_page_in_the_simulated_user(tmp_path, monkeypatch):
         def poll(self):
             return "done"
 
-    monkeypatch.setattr(page, "SimulationJob", Done)
+    monkeypatch.setattr(importlib.import_module("manipcad.ui.pages.common"), "SimulationJob",
+                        Done)
     monkeypatch.setattr(worker, "prestart", lambda: None)
 
     async def script(user):

@@ -5,6 +5,7 @@ tests/test_ui_browser.py."""
 from __future__ import annotations
 
 import asyncio
+import importlib
 import warnings
 from pathlib import Path
 
@@ -39,6 +40,12 @@ def puma():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ManipcadWarning)
         return manipcad.load_robot("puma560")
+
+
+def _fake_jobs(monkeypatch, cls) -> None:
+    """The pages' worker jobs replaced by ``cls`` (made from the spec, as SimulationJob)."""
+    monkeypatch.setattr(importlib.import_module("manipcad.ui.pages.common"), "SimulationJob",
+                        cls)
 
 
 def test_robot_choices_and_joint_rows_carry_units(ws, puma):
@@ -531,7 +538,6 @@ def test_regulators_of_several_methods_run_together(ws, tmp_path, monkeypatch):
     two for one joint are refused; a result name taken is refused before the run."""
     from nicegui import ui
 
-    from manipcad.ui.pages import simulation
     from manipcad.ui.worker import SimSpec, run_spec
 
     arm = manipcad.load_robot("cylindrical")
@@ -576,12 +582,13 @@ def test_regulators_of_several_methods_run_together(ws, tmp_path, monkeypatch):
         fraction, finished = 0.0, False
 
         def __init__(self, spec):
+            self.spec = spec
             started.append(spec)
 
         def poll(self):
             return "starting"
 
-    monkeypatch.setattr(simulation, "SimulationJob", Job)
+    _fake_jobs(monkeypatch, Job)
 
     async def script(user):
         await _open(user, "/simulation")
@@ -659,7 +666,6 @@ def test_simulation_page_shows_why_a_run_failed(tmp_path, monkeypatch):
     """The worker's failure message (diverged at t, joint) is the page's error line."""
     from nicegui import ui
 
-    from manipcad.ui.pages import simulation
 
     ws = logic.open_workspace(tmp_path / "ws")
     arm = manipcad.load_robot("puma560")
@@ -678,7 +684,7 @@ def test_simulation_page_shows_why_a_run_failed(tmp_path, monkeypatch):
         def poll(self):
             return "error"
 
-    monkeypatch.setattr(simulation, "SimulationJob", Failed)
+    _fake_jobs(monkeypatch, Failed)
 
     async def script(user):
         await _open(user, "/simulation")
@@ -698,7 +704,6 @@ def test_simulation_page_cancel_reaches_the_running_job(tmp_path, monkeypatch):
     """The page's Cancel asks the running job to stop and shows it stopped (the worker's
     own cancel, nothing stored, is test_worker_runs_stores_and_cancels)."""
 
-    from manipcad.ui.pages import simulation
 
     ws = logic.open_workspace(tmp_path / "ws")
     arm = manipcad.load_robot("puma560")
@@ -723,7 +728,7 @@ def test_simulation_page_cancel_reaches_the_running_job(tmp_path, monkeypatch):
                 return "cancelled"
             return "running"
 
-    monkeypatch.setattr(simulation, "SimulationJob", Running)
+    _fake_jobs(monkeypatch, Running)
 
     async def script(user):
         await _open(user, "/simulation")
@@ -1220,7 +1225,6 @@ def test_a_studys_notes_are_shown_on_its_page(tmp_path, monkeypatch):
     """A finished study's notes (its run's warnings) are caption lines on the page."""
     from nicegui import ui
 
-    from manipcad.ui.pages import results
 
     class Done:                        # what SimulationJob reports after such a study
         fraction, finished, result, wall = 1.0, True, "fig3", 1.0
@@ -1233,7 +1237,7 @@ def test_a_studys_notes_are_shown_on_its_page(tmp_path, monkeypatch):
         def poll(self):
             return "done"
 
-    monkeypatch.setattr(results, "SimulationJob", Done)
+    _fake_jobs(monkeypatch, Done)
 
     async def script(user):
         await _open(user, "/results")

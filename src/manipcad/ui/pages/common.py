@@ -18,6 +18,7 @@ from nicegui import app, ui
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import logic
+from manipcad.ui.worker import SimulationJob
 
 #: the server's state: the workspace root (one per server, set by ``manipcad ui``)
 SERVER: dict[str, Any] = {"ws": None}
@@ -109,19 +110,67 @@ def frame(title: str):
     return col
 
 
-def poll_job(job, bar, status, what: str, shown: dict) -> str | None:
-    """Poll a worker job for a page's timer: the progress bar and "WHAT STATE: N %" while
-    it runs; its final state (done, error, cancelled) once, the first time it is seen
-    (``shown`` remembers it), else None."""
-    state = job.poll()
-    bar.value = job.fraction
-    if state in ("starting", "running"):
-        status.text = f"{what}{state}: {100 * job.fraction:.0f} %"
-        return None
-    if shown.get("job") is job and shown.get("state") == state:
-        return None
-    shown["job"], shown["state"] = job, state
-    return state
+class JobPanel:
+    """A page's background jobs of one kind (its :mod:`manipcad.ui.worker` spec type): a
+    progress bar and a status line where the panel is made; :meth:`controls` adds the
+    run and Cancel buttons (``data-testid`` ``TESTID-run``, ``TESTID-cancel``) and the
+    timer that follows the latest such job of the tab, showing its progress and its end
+    once (an error in the page's error line)."""
+
+    def __init__(self, testid: str, kind: type, show) -> None:
+        self.testid, self.kind, self.show = testid, kind, show
+        self.bar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
+        self.status = ui.label("").props(f"data-testid={testid}-status")
+        self._shown: dict[str, Any] = {"job": None, "state": None}
+
+    def mine(self) -> list:
+        """This tab's jobs of the panel's kind, oldest first."""
+        return [j for j in jobs() if isinstance(j.spec, self.kind)]
+
+    def submit(self, spec, note: str = "starting the worker...") -> None:
+        """Start a job of ``spec`` in the worker process."""
+        jobs().append(SimulationJob(spec))
+        self.status.text = note
+
+    def cancel(self) -> None:
+        for job in self.mine():
+            if not job.finished:
+                job.cancel()
+
+    def tick(self, what, ended, done) -> None:
+        """Follow the latest job: "WHAT STATE: N %" while it runs; at its end (once)
+        ``ended(job)``, then ``done(job)`` if it succeeded, else its state (and error)."""
+        mine = self.mine()
+        if not mine:
+            return
+        job = mine[-1]
+        state = job.poll()
+        self.bar.value = job.fraction
+        if state in ("starting", "running"):
+            self.status.text = f"{what(job)}{state}: {100 * job.fraction:.0f} %"
+            return
+        if self._shown["job"] is job and self._shown["state"] == state:
+            return
+        self._shown["job"], self._shown["state"] = job, state
+        if ended is not None:
+            ended(job)
+        if state == "done":
+            done(job)
+            return
+        self.status.text = state
+        if state == "error":
+            self.show(ManipcadError(job.message))
+
+    def controls(self, label: str, start, done, *, what=lambda job: "", ended=None,
+                 period: float = 0.25) -> None:
+        """The run button (``start``), Cancel, and the timer (every ``period`` s) that
+        calls ``done(job)`` when the latest job succeeds."""
+        with ui.row():
+            ui.button(label, on_click=start).props(f"data-testid={self.testid}-run") \
+                .mark(f"{self.testid}-run")
+            ui.button("Cancel", on_click=self.cancel, color="negative") \
+                .props(f"data-testid={self.testid}-cancel")
+        ui.timer(period, lambda: self.tick(what, ended, done))
 
 
 def job_notes(job) -> None:

@@ -17,17 +17,16 @@ from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import worker
 from manipcad.ui.pages.common import (
     SERVER,
+    JobPanel,
     connected,
     error_label,
     frame,
     job_notes,
-    jobs,
     numbers,
-    poll_job,
     robot,
     ws,
 )
-from manipcad.ui.worker import DesignSpec, SimulationJob
+from manipcad.ui.worker import DesignSpec
 
 FORM = "design form"
 
@@ -113,10 +112,8 @@ async def page() -> None:
                            label="counterweights")
             methods = ui.input("methods verified (the rules' first)", value="4")
             name = ui.input("Design name", value="design").props("data-testid=design-name")
-        bar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
-        status = ui.label("").props("data-testid=design-status")
+        panel = JobPanel("design", DesignSpec, show)
         out = ui.column().classes("w-full")
-        shown: dict[str, Any] = {"job": None, "state": None}
 
         def start() -> None:
             clear()
@@ -136,25 +133,12 @@ async def page() -> None:
             except ManipcadError as exc:
                 show(exc)
                 return
-            jobs().append(SimulationJob(spec))
-            status.text = "starting the worker..."
+            panel.submit(spec)
 
-        def tick() -> None:
-            mine = [j for j in jobs() if isinstance(j.spec, DesignSpec)]
-            if not mine:
-                return
-            job = mine[-1]
-            state = poll_job(job, bar, status, "design ", shown)
-            if state is None:
-                return
-            if state != "done":
-                status.text = state
-                if state == "error":
-                    show(ManipcadError(job.message))
-                return
+        def done(job) -> None:
             m = job.metrics
-            status.text = (f"done in {job.wall:.3g} s: design {m['status']}; stored "
-                           f"studies/{job.result}")
+            panel.status.text = (f"done in {job.wall:.3g} s: design {m['status']}; stored "
+                                 f"studies/{job.result}")
             out.clear()
             with out:
                 job_notes(job)
@@ -170,13 +154,4 @@ async def page() -> None:
                 for f in m["files"]:
                     ui.link(f, f"/api/studies/{job.result}/{f}", new_tab=True)
 
-        def cancel() -> None:
-            for job in jobs():
-                if isinstance(job.spec, DesignSpec) and not job.finished:
-                    job.cancel()
-
-        with ui.row():
-            ui.button("Design", on_click=start).props("data-testid=design-run") \
-                .mark("design-run")
-            ui.button("Cancel", on_click=cancel, color="negative")
-        ui.timer(0.25, tick)
+        panel.controls("Design", start, done, what=lambda job: "design ")

@@ -3,8 +3,6 @@ studies run in the worker process and their reports linked."""
 
 from __future__ import annotations
 
-from typing import Any
-
 from nicegui import ui
 
 from manipcad.errors import ManipcadError
@@ -12,15 +10,15 @@ from manipcad.ui import logic, worker
 from manipcad.ui.pages.common import (
     QUANTITIES,
     SERVER,
+    JobPanel,
     connected,
     error_label,
     frame,
     job_notes,
-    jobs,
     numbers,
     ws,
 )
-from manipcad.ui.worker import SimulationJob, StudySpec
+from manipcad.ui.worker import StudySpec
 from manipcad.workspace import check_name
 
 
@@ -95,11 +93,8 @@ async def page() -> None:
             smethods = ui.input("fig3: methods (comma; empty: all)", value="") \
                 .classes("w-64").props("data-testid=study-methods")
             kind.on_value_change(lambda e: sname.set_value(e.value))
-        sbar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
-        sstatus = ui.label("").props("data-testid=study-status")
+        panel = JobPanel("study", StudySpec, show)
         snotes = ui.column().classes("gap-0")
-        my_studies: list[SimulationJob] = []
-        seen: dict[str, Any] = {"job": None}
 
         def start_study() -> None:
             clear()
@@ -113,48 +108,22 @@ async def page() -> None:
             except ManipcadError as exc:
                 show(exc)
                 return
-            job = SimulationJob(spec)
-            jobs().append(job)
-            my_studies.append(job)
-            sstatus.text = f"starting the worker for {spec.study}..."
+            panel.submit(spec, f"starting the worker for {spec.study}...")
 
-        def cancel_study() -> None:
-            for job in my_studies:
-                if not job.finished:
-                    job.cancel()
-
-        def study_tick() -> None:
-            if not my_studies:
-                return
-            job = my_studies[-1]
-            st = job.poll()
-            sbar.value = job.fraction
-            if st in ("starting", "running"):
-                sstatus.text = f"{job.spec.study} {st}: {100 * job.fraction:.0f} %"
-                return
-            if seen["job"] is job:
-                return
-            seen["job"] = job
+        def ended(job) -> None:
             snotes.clear()
             with snotes:
                 job_notes(job)
-            if st == "done":
-                report = "report.html" if "report.html" in job.metrics.get("files", []) \
-                    else None
-                sstatus.text = (f"done: stored studies/{job.result} in {job.wall:.3g} s")
-                studies.refresh()
-                if report:
-                    ui.navigate.to(f"/api/studies/{job.result}/{report}", new_tab=True)
-            else:
-                sstatus.text = st
-                if st == "error":
-                    show(ManipcadError(job.message))
 
-        with ui.row():
-            ui.button("Run the study", on_click=start_study).props("data-testid=study-run")
-            ui.button("Cancel", on_click=cancel_study, color="negative") \
-                .props("data-testid=study-cancel")
-        ui.timer(0.5, study_tick)
+        def done(job) -> None:
+            report = "report.html" if "report.html" in job.metrics.get("files", []) else None
+            panel.status.text = f"done: stored studies/{job.result} in {job.wall:.3g} s"
+            studies.refresh()
+            if report:
+                ui.navigate.to(f"/api/studies/{job.result}/{report}", new_tab=True)
+
+        panel.controls("Run the study", start_study, done, ended=ended, period=0.5,
+                       what=lambda job: f"{job.spec.study} ")
 
         @ui.refreshable
         def studies() -> None:

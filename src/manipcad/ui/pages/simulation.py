@@ -3,8 +3,6 @@ the stored result's figures."""
 
 from __future__ import annotations
 
-from typing import Any
-
 from nicegui import ui
 
 from manipcad.errors import InputError, ManipcadError
@@ -12,16 +10,15 @@ from manipcad.ui import logic, worker
 from manipcad.ui.pages.common import (
     QUANTITIES,
     SERVER,
+    JobPanel,
     connected,
     error_label,
     frame,
     job_notes,
-    jobs,
     numbers,
-    poll_job,
     ws,
 )
-from manipcad.ui.worker import SimSpec, SimulationJob
+from manipcad.ui.worker import SimSpec
 
 
 async def page() -> None:
@@ -48,10 +45,8 @@ async def page() -> None:
             dt = ui.input("dt [s]", value="1e-4").props("data-testid=sim-dt")
             name = ui.input("Result name (optional)", value="").props("data-testid=sim-name")
             keep = ui.checkbox("keep a diverged run's partial result")
-        bar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
-        status = ui.label("").props("data-testid=sim-status")
+        panel = JobPanel("sim", SimSpec, show)
         figs = ui.column().classes("w-full")
-        shown: dict[str, Any] = {"job": None, "state": None}
 
         def start() -> None:
             clear()
@@ -70,50 +65,29 @@ async def page() -> None:
             except ManipcadError as exc:
                 show(exc)
                 return
-            jobs().append(SimulationJob(spec))
-            status.text = "starting the worker..."
+            panel.submit(spec)
 
-        def cancel() -> None:
-            for job in jobs():
-                if not job.finished:
-                    job.cancel()
+        def done(job) -> None:
+            panel.status.text = (f"done: stored results/{job.result} in {job.wall:.3g} s; "
+                                 f"max |e| = {job.metrics.get('max_error', float('nan')):.3g}")
+            figs.clear()
+            with figs:
+                job_notes(job)
+                box = ui.column().classes("w-full")
 
-        def tick() -> None:
-            if not jobs():
-                return
-            job = jobs()[-1]
-            state = poll_job(job, bar, status, "", shown)
-            if state is None:
-                return
-            if state == "done":
-                status.text = (f"done: stored results/{job.result} in {job.wall:.3g} s; "
-                               f"max |e| = {job.metrics.get('max_error', float('nan')):.3g}")
-                figs.clear()
-                with figs:
-                    job_notes(job)
-                    box = ui.column().classes("w-full")
+                def draw(q: str, name: str = job.result) -> None:
+                    box.clear()
+                    with box:
+                        ui.plotly(logic.overlay_figure(ws(), [name], q)).classes("w-full")
 
-                    def draw(q: str, name: str = job.result) -> None:
-                        box.clear()
-                        with box:
-                            ui.plotly(logic.overlay_figure(ws(), [name], q)).classes("w-full")
+                ui.toggle(QUANTITIES, value="error", on_change=lambda e: draw(e.value)) \
+                    .move(target_index=0)
+                draw("error")
+                rows, verdict = logic.check_rows(ws(), job.result)
+                ui.label(verdict).props("data-testid=sim-verdict").classes(
+                    "text-negative" if verdict.startswith("FAIL") else "")
+                ui.table(columns=[{"name": c, "label": c, "field": c} for c in (
+                    "joint", "check", "value", "limit", "unit", "verdict")], rows=rows) \
+                    .props("dense flat data-testid=sim-checks")
 
-                    ui.toggle(QUANTITIES, value="error", on_change=lambda e: draw(e.value)) \
-                        .move(target_index=0)
-                    draw("error")
-                    rows, verdict = logic.check_rows(ws(), job.result)
-                    ui.label(verdict).props("data-testid=sim-verdict").classes(
-                        "text-negative" if verdict.startswith("FAIL") else "")
-                    ui.table(columns=[{"name": c, "label": c, "field": c} for c in (
-                        "joint", "check", "value", "limit", "unit", "verdict")], rows=rows) \
-                        .props("dense flat data-testid=sim-checks")
-            else:
-                status.text = state
-                if state == "error":
-                    show(ManipcadError(job.message))
-
-        with ui.row():
-            ui.button("Simulate", on_click=start).props("data-testid=sim-run")
-            ui.button("Cancel", on_click=cancel, color="negative") \
-                .props("data-testid=sim-cancel")
-        ui.timer(0.25, tick)
+        panel.controls("Simulate", start, done)

@@ -1,4 +1,4 @@
-"""Issue 9 "Performance": the adaptive integrators against RK4 and against MuJoCo and Drake.
+"""The adaptive integrators against RK4 and against MuJoCo and Drake.
 
 Imported by ``bench_simulator.py --part integrators|ur5`` (see its docstring); kept
 in its own file so the python-control comparison above stays as it was.
@@ -123,7 +123,7 @@ def puma_part(rounds: int, t_end: float) -> dict:
              "adaptive-exact (rtol 1e-6, atol 1e-8)": dict(general,
                                                            integrator="adaptive-exact",
                                                            rtol=1e-6, atol=1e-8),
-             # the robot's customized kernels (manipcad codegen, issue 14)
+             # the robot's customized kernels (manipcad codegen)
              "RK4 dt 1e-4, generated kernels": dict(general, use_generated=True),
              "adaptive-exact, generated kernels": dict(general, use_generated=True,
                                                        integrator="adaptive-exact",

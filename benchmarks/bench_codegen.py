@@ -36,7 +36,7 @@ What is timed (``time.perf_counter``, wall clock, per state):
 Cases are interleaved: every round times each case once, in a new random
 order; the table shows the minimum over rounds and (in brackets) the median.
 
-Targets (issue 14, "Speed"): generated single call <= 0.5x Pinocchio's, batch
+Targets: generated single call <= 0.5x Pinocchio's, batch
 <= 0.1x per state, generation of a 7-joint arm < 5 s, simulator RTF >= 100.
 """
 

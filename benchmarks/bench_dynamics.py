@@ -26,7 +26,7 @@ minimum over the rounds and, in brackets, the median. The batch call runs
 with numba's default number of threads (the machine's cores) and, as a
 separate row, with one thread.
 
-Targets (issue 2, "Speed"): batched inverse dynamics <= 0.5x Pinocchio's
+Targets: batched inverse dynamics <= 0.5x Pinocchio's
 per-call time, a single call <= 3x, ABA on 100 joints <= 1.5x.
 """
 

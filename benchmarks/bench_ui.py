@@ -27,7 +27,7 @@ What is timed (wall clock, ``time.perf_counter``), in one run on one machine:
 * **other pages while a run goes**: the load time of /robots while the page's
   run is in progress (the worker is a separate process).
 
-Targets (issue 12): pages < 1 s; page run <= 1.5x the CLI's.
+Targets: pages < 1 s; page run <= 1.5x the CLI's.
 """
 
 from __future__ import annotations

@@ -103,8 +103,8 @@ def test_cell_plan_reuses_the_rows_arm(arm):
 def test_fig3_cell_files_and_cache(tmp_path, monkeypatch, arm, dask_scheduler):
     """The cell at speed scale 1 on the light arm is the Fig. 3 experiment: the same
     figures as `study fig3` (to 1e-6: the cells run the general kernels, study fig3 may
-    run the robot's generated ones, which agree to about 1e-8); the files have issue 13's
-    layout; a rerun computes nothing; on a 2-worker cluster (the cell's runs spread over
+    run the robot's generated ones, which agree to about 1e-8); the files have the
+    study's layout; a rerun computes nothing; on a 2-worker cluster (the cell's runs spread over
     the workers, the rows sized and the figure's panels drawn there) the results and the
     figure are identical."""
     from manipcad.study import run_fig3

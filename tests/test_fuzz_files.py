@@ -1,4 +1,4 @@
-"""Fuzz tests of every file kind (issue 15): mutate valid robot, trajectory, regulator and
+"""Fuzz tests of every file kind: mutate valid robot, trajectory, regulator and
 CSV files (delete, duplicate, retype, huge, NaN, inf, deep, aliased) and require that
 each either loads and passes the model checks or raises the project's own error
 (:class:`~manipcad.errors.ManipcadError`), never another exception, within a set time

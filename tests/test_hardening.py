@@ -1,9 +1,8 @@
-"""Issue 15 reproducers: each bad input must give the project's own error (or a
+"""Bad-input reproducers: each bad input must give the project's own error (or a
 correct result), never a traceback, a silent wrong answer or a runaway resource.
 
-Grouped by the issue's classes: reading files, values, API inputs, the CLI's
-guard, saves. Each case failed before its fix (run against the tree before
-issue 15 to see them fail).
+Grouped by kind: reading files, values, API inputs, the CLI's guard, saves. Each
+case failed before its fix.
 """
 
 from __future__ import annotations

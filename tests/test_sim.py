@@ -1,4 +1,4 @@
-"""Closed-loop simulator (issue 3, part 4) and regulator files.
+"""Closed-loop simulator and regulator files.
 
 Checked against independent implementations: the passive rigid body against
 Pinocchio's ABA integrated by SciPy's DOP853; one drive against the closed

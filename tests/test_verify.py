@@ -1,4 +1,4 @@
-"""A promised accuracy against the coupled simulation (issue: no confident wrong answer)."""
+"""A promised accuracy against the coupled simulation: no confident wrong answer."""
 
 from __future__ import annotations
 

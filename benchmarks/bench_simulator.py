@@ -180,7 +180,7 @@ def run_python_rk4(peer: Peer, t_end: float):
 
 def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
     """Per-call cost of the simulator's compiled pieces, and simulate()'s Python share."""
-    sim_mod = sys.modules["manipcad.sim.simulate"]  # manipcad.sim.simulate is also a function
+    sim_mod = sys.modules["manipcad.sim.integrate"]  # the module calling the compiled core
     from manipcad.control import kind_of
     from manipcad.control.pid import PID_KD, PID_KP, PID_ULIM
     from manipcad.control.signals import NPARAM, NSIG, NSTATE

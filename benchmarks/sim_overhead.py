@@ -15,8 +15,10 @@ kernels):
   is the Python side;
 * ``job``: the same for 0.1 s (1,000 steps), a short job of a sweep.
 
-Printed per job: the minimum and the median time per call over ``--rounds`` rounds of
-``--calls`` calls (``job``: a tenth of them), in µs, and the load average.
+Printed per job: the minimum and the median wall time per call over ``--rounds`` rounds
+of ``--calls`` calls (``job``: a tenth of them), the minimum CPU time per call (what an
+idle core gives; on a loaded machine the wall time also counts the waits for a core), in
+µs, and the load average.
 """
 
 from __future__ import annotations
@@ -52,14 +54,15 @@ def main() -> None:
             return simulate(arm, t_end=t_end, dt=1e-4, trajectory=laws, regulators=regs)
         for _ in range(20):
             once()
-        per = []
+        per, cpu = [], []
         for _ in range(args.rounds):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             for _ in range(calls):
                 once()
             per.append((time.perf_counter() - t0) / calls * 1e6)
-        print(f"{name:5s} ({int(round(t_end / 1e-4))} steps): min {min(per):8.1f} us, "
-              f"median {statistics.median(per):8.1f} us per call "
+            cpu.append((time.process_time() - c0) / calls * 1e6)
+        print(f"{name:5s} ({int(round(t_end / 1e-4))} steps): wall min {min(per):8.1f} us, "
+              f"median {statistics.median(per):8.1f} us; CPU min {min(cpu):8.1f} us per call "
               f"({args.rounds} rounds of {calls}); load {os.getloadavg()[0]:.2f}")
 
 

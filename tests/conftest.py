@@ -177,7 +177,7 @@ def _core_arguments(integrator: str) -> tuple:
     a PID per joint), taken at the call instead of running it."""
     import importlib
 
-    sim = importlib.import_module("manipcad.sim.simulate")
+    sim = importlib.import_module("manipcad.sim.integrate")
     name = "run" if integrator == "rk4" else "run_adaptive"
     core = getattr(sim, name)
 
@@ -191,7 +191,7 @@ def _core_arguments(integrator: str) -> tuple:
         return taken.args[0]
     finally:
         setattr(sim, name, core)
-    raise RuntimeError(f"manipcad.simulate did not call sim.simulate.{name}")
+    raise RuntimeError(f"manipcad.simulate did not call sim.integrate.{name}")
 
 
 def _compile(kernel, *args) -> None:

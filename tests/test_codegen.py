@@ -382,6 +382,8 @@ def test_api_uses_attached_kernels_and_can_opt_out():
     robot = load("scara")
     Q, QD, QDD = states(robot, 3)
     gen = generate(robot)  # attaches to this robot object
+    from manipcad.dynamics.generated import attached
+
     assert np.array_equal(manipcad.inverse_dynamics(robot, Q, QD, QDD),
                           gen.inverse_dynamics(Q, QD, QDD))
     assert np.array_equal(manipcad.mass_matrix(robot, Q[0]), gen.mass_matrix(Q[0]))
@@ -392,14 +394,15 @@ def test_api_uses_attached_kernels_and_can_opt_out():
     assert rel(general, tau) < TOL
     # a changed copy is a new object: the general kernels, not the stale ones
     heavier = robot.with_payload(2.0)
-    assert "_generated" not in heavier.__dict__
+    assert attached(heavier) is None and attached(robot) is gen
+    assert not any(k.startswith("_") for k in robot.__dict__)  # nothing hung on the robot
     # a robot with kernels attached pickles (process pools); the copy finds them again
     import pickle
 
     from manipcad.codegen import find
 
     copy = pickle.loads(pickle.dumps(robot))
-    assert copy.__dict__.get("_generated") is None
+    assert attached(copy) is None
     # its table is read-only like the original's: the same compiled kernels serve it
     assert not copy.table.flags.writeable and np.array_equal(copy.table, robot.table)
     assert np.array_equal(manipcad.inverse_dynamics(copy, Q, QD, QDD, use_generated=False),

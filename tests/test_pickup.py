@@ -164,7 +164,7 @@ def test_runs_with_and_without_an_estimator_share_one_compiled_core(arm, integra
 
     from manipcad.control.estimator import no_estimator
 
-    sim_module = importlib.import_module("manipcad.sim.simulate")  # (the module, not the
+    sim_module = importlib.import_module("manipcad.sim.integrate")  # (the module, not the
     # function manipcad.sim exports under the same name)
 
     est = PayloadEstimator(arm, period=1e-3)

@@ -3,6 +3,7 @@ numba's typing only for arguments whose key says their types are exactly those i
 compiled for; the start sampled once; the packed drives kept per robot; the memory reading
 reused."""
 
+import gc
 import sys
 import warnings
 from collections import namedtuple
@@ -17,8 +18,9 @@ import manipcad.budget as budget
 from manipcad.errors import ManipcadWarning
 from manipcad.sim import simulate
 from manipcad.sim.direct import DirectCall
+from manipcad.sim.joint_limits import column_extremes
 
-SIM = sys.modules["manipcad.sim.simulate"]
+SIM = sys.modules["manipcad.sim.integrate"]
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
@@ -214,7 +216,15 @@ def test_packed_drives_kept_per_robot_and_fresh_per_run():
         res = simulate(robot, **kw, **opts)
         ref = simulate(robot.replace(), **kw, **opts)
         assert _same(res, ref), opts
-    assert set(robot.__dict__["_sim_drives"]) == {(True, 2), (True, 3), (False, 3)}
+    # kept beside the robot, not on it; gone with it
+    from manipcad.sim.closed_loop import _DRIVES
+
+    assert set(_DRIVES.get(robot)) == {(True, 2), (True, 3), (False, 3)}
+    assert not any(k.startswith("_") for k in robot.__dict__)
+    kept = len(_DRIVES)
+    del robot, res, ref
+    gc.collect()
+    assert len(_DRIVES) < kept
 
 
 def test_direct_call_gives_the_dispatchers_results(monkeypatch):
@@ -272,7 +282,7 @@ def test_quintic_profile_compiled_equals_numpys_expressions():
                                    (1000, 9), (4, 8), (333, 5), (2, 16)])
 def test_column_extremes_equal_numpys(shape):
     a = np.random.default_rng(sum(shape)).normal(size=shape)
-    assert np.array_equal(SIM._extremes(a), np.stack([a.min(axis=0), a.max(axis=0)]))
+    assert np.array_equal(column_extremes(a), np.stack([a.min(axis=0), a.max(axis=0)]))
 
 
 def test_shared_zero_disturbance_rows_stay_zero():

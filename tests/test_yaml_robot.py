@@ -869,8 +869,8 @@ def test_static_friction_read_saved_and_checked(tmp_path):
     of a drive without the field; below M_f it is refused naming the field."""
     from manipcad.model.hashing import robot_hash
     from manipcad.model.tree_file import save_robot
+    from manipcad.sim.closed_loop import _events, packed_drives
     from manipcad.sim.events import FS_NEG, FS_POS
-    from manipcad.sim.simulate import _events, _packed_drives
 
     plain = load_yaml_robot(write(tmp_path, base_doc()))
     assert plain.drives[0].static_friction == plain.drives[0].M_f == (0.01, 0.02)
@@ -886,7 +886,7 @@ def test_static_friction_read_saved_and_checked(tmp_path):
     assert robot_hash(load_yaml_robot(write(tmp_path, equal, "eq.yaml"))) == robot_hash(plain)
     doc["joints"][0]["drive"]["M_s"] = [0.01, 0.02]
     assert robot_hash(robot) != robot_hash(load_yaml_robot(write(tmp_path, doc, "ms2.yaml")))
-    dtable, _, rtable = _packed_drives(robot, True, None, 3)
+    dtable, _, rtable = packed_drives(robot, True, None, 3)
     fric = _events(robot, dtable, rtable, True, np.zeros(2), 4).fric
     assert fric[0, FS_POS] == pytest.approx(50 * 0.015) and fric[0, FS_NEG] == pytest.approx(1.0)
     bad = base_doc()

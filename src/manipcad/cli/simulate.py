@@ -54,7 +54,7 @@ from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.model.load import CATALOG, load_robot
 from manipcad.sim import SimulationDiverged
 from manipcad.sim import simulate as run_simulation
-from manipcad.sim.simulate import JOINT_LIMITS
+from manipcad.sim.joint_limits import JOINT_LIMITS
 from manipcad.trajectories import load_trajectory
 
 

@@ -22,6 +22,7 @@ import sys
 import sysconfig
 import time
 import warnings
+import weakref
 from pathlib import Path
 from typing import NamedTuple
 
@@ -36,6 +37,8 @@ from manipcad.codegen.symbolic import Dynamics, dynamics, num
 from manipcad.dynamics._inputs import as_states
 from manipcad.dynamics.api import forward_dynamics, inverse_dynamics, mass_matrix
 from manipcad.dynamics.components import torque_components
+from manipcad.dynamics.generated import attach as attach_kernels
+from manipcad.dynamics.generated import attached
 from manipcad.errors import ManipcadError, ManipcadWarning
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot
 
@@ -773,7 +776,11 @@ class GeneratedDynamics:
 
     def __init__(self, robot: Robot, digest: str, module, ops: dict, path: Path | None,
                  seconds: float, reason: str = "") -> None:
-        self.robot, self.n, self.hash = robot, robot.n, digest
+        # the robot itself only for the general fallback (no module); generated kernels
+        # hold it weakly, so that the registry of attached kernels
+        # (manipcad.dynamics.generated) keeps no robot alive
+        self._robot = robot if module is None else weakref.ref(robot)
+        self.name, self.n, self.hash = robot.name, robot.n, digest
         self.generated = module is not None
         self.reason = reason
         self.ops, self.path, self.seconds = ops, path, seconds
@@ -782,6 +789,13 @@ class GeneratedDynamics:
         self._cf: dict = {}  # (name, drives) -> C-ABI kernel
         # one-state calls: the CPython extension of the C code, built on first use
         self._x = _LazyExtension(self) if module is not None else _NO_EXTENSION
+
+    @property
+    def robot(self) -> Robot | None:
+        """The robot the kernels were made for (None once it is gone: generated kernels
+        keep no robot alive)."""
+        r = self._robot
+        return r() if isinstance(r, weakref.ref) else r
 
     def kernel(self, name: str):
         """The compiled kernel ``name`` of the generated module (compiled on first use).
@@ -796,7 +810,7 @@ class GeneratedDynamics:
         f = self._c.get(name)
         if f is None:
             if self._m is None or name not in self._m.SIGNATURES:
-                raise ManipcadError(f"no generated kernel {name!r} for {self.robot.name!r}"
+                raise ManipcadError(f"no generated kernel {name!r} for {self.name!r}"
                                     + (f": {self.reason}" if self.reason else ""))
             f = getattr(self._m, name)
             self._c[name] = f
@@ -809,7 +823,7 @@ class GeneratedDynamics:
 
     def __repr__(self) -> str:
         kind = "generated" if self.generated else "general fallback"
-        return f"GeneratedDynamics({self.robot.name!r}, n={self.n}, {kind})"
+        return f"GeneratedDynamics({self.name!r}, n={self.n}, {kind})"
 
     def cfunc(self, name: str, drives: bool = True):
         """A C-ABI kernel on raw addresses, for other compiled loops (the simulator's).
@@ -1028,8 +1042,8 @@ class GeneratedDynamics:
                 customized (the fallback has no C code).
         """
         if not self.generated or self.path is None:
-            raise ManipcadError(f"no C code for {self.robot.name!r}: {self.reason}")
-        p = c_identifier(self.robot.name) if prefix is None else prefix
+            raise ManipcadError(f"no C code for {self.name!r}: {self.reason}")
+        p = c_identifier(self.name) if prefix is None else prefix
         if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", p):
             raise ManipcadError(f"--prefix must be a C identifier, got {p!r}")
         hdr = (self.path / "kernels.h.in").read_text().replace(
@@ -1040,7 +1054,7 @@ class GeneratedDynamics:
     def python_source(self) -> str:
         """The text of the generated numba module."""
         if self.path is None:
-            raise ManipcadError(f"no generated module for {self.robot.name!r}: {self.reason}")
+            raise ManipcadError(f"no generated module for {self.name!r}: {self.reason}")
         return (self.path / "kernels.py").read_text()
 
 
@@ -1155,7 +1169,7 @@ def generate(robot: Robot, *, cache_dir: str | Path | None = None, attach: bool 
     module = _load_module(path, digest)
     gen = GeneratedDynamics(robot, digest, module, meta["ops"], path, seconds)
     if attach:
-        object.__setattr__(robot, "_generated", gen)
+        attach_kernels(robot, gen)
     return gen
 
 
@@ -1179,7 +1193,7 @@ def find(robot: Robot, *, cache_dir: str | Path | None = None) -> GeneratedDynam
         >>> find(arm) is not None
         True
     """
-    gen = robot.__dict__.get("_generated")
+    gen = attached(robot)
     if gen is not None:
         return gen
     if robot.n > MAX_JOINTS:

@@ -24,6 +24,7 @@ from manipcad.dynamics._inputs import (
 from manipcad.dynamics.aba import aba_batch, aba_batch_parallel
 from manipcad.dynamics.crba import crba_batch, crba_batch_parallel
 from manipcad.dynamics.forward_crba import crba_fd_batch, crba_fd_batch_parallel
+from manipcad.dynamics.generated import attached
 from manipcad.dynamics.rnea import rnea_batch, rnea_batch_parallel
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot, require_robot
@@ -41,11 +42,12 @@ def _not_pd(state: int) -> ManipcadError:
 
 
 def _generated(robot: Robot, use: bool, source: str):
-    """The customized kernels :func:`manipcad.codegen.generate` attached to this robot, or
-    None; anything but a Robot refused naming ``source``'s ``robot`` argument."""
+    """The customized kernels :func:`manipcad.codegen.generate` attached to this robot
+    (:mod:`manipcad.dynamics.generated`), or None; anything but a Robot refused naming
+    ``source``'s ``robot`` argument."""
     if type(robot) is not Robot:
         require_robot(robot, source)
-    return robot.__dict__.get("_generated") if use else None
+    return attached(robot) if use else None
 
 
 def inverse_dynamics(robot: Robot, q, qd, qdd, *, gravity=None, f_ext=None,

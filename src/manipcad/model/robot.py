@@ -19,6 +19,7 @@ table (:attr:`Robot.table`) so a call passes few arrays and allocates little.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -484,21 +485,18 @@ class Robot:
         """True when at least one joint has a drive."""
         return any(d is not None for d in self.drives)
 
-    @property
+    @functools.cached_property
     def table(self) -> np.ndarray:
-        """The packed (n, TABLE_COLS) model table the compiled kernels read."""
-        cached = self.__dict__.get("_table")
-        if cached is None:
-            cached = _pack(self)
-            object.__setattr__(self, "_table", cached)
-        return cached
+        """The packed (n, TABLE_COLS) model table the compiled kernels read (read-only;
+        packed from the fields on first use: the robot's own derived data)."""
+        return _pack(self)
 
     def __getstate__(self) -> dict:
-        # the packed table is a cache: unpickled it would be a writable array, another type
+        # the packed table is derived: unpickled it would be a writable array, another type
         # for numba than the read-only one _pack makes, so every kernel the copy runs would
         # compile (and cache) a second specialization; the copy packs its own instead
         state = dict(self.__dict__)
-        state.pop("_table", None)
+        state.pop("table", None)
         return state
 
     def __setstate__(self, state: dict) -> None:
@@ -578,7 +576,6 @@ class Robot:
     def replace(self, **changes) -> Robot:
         """A validated copy with some fields changed."""
         new = dataclasses.replace(self, **changes)
-        new.__dict__.pop("_table", None)
         new.validate()
         return new
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from manipcad.control.files import load_regulators
 from manipcad.errors import InputError
-from manipcad.sim.simulate import period_too_long
+from manipcad.sim.closed_loop import period_too_long
 from manipcad.store.results import every_for
 
 #: how the run's numbers are named in messages: Python's keywords by default; the CLI

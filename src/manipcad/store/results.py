@@ -46,8 +46,8 @@ from manipcad.fileio import atomic_write, dump_yaml, json_safe
 from manipcad.folders import clean_stale, write_folder
 from manipcad.model.tree_file import save_robot
 from manipcad.report.plots import plot_errors
+from manipcad.sim.result import SimulationResult
 from manipcad.sim.series import SERIES, result_arrays, series_columns, series_units  # noqa: F401
-from manipcad.sim.simulate import SimulationResult
 from manipcad.version import __version__
 
 #: file names inside a result folder

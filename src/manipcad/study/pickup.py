@@ -51,7 +51,7 @@ from manipcad.folders import write_folder
 from manipcad.model.robot import Robot
 from manipcad.report.pickup import plot_pickup
 from manipcad.sim import simulate
-from manipcad.sim.simulate import INTEGRATORS
+from manipcad.sim.integrate import INTEGRATORS
 from manipcad.study.fig3 import LAWS, LIFT, REACH, TURN, support_regulators
 from manipcad.trajectories import cosine
 from manipcad.version import __version__

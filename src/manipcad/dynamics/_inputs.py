@@ -171,7 +171,7 @@ def vector_kernel(store: dict, name: str):
     vec = nt.float64[::1]
     state = (table, vec, vec, vec, vec, nt.boolean, vec, nt.float64[:, :, ::1], nt.boolean)
     func, sig = {
-        "rnea": (rnea_vector, nt.void(*state)),
+        "rnea": (rnea_vector, nt.int64(*state)),
         "aba": (aba_vector, nt.int64(*state)),
         "crba": (crba_fd_vector, nt.int64(*state)),
         "mass": (crba_vector, nt.void(table, vec, nt.boolean, nt.float64[:, ::1])),

@@ -17,13 +17,18 @@ that a store to one scratch array changes another.
 from __future__ import annotations
 
 import math
+import types
 
 import numba as nb
+import numpy as np
 
 from manipcad.model.robot import (
     COL_BV,
+    COL_COM,
     COL_FCN,
     COL_FCP,
+    COL_IC,
+    COL_MASS,
     COL_OFFSET,
     COL_P,
     COL_PARENT,
@@ -65,6 +70,28 @@ def joint_pose(table, i, qi, out, oR, oP):
 
 
 @inline
+def get3(M, i, o):
+    """The 3-vector M[i, o:o + 3] as a tuple."""
+    return M[i, o], M[i, o + 1], M[i, o + 2]
+
+
+@inline
+def put3(M, i, o, x, y, z):
+    """Store (x, y, z) in M[i, o:o + 3]."""
+    M[i, o] = x
+    M[i, o + 1] = y
+    M[i, o + 2] = z
+
+
+@inline
+def add3(M, i, o, x, y, z):
+    """Add (x, y, z) to M[i, o:o + 3]."""
+    M[i, o] = M[i, o] + x
+    M[i, o + 1] = M[i, o + 1] + y
+    M[i, o + 2] = M[i, o + 2] + z
+
+
+@inline
 def rot_t(M, i, o, x, y, z):
     """Rᵀ (x, y, z) for R = M[i, o:o + 9] row-major (parent axes -> body axes)."""
     return (M[i, o] * x + M[i, o + 3] * y + M[i, o + 6] * z,
@@ -101,3 +128,89 @@ def drive_friction(table, i, qdi):
 def parent_of(table, i):
     """Parent index of joint i (-1 for the base)."""
     return int(table[i, COL_PARENT])
+
+
+@inline
+def origin_inertia(table, i):
+    """Link i's mass (kg), first moment h = m·c (kg·m) and inertia about its body
+    origin I_O = I_c + m (|c|² E - c cᵀ) (kg·m², upper triangle i00 i01 i02 i11 i12 i22),
+    body axes: ``(m, h0, h1, h2, i00, i01, i02, i11, i12, i22)``."""
+    m = table[i, COL_MASS]
+    c0 = table[i, COL_COM]
+    c1 = table[i, COL_COM + 1]
+    c2 = table[i, COL_COM + 2]
+    h0 = m * c0
+    h1 = m * c1
+    h2 = m * c2
+    hc0 = h0 * c0
+    hc1 = h1 * c1
+    hc2 = h2 * c2
+    return (m, h0, h1, h2,
+            table[i, COL_IC] + hc1 + hc2,
+            table[i, COL_IC + 1] - h0 * c1,
+            table[i, COL_IC + 2] - h0 * c2,
+            table[i, COL_IC + 4] + hc0 + hc2,
+            table[i, COL_IC + 5] - h1 * c2,
+            table[i, COL_IC + 8] + hc0 + hc1)
+
+
+# ------------------------------------------------------- the twins of a batch kernel
+# A batch kernel ``batch(table, g, X, Y, Z, FEXT, use_fext, drives, OUT)`` runs the
+# states in the rows of X, Y, Z (N, n) into OUT and returns the index of the first
+# state it could not solve, or -1. Its parallel twin and its one-state twin are the
+# two templates below with ``BATCH`` bound to it. They are copies of the template's
+# code under their own names rather than closures: numba's on-disk cache keys a
+# closure by its pickled cells, and a pickled compiled function differs from process
+# to process, so a closure would compile again in every process.
+
+BATCH = None  # bound in each twin's globals
+
+
+def _rows_in_chunks(table, g, X, Y, Z, FEXT, use_fext, drives, OUT, chunks):
+    """The batch kernel on ``chunks`` chunks of rows, run on numba's threads."""
+    N = X.shape[0]
+    bad = np.empty(chunks, dtype=np.int64)
+    for c in nb.prange(chunks):
+        a = c * N // chunks
+        b = (c + 1) * N // chunks
+        k = BATCH(table, g, X[a:b], Y[a:b], Z[a:b], FEXT[a:b] if use_fext else FEXT,
+                  use_fext, drives, OUT[a:b])
+        bad[c] = k + a if k >= 0 else -1
+    for c in range(chunks):
+        if bad[c] >= 0:
+            return bad[c]
+    return -1
+
+
+def _one_state(table, g, x, y, z, drives, out, fext, use_fext):
+    """One state: the fast path of the public function, the batch kernel on a batch of one.
+
+    Compiled on first use with fixed argument types, those of the batch path
+    (see :func:`manipcad.dynamics._inputs.vector_kernel`); raises ValueError
+    when a length is not n, so the caller can fall back to the checked path.
+    """
+    n = table.shape[0]
+    if x.shape[0] != n or y.shape[0] != n or z.shape[0] != n or out.shape[0] != n:
+        raise ValueError("a vector's length is not the number of joints")
+    return BATCH(table, g, x.reshape((1, n)), y.reshape((1, n)), z.reshape((1, n)),
+                 fext, use_fext, drives, out.reshape((1, n)))
+
+
+def _bound(template, batch, name: str):
+    func = types.FunctionType(template.__code__, dict(template.__globals__, BATCH=batch),
+                              name)
+    func.__qualname__ = name
+    func.__doc__ = template.__doc__
+    return func
+
+
+def batch_twins(batch, prefix: str):
+    """The parallel and the one-state twin of a batch kernel (see the note above).
+
+    Returns ``(parallel, vector)``: ``parallel(*args, chunks)`` is compiled (cached)
+    and runs on numba's threads; ``vector`` is plain Python, compiled with fixed
+    argument types by :func:`manipcad.dynamics._inputs.vector_kernel`.
+    """
+    parallel = nb.njit(cache=True, nogil=True, parallel=True)(
+        _bound(_rows_in_chunks, batch, f"{prefix}_batch_parallel"))
+    return parallel, _bound(_one_state, batch, f"{prefix}_vector")

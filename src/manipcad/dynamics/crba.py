@@ -17,8 +17,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from manipcad.dynamics._kernels_common import cross, jit, joint_pose, parent_of, rot
-from manipcad.model.robot import COL_COM, COL_IC, COL_JR, COL_MASS, COL_TYPE
+from manipcad.dynamics._kernels_common import cross, jit, joint_pose, origin_inertia, parent_of, rot
+from manipcad.model.robot import COL_JR, COL_TYPE
 
 # per-body work row: R(9) p(3) m(1) h(3) I_O(9, about the body origin)
 C_R, C_P, C_M, C_H, C_I = 0, 9, 12, 13, 16
@@ -37,33 +37,20 @@ def crba_one(table, q, drives, work, tmp, H):
             H[i, j] = 0.0  # pairs on different branches of a tree stay zero
     for i in range(n):
         joint_pose(table, i, q[i], work, C_R, C_P)
-        m = table[i, COL_MASS]
-        c0 = table[i, COL_COM]
-        c1 = table[i, COL_COM + 1]
-        c2 = table[i, COL_COM + 2]
+        m, h0, h1, h2, i00, i01, i02, i11, i12, i22 = origin_inertia(table, i)
         work[i, C_M] = m
-        h0 = m * c0
-        h1 = m * c1
-        h2 = m * c2
         work[i, C_H] = h0
         work[i, C_H + 1] = h1
         work[i, C_H + 2] = h2
-        # I_O = I_c + m (|c|² E - c cᵀ)
-        hc0 = h0 * c0
-        hc1 = h1 * c1
-        hc2 = h2 * c2
-        work[i, C_I] = table[i, COL_IC] + hc1 + hc2
-        work[i, C_I + 4] = table[i, COL_IC + 4] + hc0 + hc2
-        work[i, C_I + 8] = table[i, COL_IC + 8] + hc0 + hc1
-        i01 = table[i, COL_IC + 1] - h0 * c1
-        i02 = table[i, COL_IC + 2] - h0 * c2
-        i12 = table[i, COL_IC + 5] - h1 * c2
+        work[i, C_I] = i00
         work[i, C_I + 1] = i01
         work[i, C_I + 2] = i02
-        work[i, C_I + 5] = i12
         work[i, C_I + 3] = i01
+        work[i, C_I + 4] = i11
+        work[i, C_I + 5] = i12
         work[i, C_I + 6] = i02
         work[i, C_I + 7] = i12
+        work[i, C_I + 8] = i22
     # composite bodies, leaves first
     for i in range(n - 1, 0, -1):
         par = parent_of(table, i)

@@ -9,10 +9,9 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
-from manipcad.dynamics._kernels_common import jit
+from manipcad.dynamics._kernels_common import batch_twins, jit
 from manipcad.dynamics.crba import CRBA_WORK, crba_state
 from manipcad.dynamics.rnea import RNEA_WORK, rnea_state
 
@@ -72,28 +71,5 @@ def crba_fd_batch(table, g, Q, QD, TAU, FEXT, use_fext, drives, QDD):
     return -1
 
 
-@nb.njit(cache=True, nogil=True, parallel=True)
-def crba_fd_batch_parallel(table, g, Q, QD, TAU, FEXT, use_fext, drives, QDD, chunks):
-    """:func:`crba_fd_batch` on ``chunks`` chunks of rows, run on numba's threads."""
-    N = Q.shape[0]
-    bad = np.empty(chunks, dtype=np.int64)
-    for c in nb.prange(chunks):
-        a = c * N // chunks
-        b = (c + 1) * N // chunks
-        k = crba_fd_batch(table, g, Q[a:b], QD[a:b], TAU[a:b], FEXT[a:b] if use_fext else FEXT,
-                          use_fext, drives, QDD[a:b])
-        bad[c] = k + a if k >= 0 else -1
-    for c in range(chunks):
-        if bad[c] >= 0:
-            return bad[c]
-    return -1
-
-
-def crba_fd_vector(table, g, q, qd, tau, drives, qdd, fext, use_fext):
-    """One state: the fast path of the public function; returns -1, or 0 when H is
-    not positive definite (see ``manipcad.dynamics.rnea.rnea_vector``)."""
-    n = table.shape[0]
-    if q.shape[0] != n or qd.shape[0] != n or tau.shape[0] != n or qdd.shape[0] != n:
-        raise ValueError("a vector's length is not the number of joints")
-    return crba_fd_batch(table, g, q.reshape((1, n)), qd.reshape((1, n)), tau.reshape((1, n)),
-                         fext, use_fext, drives, qdd.reshape((1, n)))
+#: :func:`crba_fd_batch` on chunks of rows on numba's threads, and on one state
+crba_fd_batch_parallel, crba_fd_vector = batch_twins(crba_fd_batch, "crba_fd")

@@ -21,11 +21,15 @@ import numba as nb
 import numpy as np
 
 from manipcad.dynamics._kernels_common import (
+    add3,
+    batch_twins,
     cross,
     drive_friction,
+    get3,
     jit,
     joint_pose,
     parent_of,
+    put3,
     rot,
     rot_t,
 )
@@ -49,26 +53,17 @@ def rnea_one(table, g, q, qd, qdd, fext, use_fext, drives, work, tau):
         par = parent_of(table, i)
         if par < 0:
             # the base is at rest and accelerates by -g (gravity as an inertial force)
-            wx = 0.0
-            wy = 0.0
-            wz = 0.0
-            dx = 0.0
-            dy = 0.0
-            dz = 0.0
+            wx, wy, wz = 0.0, 0.0, 0.0
+            dx, dy, dz = 0.0, 0.0, 0.0
             ax, ay, az = rot_t(work, i, W_R, -g[0], -g[1], -g[2])
         else:
-            opx = work[par, W_W]
-            opy = work[par, W_W + 1]
-            opz = work[par, W_W + 2]
-            dpx = work[par, W_WD]
-            dpy = work[par, W_WD + 1]
-            dpz = work[par, W_WD + 2]
-            px = work[i, W_P]
-            py = work[i, W_P + 1]
-            pz = work[i, W_P + 2]
+            opx, opy, opz = get3(work, par, W_W)
+            dpx, dpy, dpz = get3(work, par, W_WD)
+            px, py, pz = get3(work, i, W_P)
             wx, wy, wz = rot_t(work, i, W_R, opx, opy, opz)
             dx, dy, dz = rot_t(work, i, W_R, dpx, dpy, dpz)
-            # a_p + ω̇_p × p + ω_p × (ω_p × p), then into body axes
+            # the classical acceleration of the origin a_p + ω̇_p × p + ω_p × (ω_p × p),
+            # in body axes (the articulated-body method carries spatial ones instead)
             bx, by, bz = cross(dpx, dpy, dpz, px, py, pz)
             cx, cy, cz = cross(opx, opy, opz, px, py, pz)
             ex, ey, ez = cross(opx, opy, opz, cx, cy, cz)
@@ -87,20 +82,12 @@ def rnea_one(table, g, q, qd, qdd, fext, use_fext, drives, work, tau):
             ax = ax + 2.0 * wy * qdi
             ay = ay - 2.0 * wx * qdi
             az = az + qddi
-        work[i, W_W] = wx
-        work[i, W_W + 1] = wy
-        work[i, W_W + 2] = wz
-        work[i, W_WD] = dx
-        work[i, W_WD + 1] = dy
-        work[i, W_WD + 2] = dz
-        work[i, W_A] = ax
-        work[i, W_A + 1] = ay
-        work[i, W_A + 2] = az
+        put3(work, i, W_W, wx, wy, wz)
+        put3(work, i, W_WD, dx, dy, dz)
+        put3(work, i, W_A, ax, ay, az)
         # acceleration of the centre of mass r̈ = a + ω̇ × r* + ω × (ω × r*)
         m = table[i, COL_MASS]
-        c0 = table[i, COL_COM]
-        c1 = table[i, COL_COM + 1]
-        c2 = table[i, COL_COM + 2]
+        c0, c1, c2 = get3(table, i, COL_COM)
         t0x, t0y, t0z = cross(dx, dy, dz, c0, c1, c2)
         t1x, t1y, t1z = cross(wx, wy, wz, c0, c1, c2)
         t2x, t2y, t2z = cross(wx, wy, wz, t1x, t1y, t1z)
@@ -112,29 +99,14 @@ def rnea_one(table, g, q, qd, qdd, fext, use_fext, drives, work, tau):
         t2x, t2y, t2z = cross(wx, wy, wz, ix, iy, iz)
         t1x, t1y, t1z = rot(table, i, COL_IC, dx, dy, dz)
         t0x, t0y, t0z = cross(c0, c1, c2, fx, fy, fz)
-        nx = t1x + t2x + t0x
-        ny = t1y + t2y + t0y
-        nz = t1z + t2z + t0z
+        put3(work, i, W_F, fx, fy, fz)
+        put3(work, i, W_N, t1x + t2x + t0x, t1y + t2y + t0y, t1z + t2z + t0z)
         if use_fext:
-            fx = fx - fext[i, 0]
-            fy = fy - fext[i, 1]
-            fz = fz - fext[i, 2]
-            nx = nx - fext[i, 3]
-            ny = ny - fext[i, 4]
-            nz = nz - fext[i, 5]
-        work[i, W_F] = fx
-        work[i, W_F + 1] = fy
-        work[i, W_F + 2] = fz
-        work[i, W_N] = nx
-        work[i, W_N + 1] = ny
-        work[i, W_N + 2] = nz
+            add3(work, i, W_F, -fext[i, 0], -fext[i, 1], -fext[i, 2])
+            add3(work, i, W_N, -fext[i, 3], -fext[i, 4], -fext[i, 5])
     for i in range(n - 1, -1, -1):
-        fx = work[i, W_F]
-        fy = work[i, W_F + 1]
-        fz = work[i, W_F + 2]
-        nx = work[i, W_N]
-        ny = work[i, W_N + 1]
-        nz = work[i, W_N + 2]
+        fx, fy, fz = get3(work, i, W_F)
+        nx, ny, nz = get3(work, i, W_N)
         t = nz if table[i, COL_TYPE] == 0.0 else fz
         if drives:
             t = t + table[i, COL_JR] * qdd[i] + drive_friction(table, i, qd[i])
@@ -144,13 +116,11 @@ def rnea_one(table, g, q, qd, qdd, fext, use_fext, drives, work, tau):
             # f_p += R f, n_p += R n + p × R f
             rfx, rfy, rfz = rot(work, i, W_R, fx, fy, fz)
             rnx, rny, rnz = rot(work, i, W_R, nx, ny, nz)
-            cx, cy, cz = cross(work[i, W_P], work[i, W_P + 1], work[i, W_P + 2], rfx, rfy, rfz)
-            work[par, W_F] = work[par, W_F] + rfx
-            work[par, W_F + 1] = work[par, W_F + 1] + rfy
-            work[par, W_F + 2] = work[par, W_F + 2] + rfz
-            work[par, W_N] = work[par, W_N] + rnx + cx
-            work[par, W_N + 1] = work[par, W_N + 1] + rny + cy
-            work[par, W_N + 2] = work[par, W_N + 2] + rnz + cz
+            px, py, pz = get3(work, i, W_P)
+            cx, cy, cz = cross(px, py, pz, rfx, rfy, rfz)
+            add3(work, par, W_F, rfx, rfy, rfz)
+            add3(work, par, W_N, rnx, rny, rnz)
+            add3(work, par, W_N, cx, cy, cz)
 
 
 #: the same source inlined into the loop over states (saves a call and the
@@ -160,7 +130,9 @@ rnea_state = nb.njit(nogil=True, inline="always")(rnea_one.py_func)
 
 @jit
 def rnea_batch(table, g, Q, QD, QDD, FEXT, use_fext, drives, TAU):
-    """Inverse dynamics of N states: rows of Q, QD, QDD (N, n) -> TAU (N, n).
+    """Inverse dynamics of N states: rows of Q, QD, QDD (N, n) -> TAU (N, n); returns -1
+    (every state has torques: the return of a batch kernel, see
+    :func:`manipcad.dynamics._kernels_common.batch_twins`).
 
     The one loop over states: the parallel batch runs it on chunks of rows and
     the one-state fast path on a batch of one, so all share one compiled kernel.
@@ -170,28 +142,8 @@ def rnea_batch(table, g, Q, QD, QDD, FEXT, use_fext, drives, TAU):
     for k in range(Q.shape[0]):
         rnea_state(table, g, Q[k], QD[k], QDD[k], FEXT[k if use_fext else 0],
                    use_fext, drives, work, TAU[k])
+    return -1
 
 
-@nb.njit(cache=True, nogil=True, parallel=True)
-def rnea_batch_parallel(table, g, Q, QD, QDD, FEXT, use_fext, drives, TAU, chunks):
-    """:func:`rnea_batch` on ``chunks`` chunks of rows, run on numba's threads."""
-    N = Q.shape[0]
-    for c in nb.prange(chunks):
-        a = c * N // chunks
-        b = (c + 1) * N // chunks
-        rnea_batch(table, g, Q[a:b], QD[a:b], QDD[a:b], FEXT[a:b] if use_fext else FEXT,
-                   use_fext, drives, TAU[a:b])
-
-
-def rnea_vector(table, g, q, qd, qdd, drives, tau, fext, use_fext):
-    """One state: the fast path of the public function, :func:`rnea_batch` on a batch of one.
-
-    Compiled on first use with fixed argument types, those of the batch path
-    (see :func:`manipcad.dynamics._inputs.vector_kernel`); raises ValueError
-    when a length is not n, so the caller can fall back to the checked path.
-    """
-    n = table.shape[0]
-    if q.shape[0] != n or qd.shape[0] != n or qdd.shape[0] != n or tau.shape[0] != n:
-        raise ValueError("a vector's length is not the number of joints")
-    rnea_batch(table, g, q.reshape((1, n)), qd.reshape((1, n)), qdd.reshape((1, n)),
-               fext, use_fext, drives, tau.reshape((1, n)))
+#: :func:`rnea_batch` on chunks of rows on numba's threads, and on one state
+rnea_batch_parallel, rnea_vector = batch_twins(rnea_batch, "rnea")

@@ -369,11 +369,10 @@ class CircleTrajectory(CartesianTrajectory):
 
     Example:
         >>> import manipcad
-        >>> robot = manipcad.load_robot("puma560")
-        >>> traj = circle(robot, [0.5, -0.15, 1.2], 0.1, [1, 0, 0], 2.0,
-        ...               q0=[0, 0.8, -1.2, 0, 0.5, 0])
-        >>> traj.duration
-        2.0
+        >>> traj = circle(manipcad.load_robot("puma560"), [0.5, -0.15, 1.2], 0.1, [1, 0, 0],
+        ...               2.0, q0=[0, 0.8, -1.2, 0, 0.5, 0])
+        >>> traj.path([1.0])[0].round(3)  # half way round, m
+        array([[ 0.5 , -0.15,  1.1 ]])
     """
 
     kind = "circle"
@@ -476,27 +475,21 @@ def circle(robot: Robot | str | Path, center: Sequence[float], radius: float,
     """A circular move of the tool (gripper) origin, through inverse kinematics.
 
     Args:
-        robot: a :class:`Robot`, a catalog name or a robot file path.
         center: (3,) circle centre in the base frame, m.
         radius: circle radius, m, > 0.
         normal: (3,) normal of the circle's plane (any length); the tool turns
             about it by the right-hand rule (a negative ``angle`` turns back).
-        duration: time of the move, s, > 0.
-        q0: (n,) the inverse-kinematics guess for the first point, rad or m.
         angle: the angle travelled, rad (default 2π, one full turn).
         start: (3,) direction from the centre to the first point (projected on
             the plane); default the direction of the tool position at q0.
-        profile: timing along the arc: "quintic", "cubic" or "linear".
-        orientation: "free" (position only) or "fixed" (keep the tool
-            orientation it has at q0; needs at least 6 joints).
+        robot, duration, q0, profile, orientation: as in :func:`line` (``profile``
+            times the arc).
 
     Returns:
         A :class:`CircleTrajectory`.
 
     Raises:
-        InputError: bad arguments (naming the field).
-        KinematicsError: the first point is out of reach, or the arc meets a
-            singularity or leaves the joint limits.
+        InputError, KinematicsError: as :func:`line`, for the arc.
 
     Example:
         >>> import manipcad

@@ -995,8 +995,9 @@ class GeneratedDynamics:
             >>> import numpy as np, manipcad
             >>> from manipcad.codegen import generate
             >>> gen = generate(manipcad.load_robot("cylindrical"))
-            >>> gen.forward_dynamics(np.zeros(3), np.zeros(3), np.zeros(3)).shape
-            (3,)
+            >>> q = np.array([0.3, 0.2, 0.1]); tau = gen.inverse_dynamics(q, q, q)
+            >>> bool(np.allclose(gen.forward_dynamics(q, q, tau), q))  # q̈ = q here
+            True
         """
         qdd = self._x.forward_dynamics(q, qd, tau, drives)
         if qdd is not None:

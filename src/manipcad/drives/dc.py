@@ -290,23 +290,15 @@ def static_input(i: float, omega_m: float, p: np.ndarray) -> float:
     """Amplifier input that drives the current i at motor speed ω_m, L neglected, V.
 
     The inverse of :func:`static_current` inside the amplifier's linear zone:
-    ``U = (R·i + k_w·ω_m)/k_u``.
+    ``U = (R·i + k_w·ω_m)/k_u`` (V) for the armature current i wanted (A);
+    ``omega_m`` and ``p`` as there.
 
-    Args:
-        i: armature current wanted, A.
-        omega_m: motor speed, rad/s.
-        p: packed drive parameters.
-
-    Returns:
-        U, V.
-
-    Example:
-        >>> from manipcad.drives.dc import static_input
-        >>> from manipcad.drives.params import pack_drive
+    Example (there and back at 10 rad/s):
+        >>> from manipcad.drives import dc, params
         >>> from manipcad.model.robot import Drive
-        >>> p = pack_drive(Drive(R=2.0, L=0.0, k_m=.1, k_w=.1, k_u=1.0))
-        >>> static_input(0.5, 0.0, p)
-        1.0
+        >>> p = params.pack_drive(Drive(R=2.0, L=0.0, k_m=.1, k_w=.1, k_u=1.0))
+        >>> U = dc.static_input(0.5, 10.0, p); U, dc.static_current(U, 10.0, p)
+        (2.0, 0.5)
     """
     return (p[P_R] * i + p[P_KW] * omega_m) / p[P_KU]
 

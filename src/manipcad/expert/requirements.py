@@ -73,7 +73,14 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, StrictBool, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    StrictBool,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+)
 
 from manipcad.dynamics import inverse_dynamics, mass_matrix
 from manipcad.errors import InputError, ManipcadError
@@ -112,6 +119,14 @@ class TransmissionFeatures(BaseModel):
     elasticity: StrictBool | None = None
 
 
+#: the numeric fields' ranges: field -> (test of a finite value, what it must be)
+_BOUNDS = {
+    "accuracy": (lambda v: v > 0, "a finite number > 0 (rad or m)"),
+    "load_variation": (lambda v: v >= 1, "a finite ratio >= 1"),
+    "gripper_speed": (lambda v: v >= 0, "a finite number >= 0 m/s"),
+}
+
+
 class Requirements(BaseModel):
     """What is asked of a drive's control and what the manipulator is like (paper 5).
 
@@ -139,25 +154,12 @@ class Requirements(BaseModel):
     load_variation: OptNum = None    # (J·i_r² + H_max)/(J·i_r² + H_min), >= 1
     joint: str | int | None = None
 
-    @field_validator("accuracy")
+    @field_validator(*_BOUNDS)
     @classmethod
-    def _positive(cls, v: float | None) -> float | None:
-        if v is not None and not (math.isfinite(v) and v > 0):
-            raise ValueError(f"must be a finite number > 0 (rad or m), got {v}")
-        return v
-
-    @field_validator("load_variation")
-    @classmethod
-    def _ratio(cls, v: float | None) -> float | None:
-        if v is not None and not (math.isfinite(v) and v >= 1):
-            raise ValueError(f"must be a finite ratio >= 1, got {v}")
-        return v
-
-    @field_validator("gripper_speed")
-    @classmethod
-    def _non_negative(cls, v: float | None) -> float | None:
-        if v is not None and not (math.isfinite(v) and v >= 0):
-            raise ValueError(f"must be a finite number >= 0 m/s, got {v}")
+    def _in_range(cls, v: float | None, info: ValidationInfo) -> float | None:
+        ok, what = _BOUNDS[info.field_name]
+        if v is not None and not (math.isfinite(v) and ok(v)):
+            raise ValueError(f"must be {what}, got {v}")
         return v
 
     # ------------------------------------------------------------------ access

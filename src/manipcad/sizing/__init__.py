@@ -16,11 +16,9 @@ Equations and conventions: docs/sizing.md.
 
 Example:
     >>> import manipcad
-    >>> from manipcad.sizing import required_drive
-    >>> from manipcad.trajectories import cosine
-    >>> arm = manipcad.load_robot("cylindrical")
-    >>> req = required_drive(arm, cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], 1.6))
-    >>> req.peak_motor_torque.shape
+    >>> from manipcad import sizing
+    >>> move = manipcad.trajectories.cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], 1.6)
+    >>> sizing.required_drive(manipcad.load_robot("cylindrical"), move).peak_motor_torque.shape
     (3,)
 """
 

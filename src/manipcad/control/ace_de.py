@@ -42,6 +42,7 @@ from manipcad.control.design import (
     design_pd,
     inertia_range,
     joint_drive,
+    law_efficiency,
     max_error_of,
     packed,
     parse_spec,
@@ -57,7 +58,7 @@ from manipcad.control.kernels import (
     sce_output,
     torque_rate,
 )
-from manipcad.control.method import Method
+from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_I, S_QD, S_QI
 from manipcad.drives.dc import clip, dry_friction
@@ -254,7 +255,7 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     Hmin, Hmax = inertia_range(robot, j, load_range)
     r2 = d.ratio ** 2
     # the gear's efficiency the law models (an unknown one: none, η = 1)
-    eta = float(d.efficiency) if math.isfinite(d.efficiency) else 1.0
+    eta = law_efficiency(d)
     Jn = d.J + Hmax / (eta * r2) if J_n is None else float(J_n)
     if not (math.isfinite(Jn) and Jn > 0):
         raise ManipcadError(f"nominal inertia J_n must be > 0 kg·m², got {Jn}")
@@ -306,4 +307,4 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
 METHOD = Method(
     name="ace_de", synthesize=synthesize_ace_de, update=ace_de_update, section="3.1 (3)",
     summary="law (3): the drive's differential equation stabilized at the nominal, + SCE",
-    fields=FIELDS, linear=True)
+    fields=FIELDS, linear=True, optional_fields=GEAR_EFFICIENCY_OPTIONAL)

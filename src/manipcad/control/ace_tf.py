@@ -14,6 +14,17 @@ L = 0 drive at any rate of load change). Where the frozen-load drive has no
 stable pole ((h*+k_v)·R + k_m·k_w <= 0, possible with h_i = Ḣ_ii < 0 when the
 load changes fast) T_m is undefined; the denominator is floored at
 ``den_floor``·k_m·k_w.
+
+Gear losses: through a gear of efficiency η the motor feels the load f·H*, f·h*, with
+f = 1/η while the motor drives or holds the load and η while the load drives it back
+(:func:`manipcad.drives.gear.gear_factor`, the plant's formula). The controllable
+realization takes T_m and k_p at f·H*, f·h*, the power flow judged from the ACE's load
+model along the reference, P = H_ii·q̈* + h_i·q̇, against the measured q̇ (the ACE reads
+no current to know q̈, and models no load torque). The observable realization does not
+(its stored η is 1): f steps at every reversal of the power flow, a step of T_m that its
+state equation, exact only for a frozen T_m, turns into a transient (docs/synthesis.md:
+on the Fig. 3 case it raised the error from 4.8e-3 to 6.4e-3 rad). Both take the nominal
+drive J_n = J + H*_max/η (the largest load through the gear motoring) for T_1.
 """
 
 from __future__ import annotations
@@ -28,6 +39,7 @@ from manipcad.control.design import (
     check_period,
     inertia_range,
     joint_drive,
+    law_efficiency,
     max_error_of,
     parse_spec,
     pd_bandwidth,
@@ -42,10 +54,11 @@ from manipcad.control.kernels import (
     load_rates,
     sce_output,
 )
-from manipcad.control.method import Method
+from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method
 from manipcad.control.regulator import Regulator
-from manipcad.control.signals import S_HII
+from manipcad.control.signals import S_HII, S_QD, S_QDDREF
 from manipcad.drives.dc import clip
+from manipcad.drives.gear import gear_factor
 from manipcad.drives.laws import (
     ace1_filter_step,
     ace1_obs_output,
@@ -60,27 +73,37 @@ from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
 
 # T_1 (s), realization (0 observable = quasi-stationary, 1 controllable), use h* = Ḣ* (1)
-# or h* = 0 (0), floor of (h*+k_v)·R + k_m·k_w as a fraction of k_m·k_w
-AT_T1, AT_FORM, AT_HDOT, AT_DENMIN = 21, 22, 23, 24
+# or h* = 0 (0), floor of (h*+k_v)·R + k_m·k_w as a fraction of k_m·k_w, the gear
+# efficiency η the ACE models (-)
+AT_T1, AT_FORM, AT_HDOT, AT_DENMIN, AT_ETA = 21, 22, 23, 24, 25
 FIELDS = {"kp_V_per_rad": R_KP, "kd_V_s_per_rad": R_KD, "kfv_V_s_per_rad": R_KFV,
           "kfa_V_s2_per_rad": R_KFA, "u_limit_V": R_ULIM, "T_1_s": AT_T1,
-          "controllable_realization": AT_FORM, "h_from_H_dot": AT_HDOT, "den_floor": AT_DENMIN}
+          "controllable_realization": AT_FORM, "h_from_H_dot": AT_HDOT, "den_floor": AT_DENMIN,
+          "gear_efficiency": AT_ETA}
 
 
 @nb.njit(cache=True)
 def ace_tf_update(p, s, sig, j, Ts):
     """ACE (1) after the SCE: W_k = (T_m·s + 1)/(k_p·k_w·(T_1·s + 1)) at the current load, V.
 
-    T_m, k_p from :func:`manipcad.drives.laws.ace1_parameters` at H* = H_ii/i_r² and
-    h* = Ḣ*/… (or 0), with (h*+k_v)·R + k_m·k_w floored at ``den_floor``·k_m·k_w; output
+    T_m, k_p from :func:`manipcad.drives.laws.ace1_parameters` at H* = f·H_ii/i_r² and
+    h* = f·Ḣ_ii/i_r² (or 0), f the gear factor (module docstring; 1 without losses), with
+    (h*+k_v)·R + k_m·k_w floored at ``den_floor``·k_m·k_w; output
     and state of the observable or controllable realization from :mod:`manipcad.drives.laws`,
     the filter advanced exactly over the period with its input held.
     """
     r = p[P_RATIO]
     r2 = r * r
-    Hd, _ = load_rates(sig[j, S_HII], s, Ts)
-    Hs = sig[j, S_HII] / r2
-    hs = Hd / r2 if p[AT_HDOT] != 0.0 else 0.0
+    H = sig[j, S_HII]
+    Hd, _ = load_rates(H, s, Ts)
+    if p[AT_HDOT] == 0.0:
+        Hd = 0.0
+    f = 1.0
+    eta = p[AT_ETA]
+    if eta != 1.0:
+        f = gear_factor(eta, H * sig[j, S_QDDREF] + Hd * sig[j, S_QD], sig[j, S_QD])
+    Hs = f * H / r2
+    hs = f * Hd / r2
     kmkw = p[P_KM] * p[P_KW]
     h_floor = (p[AT_DENMIN] * kmkw - kmkw) / p[P_R] - p[P_KV]
     if hs < h_floor:
@@ -114,7 +137,8 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
             loop on the target (``max_error`` as in ``ace_de``, needs ``reference``).
         period: control period, s.
         T_1: the ACE's time constant, s (default R·J_n/(k_m·k_w) with
-            J_n = J + H*_max: the same nominal drive as ``ace_de``).
+            J_n = J + H*_max/η, the largest load through the gear motoring: the same
+            nominal drive as ``ace_de``).
         load_range: (H_min, H_max) joint side, kg·m².
         order: 3 or 2: the target includes the T_e = L/R factor (3) or not.
         realization: "observable" (quasi-stationary) or "controllable".
@@ -136,7 +160,8 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     if not (0 < den_floor <= 1):
         raise ManipcadError(f"den_floor must be in (0, 1], got {den_floor}")
     Hmin, Hmax = inertia_range(robot, j, load_range)
-    Jn = d.J + Hmax / d.ratio ** 2
+    eta = law_efficiency(d)
+    Jn = d.J + Hmax / (eta * d.ratio ** 2)
     T1 = d.R * Jn / (d.k_m * d.k_w) if T_1 is None else float(T_1)
     if not (math.isfinite(T1) and T1 > 0):
         raise ManipcadError(f"ACE time constant T_1 must be > 0 s, got {T1}")
@@ -152,20 +177,28 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
                      feedforward=feedforward, what=f"ace_tf on {robot.joint_names[j]!r}")
     p = sce.params
     p[AT_T1], p[AT_FORM] = T1, float(realization == "controllable")
-    p[AT_HDOT], p[AT_DENMIN] = float(h_dot), den_floor
+    # the observable realization follows no step of T_m: it models no losses (module doc)
+    eta_law = eta if realization == "controllable" else 1.0
+    p[AT_HDOT], p[AT_DENMIN], p[AT_ETA] = float(h_dot), den_floor, eta_law
     name = robot.joint_names[j]
+    obs_note = ("" if eta_law == eta else
+                f" (the gear: {eta:g}; the observable realization follows no step of T_m)")
     law = (f"ace_tf ({name}, {realization}): {sce.law()} "
            f"(SCE, ω_n = {sce.bandwidth:g} rad/s, ζ = {zeta:g}); ACE (1): "
            f"W_k = (T_m·s + 1)/(k_p·k_w·(T_1·s + 1)), T_1 = {T1:.6g} s, "
            f"T_m = (J+H*)·R/((h*+k_v)·R + k_m·k_w), k_p = k_m/((h*+k_v)·R + k_m·k_w), "
            f"J = {d.J:.4g} kg·m², R = {d.R:g} Ω, k_m = {d.k_m:g} N·m/A, k_w = {d.k_w:g} V·s/rad, "
            f"k_v = {d.k_v:g} N·m·s/rad, i_r = {d.ratio:g}; H* = H_ii/i_r², "
-           f"h* = {'Ḣ_ii' if h_dot else '0'}/i_r²; H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m²; "
+           f"h* = {'Ḣ_ii' if h_dot else '0'}/i_r², both times f = 1/η motoring or holding, "
+           f"η braking (power flow of H_ii·q̈*{' + Ḣ_ii·q̇' if h_dot else ''} against q̇), "
+           f"η = {eta_law:g}{obs_note}"
+           f", T_1 for J_n = J + H*_max/{eta:g}; H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m²; "
            f"|U_k| <= {sce.ulim:g} V, T = {period:g} s")
     needs = ["q", "q_dot", "q_ref", "q_dot_ref", "H_ii"]
-    if feedforward:
+    if feedforward or eta_law != 1.0:
         needs.append("q_ddot_ref")
-    design = {"T_1": T1, "J_n": Jn, "load_range": (Hmin, Hmax), **sce.design(),
+    design = {"T_1": T1, "J_n": Jn, "load_range": (Hmin, Hmax), "gear_efficiency": eta_law,
+              **sce.design(),
               "realization": realization, "order": order, "closed_loop_poles": sce.poles()}
     if raised:
         design["note"] = raised
@@ -182,4 +215,5 @@ METHOD = Method(
     name="ace_tf", synthesize=synthesize_ace_tf, update=ace_tf_update, section="3.1 (1)",
     summary="ACE (1): moving zero cancels the load pole (realization observable|controllable)"
             ", + SCE",
-    fields=FIELDS, linear=True, dynamic_states=(ST_X,))
+    fields=FIELDS, linear=True, dynamic_states=(ST_X,),
+    optional_fields=GEAR_EFFICIENCY_OPTIONAL)

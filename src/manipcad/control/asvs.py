@@ -12,7 +12,12 @@ and (5) asks ``k_s >= R/(k_m·k_u)``, ``k_g >= R·|i_r|·(J+H*)/(k_m·k_u)``.
 
 - ``asvs``: a, β, c = κ·c_max and k_g from the CURRENT load H_ii each period
   (the quasi-stationary solution of (5): ċ is left out), m_f from the measured
-  dry friction, velocity torque and gravity.
+  dry friction, velocity torque and gravity. Gear losses: the load the motor feels
+  through a gear of efficiency η is f·H*, and f times the load torque in m_f, with
+  f = 1/η while the motor drives or holds the load and η while the load drives it back
+  (:func:`manipcad.drives.gear.gear_factor`, the plant's formula), the power flow judged
+  from the law's load model along the reference, P = H_ii·q̈* (+ c_i + Q_i), against the
+  measured q̇ (the law reads no current to know q̈).
 - ``vss``: the same law with a, c, k_g fixed for the WORST-CASE (largest) load,
   where c_max is smallest, so the sliding regime exists for every load; it
   measures no load signal (m_f = dry friction only).
@@ -29,13 +34,15 @@ from manipcad.control.design import (
     check_period,
     inertia_range,
     joint_drive,
+    law_efficiency,
     packed,
 )
 from manipcad.control.kernels import ST_C, ST_S
-from manipcad.control.method import Method
+from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_Q, S_QD, S_QDDREF, S_QDREF, S_QI, S_QREF
 from manipcad.drives.dc import clip, dry_friction
+from manipcad.drives.gear import gear_factor
 from manipcad.drives.laws import asvs_a, asvs_beta, asvs_c_stationary, asvs_gains, asvs_voltage
 from manipcad.drives.params import P_RATIO, pack_drive
 from manipcad.errors import ManipcadError
@@ -44,10 +51,14 @@ from manipcad.model.robot import Robot
 # k_e (V/rad), k_s and k_g as multiples of their minima from (5), adapt (1: c, a, k_g from the
 # current H_ii; 0: fixed), H* used when fixed (kg·m², motor side), margin on c (fraction of
 # the largest sliding slope), output limit (V), use the measured load torque in m_f (1/0)
-AS_KE, AS_KSM, AS_KGM, AS_ADAPT, AS_HFIX, AS_CM, AS_ULIM, AS_TORQUE = range(16, 24)
+# the measured load torque in m_f (1/0), the gear efficiency of the asvs's load model (-; 0
+# or 1: none; vss has no load model)
+AS_KE, AS_KSM, AS_KGM, AS_ADAPT, AS_HFIX, AS_CM, AS_ULIM, AS_TORQUE, AS_ETA = range(16, 25)
 FIELDS = {"k_e_V_per_rad": AS_KE, "k_s_margin": AS_KSM, "k_g_margin": AS_KGM,
           "adapt": AS_ADAPT, "H_star_fixed_kgm2": AS_HFIX, "c_margin": AS_CM,
           "u_limit_V": AS_ULIM, "load_torque_compensation": AS_TORQUE}
+#: asvs also stores the gear efficiency of its load model
+FIELDS_ASVS = {**FIELDS, "gear_efficiency": AS_ETA}
 
 
 @nb.njit(cache=True)
@@ -70,8 +81,16 @@ def asvs_update(p, s, sig, j, Ts):
     U_k = (k_e·|e| + k_s·|m_f| + k_g·|q̈* + a·q̇*|)·sgn(S)·sgn(i_r), S = ė + c·e.
     """
     r = p[P_RATIO]
+    f = 1.0
     if p[AS_ADAPT] != 0.0:
-        Hs = sig[j, S_HII] / (r * r)
+        H = sig[j, S_HII]
+        eta = p[AS_ETA]
+        if eta > 0.0 and eta != 1.0:
+            load = H * sig[j, S_QDDREF]
+            if p[AS_TORQUE] != 0.0:
+                load += sig[j, S_CI] + sig[j, S_QI]
+            f = gear_factor(eta, load, sig[j, S_QD])
+        Hs = f * H / (r * r)
     else:
         Hs = p[AS_HFIX]
     k_e = p[AS_KE]
@@ -85,7 +104,7 @@ def asvs_update(p, s, sig, j, Ts):
     d = sig[j, S_QDDREF] + a * sig[j, S_QDREF]
     mf = dry_friction(r * sig[j, S_QD], p)
     if p[AS_TORQUE] != 0.0:
-        mf += (sig[j, S_CI] + sig[j, S_QI]) / r
+        mf += f * (sig[j, S_CI] + sig[j, S_QI]) / r
     s[ST_C] = c
     s[ST_S] = S
     return clip(asvs_voltage(e, S, mf, d, k_e, k_s, k_g, p), p[AS_ULIM])
@@ -134,6 +153,9 @@ def _synth(robot: Robot, joint, adapt: bool, spec, period, load_range, order,
     p[AS_KE], p[AS_KSM], p[AS_KGM], p[AS_ADAPT] = k_e, ksm, kgm, float(adapt)
     p[AS_HFIX] = Hmax / d.ratio ** 2
     p[AS_CM], p[AS_ULIM], p[AS_TORQUE] = cm, ulim, float(adapt and load_torque)
+    eta = law_efficiency(d) if adapt else 1.0
+    if adapt:
+        p[AS_ETA] = eta   # vss has no load model: its entry stays 0 (none), not in its file
     a_lo, b_lo, c_lo = slope(d, Hmax, k_e)
     a_hi, b_hi, c_hi = slope(d, Hmin, k_e)
     ks_min, kg_lo = asvs_gains(Hmin / d.ratio ** 2, p)
@@ -148,6 +170,9 @@ def _synth(robot: Robot, joint, adapt: bool, spec, period, load_range, order,
                f"c = {cm:g}·(a + √(a² + 4|β|·{k_e:.4g}))/2 in [{cm * c_lo:.4g}, {cm * c_hi:.4g}] "
                f"1/s, k_g = {kgm:g}·R|i_r|(J+H*)/(k_m k_u) in "
                f"[{kg_min:.4g}, {kg_max:.4g}] V·s²/rad; H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m²; "
+               f"H* and the load torque in m_f times f = 1/η motoring or holding, η braking "
+               f"(power flow of H_ii·q̈*{' + c_i + Q_i' if load_torque else ''} against q̇), "
+               f"η = {eta:g} (a, c, k_g ranges above at f = 1); "
                f"|U_k| <= {ulim:g} V, T = {period:g} s")
         needs = ["q", "q_dot", "q_ref", "q_dot_ref", "q_ddot_ref", "H_ii"]
         if load_torque:
@@ -162,7 +187,8 @@ def _synth(robot: Robot, joint, adapt: bool, spec, period, load_range, order,
         method=method, joints=(j,), period=period, params=p, needs=tuple(needs), law=law,
         design={"k_e": k_e, "k_s": ks, "k_g_range": (kg_min, kg_max),
                 "c_range": (cm * c_lo, cm * c_hi) if adapt else (cm * c_lo, cm * c_lo),
-                "a_range": (a_lo, a_hi), "load_range": (Hmin, Hmax), "c_margin": cm})
+                "a_range": (a_lo, a_hi), "load_range": (Hmin, Hmax), "c_margin": cm,
+                "gear_efficiency": eta})
 
 
 def synthesize_asvs(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PERIOD,
@@ -198,7 +224,7 @@ def synthesize_vss(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
 ASVS = Method(
     name="asvs", synthesize=synthesize_asvs, update=asvs_update, section="3.2 (4)-(5)",
     summary="adaptive variable structure: sliding slope and gains of (5) at the current load",
-    fields=FIELDS)
+    fields=FIELDS_ASVS, optional_fields=GEAR_EFFICIENCY_OPTIONAL)
 
 VSS = Method(
     name="vss", synthesize=synthesize_vss, update=asvs_update, section="3.2 (baseline)",

@@ -1,9 +1,15 @@
 """``computed_torque``: decentralized computed torque through the drive model (a baseline).
 
-``v = q̈* + k_d·ė + k_p·e``; joint torque ``τ = (H_ii + J·i_r²)·v + k_v·i_r²·q̇ + c_i + Q_i``
-(+ ``|i_r|·M_f·sgn q̇``); current ``i* = τ/(k_m·i_r)``; ``U = (R·i* + k_w·i_r·q̇)/k_u``
+``v = q̈* + k_d·ė + k_p·e``; the load the gear passes ``P = H_ii·v + c_i + Q_i``; joint
+torque at the gear's input ``τ = f·P + J·i_r²·v + k_v·i_r²·q̇`` (+ ``|i_r|·M_f·sgn q̇``);
+current ``i* = τ/(k_m·i_r)``; ``U = (R·i* + k_w·i_r·q̇)/k_u``
 (:func:`manipcad.drives.dc.static_input`). The coupling Σ H_ik·q̈_k of the other joints
 is not measured (decentralized) and the current's lag T_e = L/R is not compensated.
+
+Gear losses: f = 1/η while the motor drives or holds the load (P·q̇ >= 0), η while the
+load drives it back (:func:`manipcad.drives.gear.gear_factor`, the plant's and the
+sizing's formula, with the measured q̇); η is the gear efficiency the design assumed
+(``gains.gear_efficiency``; 1: no losses, the law as without them).
 """
 
 from __future__ import annotations
@@ -16,21 +22,24 @@ from manipcad.control.design import (
     check_period,
     inertia_range,
     joint_drive,
+    law_efficiency,
     packed,
     parse_spec,
 )
-from manipcad.control.method import Method
+from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_Q, S_QD, S_QDDREF, S_QDREF, S_QI, S_QREF
 from manipcad.drives.dc import clip, dry_friction, static_input
+from manipcad.drives.gear import gear_factor
 from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
 
-# outer-loop gains k_p (1/s²), k_d (1/s), output limit (V), compensate dry friction (1/0)
-CT_KP, CT_KD, CT_ULIM, CT_FRIC = 16, 17, 18, 19
+# outer-loop gains k_p (1/s²), k_d (1/s), output limit (V), compensate dry friction (1/0),
+# the gear efficiency the law models η (-)
+CT_KP, CT_KD, CT_ULIM, CT_FRIC, CT_ETA = 16, 17, 18, 19, 20
 FIELDS = {"kp_per_s2": CT_KP, "kd_per_s": CT_KD, "u_limit_V": CT_ULIM,
-          "friction_compensation": CT_FRIC}
+          "friction_compensation": CT_FRIC, "gear_efficiency": CT_ETA}
 
 
 @nb.njit(cache=True)
@@ -44,16 +53,33 @@ def joint_torque_to_input(tau, qd, p):
 
 
 @nb.njit(cache=True)
+def drive_torque(load, v, qd, eta, friction, p):
+    """The joint-referred torque the motor must give, N·m (N): the load the gear passes
+    (``load``, N·m or N) times the gear factor f (1/η motoring or holding, η braking;
+    :func:`manipcad.drives.gear.gear_factor` at the speed q̇), plus the rotor's inertia
+    J·i_r²·v, its viscous friction k_v·i_r²·q̇ and (``friction`` != 0) the dry friction
+    |i_r|·M_f·sgn q̇.
+
+    Args:
+        load: P, N·m (N); v: the commanded acceleration, rad/s² (m/s²); qd: q̇, rad/s
+        (m/s); eta: gear efficiency η in (0, 1], -; friction: 1/0; p: the packed drive.
+    """
+    r = p[P_RATIO]
+    f = gear_factor(eta, load, qd) if eta != 1.0 else 1.0
+    tau = f * load + p[P_J] * r * r * v + p[P_KV] * r * r * qd
+    if friction != 0.0:
+        tau += r * dry_friction(r * qd, p)
+    return tau
+
+
+@nb.njit(cache=True)
 def computed_torque_update(p, s, sig, j, Ts):
     """Decentralized computed torque through the drive model (L neglected), V."""
-    r = p[P_RATIO]
     qd = sig[j, S_QD]
     v = (sig[j, S_QDDREF] + p[CT_KD] * (sig[j, S_QDREF] - qd)
          + p[CT_KP] * (sig[j, S_QREF] - sig[j, S_Q]))
-    tau = ((sig[j, S_HII] + p[P_J] * r * r) * v + p[P_KV] * r * r * qd
-           + sig[j, S_CI] + sig[j, S_QI])
-    if p[CT_FRIC] != 0.0:
-        tau += r * dry_friction(r * qd, p)
+    load = sig[j, S_HII] * v + sig[j, S_CI] + sig[j, S_QI]
+    tau = drive_torque(load, v, qd, p[CT_ETA], p[CT_FRIC], p)
     return clip(joint_torque_to_input(tau, qd, p), p[CT_ULIM])
 
 
@@ -89,18 +115,21 @@ def synthesize_computed_torque(robot: Robot, joint, *, spec=None,
     Hmin, Hmax = inertia_range(robot, j, load_range)
     p = packed(d, order)
     ulim = u_limit(d)
+    eta = law_efficiency(d)
     p[CT_KP], p[CT_KD], p[CT_ULIM], p[CT_FRIC] = kp, kd, ulim, float(friction)
+    p[CT_ETA] = eta
     name = robot.joint_names[j]
-    law = (f"computed_torque ({name}): v = q̈* + {kd:.6g}·ė + {kp:.6g}·e; τ = (H_ii + "
-           f"{d.J * d.ratio ** 2:.6g})·v + {d.k_v * d.ratio ** 2:.6g}·q̇ + c_i + Q_i"
-           f"{' + |i_r|·M_f·sgn q̇' if friction else ''}; U = ({d.R:g}·τ/({d.k_m:g}·{d.ratio:g}) "
+    law = (f"computed_torque ({name}): v = q̈* + {kd:.6g}·ė + {kp:.6g}·e; τ = f·(H_ii·v + c_i "
+           f"+ Q_i) + {d.J * d.ratio ** 2:.6g}·v + {d.k_v * d.ratio ** 2:.6g}·q̇"
+           f"{' + |i_r|·M_f·sgn q̇' if friction else ''}, f = 1/η motoring or holding, η "
+           f"braking, η = {eta:g}; U = ({d.R:g}·τ/({d.k_m:g}·{d.ratio:g}) "
            f"+ {d.k_w * d.ratio:.6g}·q̇)/{d.k_u:g} (|U| <= {ulim:g} V); H_ii in "
            f"[{Hmin:.4g}, {Hmax:.4g}] kg·m²; T = {period:g} s")
     needs = ("q", "q_dot", "q_ref", "q_dot_ref", "q_ddot_ref", "H_ii", "c_i", "Q_i")
     return Regulator(
         method="computed_torque", joints=(j,), period=period, params=p, needs=needs, law=law,
         design={"kp": kp, "kd": kd, "bandwidth": wn, "damping": zeta,
-                "load_range": (Hmin, Hmax)},
+                "load_range": (Hmin, Hmax), "gear_efficiency": eta},
         linear={"closed_loop": ct.tf([kd, kp], [1.0, kd, kp]),
                 "error": ct.tf([1.0, 0.0, 0.0], [1.0, kd, kp])})
 
@@ -109,4 +138,4 @@ METHOD = Method(
     name="computed_torque", synthesize=synthesize_computed_torque,
     update=computed_torque_update, section="baseline",
     summary="decentralized computed torque: H_ii, c_i, Q_i of the joint through the drive model",
-    fields=FIELDS, linear=True)
+    fields=FIELDS, linear=True, optional_fields=GEAR_EFFICIENCY_OPTIONAL)

@@ -2,10 +2,14 @@
 
 The textbook (and Drake's ``InverseDynamicsController``) law over all its joints:
 ``v = q̈* + K_d·ė + K_p·e``, ``τ = H(q)·v + c(q, q̇) + Q(q)`` with the whole joint-space
-inertia matrix (the coupling Σ_k H_ik·v_k included), plus each drive's rotor inertia,
-viscous and dry friction; each joint's torque is turned into its amplifier input through
-the static drive equations (:func:`manipcad.control.computed_torque.joint_torque_to_input`).
-One regulator spans the joints; its parameters hold one packed drive per joint.
+inertia matrix (the coupling Σ_k H_ik·v_k included), passed through each joint's gear
+with its losses (f = 1/η motoring or holding, η braking:
+:func:`manipcad.control.computed_torque.drive_torque`, the plant's gear factor), plus each
+drive's rotor inertia, viscous and dry friction; each joint's torque is turned into its
+amplifier input through the static drive equations
+(:func:`manipcad.control.computed_torque.joint_torque_to_input`). One regulator spans the
+joints; its parameters hold one packed drive per joint and the efficiency η of each
+joint's gear (``drives_assumed.<joint>.gear_efficiency``; 1: no losses).
 """
 
 from __future__ import annotations
@@ -14,9 +18,9 @@ import numba as nb
 import numpy as np
 
 from manipcad._lazy import ct
-from manipcad.control.computed_torque import joint_torque_to_input, outer_gains
-from manipcad.control.design import DEFAULT_PERIOD, check_period, joint_drive
-from manipcad.control.method import Method
+from manipcad.control.computed_torque import drive_torque, joint_torque_to_input, outer_gains
+from manipcad.control.design import DEFAULT_PERIOD, check_period, joint_drive, law_efficiency
+from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import (
     NPARAM,
@@ -31,18 +35,19 @@ from manipcad.control.signals import (
     S_QREF,
     SIGNALS,
 )
-from manipcad.drives.dc import clip, dry_friction
-from manipcad.drives.params import NPAR, P_J, P_KV, P_RATIO, pack_drive
+from manipcad.drives.dc import clip
+from manipcad.drives.params import NPAR, pack_drive
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
 
 # gains k_p (1/s²), k_d (1/s), compensate dry friction (1/0); drive k from DRV + k·NPAR,
-# its input limit (V) at ULIM0 + k
+# its input limit (V) at ULIM0 + k, its gear's efficiency η (-) at ETA0 + k
 CTF_KP, CTF_KD, CTF_FRIC = 0, 1, 2
 CTF_ULIM0 = 3
+CTF_ETA0 = 17
 CTF_DRV = 32
 #: most joints one spanning regulator can hold
-MAX_JOINTS = (NPARAM - CTF_DRV) // NPAR
+MAX_JOINTS = min((NPARAM - CTF_DRV) // NPAR, CTF_ETA0 - CTF_ULIM0, CTF_DRV - CTF_ETA0)
 FIELDS = {"kp_per_s2": CTF_KP, "kd_per_s": CTF_KD, "friction_compensation": CTF_FRIC}
 
 
@@ -55,22 +60,19 @@ def computed_torque_full_update(p, s, sig, H, joints, nj, Ts, U):
     """
     for a in range(nj):
         ja = joints[a]
-        tau = sig[ja, S_CI] + sig[ja, S_QI]
+        load = sig[ja, S_CI] + sig[ja, S_QI]
+        va = 0.0
         for b in range(nj):
             jb = joints[b]
             v = (sig[jb, S_QDDREF] + p[CTF_KD] * (sig[jb, S_QDREF] - sig[jb, S_QD])
                  + p[CTF_KP] * (sig[jb, S_QREF] - sig[jb, S_Q]))
-            tau += H[ja, jb] * v
+            load += H[ja, jb] * v
             if a == b:
-                o = CTF_DRV + a * NPAR
-                r = p[o + P_RATIO]
-                qd = sig[ja, S_QD]
-                tau += p[o + P_J] * r * r * v + p[o + P_KV] * r * r * qd
-                if p[CTF_FRIC] != 0.0:
-                    tau += r * dry_friction(r * qd, p[o:o + NPAR])
+                va = v
         o = CTF_DRV + a * NPAR
-        U[ja] = clip(joint_torque_to_input(tau, sig[ja, S_QD], p[o:o + NPAR]),
-                     p[CTF_ULIM0 + a])
+        qd = sig[ja, S_QD]
+        tau = drive_torque(load, va, qd, p[CTF_ETA0 + a], p[CTF_FRIC], p[o:o + NPAR])
+        U[ja] = clip(joint_torque_to_input(tau, qd, p[o:o + NPAR]), p[CTF_ULIM0 + a])
 
 
 #: the signals each joint's row gives the law, in the order of the export's inputs
@@ -166,10 +168,13 @@ def synthesize_computed_torque_full(robot: Robot, joints="all", *, spec=None,
         d = robot.drives[j]
         p[CTF_DRV + a * NPAR: CTF_DRV + (a + 1) * NPAR] = pack_drive(d, order=order)
         p[CTF_ULIM0 + a] = u_limit(d)
+        p[CTF_ETA0 + a] = law_efficiency(d)
     names = tuple(robot.joint_names[j] for j in idx)
+    etas = ", ".join(f"{p[CTF_ETA0 + a]:g}" for a in range(len(idx)))
     law = (f"computed_torque_full ({', '.join(names)}): v = q̈* + {kd:.6g}·ė + {kp:.6g}·e; "
-           f"τ = H(q)·v + c(q, q̇) + Q(q) + J·i_r²·v + k_v·i_r²·q̇"
-           f"{' + |i_r|·M_f·sgn q̇' if friction else ''} (full model, coupling included); "
+           f"τ = f·(H(q)·v + c(q, q̇) + Q(q)) + J·i_r²·v + k_v·i_r²·q̇"
+           f"{' + |i_r|·M_f·sgn q̇' if friction else ''} (full model, coupling included; "
+           f"f = 1/η motoring or holding, η braking, η = {etas}); "
            f"U = (R·τ/(k_m·i_r) + k_w·i_r·q̇)/k_u per joint; T = {period:g} s")
     needs = ("q", "q_dot", "q_ref", "q_dot_ref", "q_ddot_ref", "H", "c_i", "Q_i")
     return Regulator(
@@ -185,4 +190,5 @@ METHOD = Method(
     summary="centralized inverse dynamics H(q)·v + c + Q over all joints (Drake's "
             "InverseDynamicsController)",
     fields=FIELDS, spans=True, drive_blocks="per_joint", export=export_computed_torque_full,
-    joint_fields={"u_limit_V": CTF_ULIM0}, drive_base=CTF_DRV)
+    joint_fields={"u_limit_V": CTF_ULIM0, "gear_efficiency": CTF_ETA0}, drive_base=CTF_DRV,
+    optional_fields=GEAR_EFFICIENCY_OPTIONAL)

@@ -42,6 +42,20 @@ def joint_drive(robot: Robot, joint: int | str) -> tuple[int, Drive]:
     return j, d
 
 
+def law_efficiency(drive: Drive) -> float:
+    """The gear efficiency η a law models, -: the drive's ``efficiency``, or 1 (no losses)
+    where it is unknown (nan), as the simulated plant and the sizing take it.
+
+    Example:
+        >>> import math
+        >>> from manipcad.model.robot import Drive
+        >>> law_efficiency(Drive(efficiency=0.8)), law_efficiency(Drive(efficiency=math.nan))
+        (0.8, 1.0)
+    """
+    eta = float(drive.efficiency)
+    return eta if math.isfinite(eta) else 1.0
+
+
 def packed(drive: Drive, order: int) -> np.ndarray:
     """A parameter vector of length NPARAM starting with the packed drive."""
     p = np.zeros(NPARAM)

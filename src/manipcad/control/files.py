@@ -32,10 +32,16 @@ Bad files raise :class:`manipcad.errors.InputError` naming the file, the dotted 
 or non-monotone table grid, wrong lengths, NaN or infinite values, a non-positive period or
 one that is not a multiple of the simulation step, a joint in two groups, a table that does
 not cover the robot's load range, a file made for another robot (``allow_other_robot``).
+A field a method marks optional (:attr:`~manipcad.control.method.Method.optional_fields`:
+``gear_efficiency``, which files made before the laws modelled the gear's losses lack) is
+not refused when missing: its default is taken (η = 1, the law those files were made
+with), a :class:`~manipcad.errors.ManipcadWarning` names file and field, and the
+regulator's law says so.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -66,7 +72,7 @@ from manipcad.drives.params import (
     P_UMAX,
     P_WEPS,
 )
-from manipcad.errors import InputError, ManipcadError
+from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.fileio import atomic_write_text, dump_yaml, file_number, json_safe, read_yaml
 from manipcad.model.hashing import robot_hash
 from manipcad.model.robot import Robot
@@ -251,17 +257,37 @@ def _check_robot(rob: Any, robot: Robot, source: str, allow: bool) -> None:
 
 
 def _mapping(source: str, where: str, v: Any, keys: dict[str, int], *,
-             inf_ok: Sequence[str] = ()) -> dict[str, float]:
+             inf_ok: Sequence[str] = (), optional: dict | None = None,
+             assumed: list[str] | None = None) -> dict[str, float]:
+    """The numbers of a file's mapping with exactly ``keys``; a key of ``optional`` (key ->
+    (value, meaning)) may be missing: its value is taken and "field: meaning" appended to
+    ``assumed``."""
     if not isinstance(v, dict):
         raise InputError(source, where, f"expected a mapping with {', '.join(keys)}")
     unknown = sorted(set(v) - set(keys))
     if unknown:
         raise InputError(source, f"{where}.{unknown[0]}",
                          f"unknown field (fields: {', '.join(keys)})")
-    missing = [k for k in keys if k not in v]
+    optional = optional or {}
+    missing = [k for k in keys if k not in v and k not in optional]
     if missing:
         raise InputError(source, f"{where}.{missing[0]}", "missing")
-    return {k: file_number(source, f"{where}.{k}", v[k], allow_inf=k in inf_ok) for k in keys}
+    out = {}
+    for k in keys:
+        if k in v:
+            out[k] = file_number(source, f"{where}.{k}", v[k], allow_inf=k in inf_ok)
+        else:
+            out[k], meaning = optional[k]
+            if assumed is not None:
+                assumed.append(f"{where}.{k} missing: {meaning}")
+    return out
+
+
+def _check_efficiency(source: str, where: str, values: dict[str, float]) -> None:
+    eta = values.get("gear_efficiency")
+    if eta is not None and not 0 < eta <= 1:
+        raise InputError(source, f"{where}.gear_efficiency",
+                         f"must be in (0, 1] (the gear's efficiency η, -), got {eta}")
 
 
 _INF_OK = ("u_limit_V", "u_max_V", "H_ii_feedforward_kgm2")
@@ -289,6 +315,7 @@ def _group(group: Any, robot: Robot, source: str, where: str,
                              f"of the simulation step dt = {dt:g} s")
     joints = _joints(group.get("joints"), robot, source, f"{where}.joints", m.spans)
     p = np.zeros(NPARAM)
+    assumed: list[str] = []
     if m.drive_blocks == 1:
         d = _mapping(source, f"{where}.drive_assumed", group.get("drive_assumed"),
                      DRIVE_FIELDS, inf_ok=_INF_OK)
@@ -304,13 +331,17 @@ def _group(group: Any, robot: Robot, source: str, where: str,
         base = m.drive_base
         keys = {**DRIVE_FIELDS, **m.joint_fields}
         for a, nm in enumerate(names):
-            d = _mapping(source, f"{where}.drives_assumed.{nm}", ds[nm], keys, inf_ok=_INF_OK)
+            d = _mapping(source, f"{where}.drives_assumed.{nm}", ds[nm], keys, inf_ok=_INF_OK,
+                         optional=m.optional_fields, assumed=assumed)
+            _check_efficiency(source, f"{where}.drives_assumed.{nm}", d)
             for k, i in DRIVE_FIELDS.items():
                 p[base + a * NPAR + i] = d[k]
             for k, i0 in m.joint_fields.items():
                 p[i0 + a] = d[k]
             _check_drive(source, f"{where}.drives_assumed.{nm}", p, base + a * NPAR)
-    gains = _mapping(source, f"{where}.gains", group.get("gains"), m.fields, inf_ok=_INF_OK)
+    gains = _mapping(source, f"{where}.gains", group.get("gains"), m.fields, inf_ok=_INF_OK,
+                     optional=m.optional_fields, assumed=assumed)
+    _check_efficiency(source, f"{where}.gains", gains)
     for k, i in m.fields.items():
         p[i] = gains[k]
     for k in ("u_limit_V",):
@@ -324,6 +355,10 @@ def _group(group: Any, robot: Robot, source: str, where: str,
     law = group.get("law", "")
     if not isinstance(law, str):
         raise InputError(source, f"{where}.law", "expected a string")
+    for note in assumed:
+        # an older file: the value taken for a field it lacks, said in the law and warned
+        warnings.warn(f"{source}: {note}", ManipcadWarning, stacklevel=4)
+        law = f"{law} [{note}]" if law else f"[{note}]"
     return Regulator(
         method=name, joints=tuple(joints), period=period, params=p,
         needs=_needs_of(name, p, joints), law=law, spec=dict(group.get("spec") or {}),

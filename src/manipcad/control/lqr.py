@@ -48,10 +48,11 @@ from manipcad.control.design import (
     check_period,
     inertia_range,
     joint_drive,
+    law_efficiency,
     packed,
 )
 from manipcad.control.kernels import load_rates, table_lookup
-from manipcad.control.method import Method, TableLayout
+from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method, TableLayout
 from manipcad.control.regulator import Regulator, current_limit, u_limit
 from manipcad.control.signals import (
     NPARAM,
@@ -69,6 +70,7 @@ from manipcad.control.signals import (
 )
 from manipcad.control.systems import nonlinear_system, static_gain
 from manipcad.drives.dc import clip, static_input
+from manipcad.drives.gear import gear_factor
 from manipcad.drives.linear import linearize
 from manipcad.drives.params import (
     P_J,
@@ -90,6 +92,9 @@ from manipcad.model.robot import Drive, Robot
 LQ_NH, LQ_NV, LQ_H0, LQ_DH, LQ_V0, LQ_DV, LQ_ULIM = 16, 17, 18, 19, 20, 21, 22
 LQ_FF, LQ_W, LQ_ADAPT, LQ_HFIX = 23, 24, 25, 26
 LQ_NG, LQ_KS = 27, 28
+# lqr_gs: the gear efficiency η its load model assumes (-; 0 or 1: none; the fixed lqr has
+# no load model and stores none, so its law stays linear)
+LQ_ETA = 29
 LQ_TAB = 32
 #: largest nH·nV a gain table may have (3 gains each)
 LQ_MAXCELLS = (NPARAM - LQ_TAB) // 3
@@ -98,6 +103,8 @@ LQ_MAXCELLS_EL = (NPARAM - LQ_TAB) // 5
 FIELDS = {"u_limit_V": LQ_ULIM, "feedforward": LQ_FF, "load_torque_compensation": LQ_W,
           "feedforward_at_current_load": LQ_ADAPT, "H_ii_feedforward_kgm2": LQ_HFIX,
           "k_s_Nm_per_rad": LQ_KS}
+#: lqr_gs also stores the gear efficiency its load model assumes
+FIELDS_GS = {**FIELDS, "gear_efficiency": LQ_ETA}
 #: the table's gains in files: key (with unit), in table order
 GAIN_NAMES = ("D_e_V_per_rad", "D_v_V_s_per_rad", "D_i_V_per_A", "D_theta_V_per_rad",
               "D_omega_V_s_per_rad")
@@ -113,25 +120,42 @@ def gain(p, k, H, h):
 
 
 @nb.njit(cache=True)
-def lqr_feedforward(p, Di, H, sig, j):
+def lqr_load(p, H, sig, j):
+    """The load torque of the law's model along the reference, N·m (N): H_ii·q̈* (+ τ_w =
+    c_i + Q_i, velocity torque and gravity, when compensated)."""
+    tau = H * sig[j, S_QDDREF]
+    if p[LQ_W] != 0.0:
+        tau += sig[j, S_CI] + sig[j, S_QI]
+    return tau
+
+
+@nb.njit(cache=True)
+def lqr_feedforward(p, Di, H, f, sig, j):
     """Model-inverse feed-forward of the reference (and of the load torque), V.
 
     With U = D_e·e + D_v·ė − D_i·i + U_ff, e = ė = 0 along the reference needs
-    i* = (J_q·q̈* + k_v·i_r²·q̇* + τ_w)/(k_m·i_r) and, L neglected,
-    U_ff = D_i·i* + (R·i* + k_w·i_r·q̇*)/k_u with J_q = H_ii + J·i_r²;
-    τ_w = c_i + Q_i (velocity torque and gravity) when compensated.
+    i* = (f·(H_ii·q̈* + τ_w) + J·i_r²·q̈* + k_v·i_r²·q̇*)/(k_m·i_r) and, L neglected,
+    U_ff = D_i·i* + (R·i* + k_w·i_r·q̇*)/k_u; τ_w = c_i + Q_i (velocity torque and
+    gravity) when compensated; f the gear factor (1/η motoring or holding, η braking;
+    1 without losses).
     """
     r = p[P_RATIO]
-    tau = (H + p[P_J] * r * r) * sig[j, S_QDDREF] + p[P_KV] * r * r * sig[j, S_QDREF]
-    if p[LQ_W] != 0.0:
-        tau += sig[j, S_CI] + sig[j, S_QI]
+    tau = (f * lqr_load(p, H, sig, j) + p[P_J] * r * r * sig[j, S_QDDREF]
+           + p[P_KV] * r * r * sig[j, S_QDREF])
     i_star = tau / (p[P_KM] * r)
     return Di * i_star + static_input(i_star, r * sig[j, S_QDREF], p)
 
 
 @nb.njit(cache=True)
 def lqr_update(p, s, sig, j, Ts):
-    """U = D_e·e + D_v·ė − D_i·i (+ U_ff), gains looked up at the current (H_ii, Ḣ_ii), V."""
+    """U = D_e·e + D_v·ė − D_i·i (+ U_ff), gains looked up at the current (H_ii, Ḣ_ii), V.
+
+    With a gear efficiency η (lqr_gs with its feed-forward at the current load) the gear
+    factor f = 1/η or η of the load the model has the gear pass (:func:`lqr_load`, power
+    flow against the measured q̇; :func:`manipcad.drives.gear.gear_factor`) multiplies that
+    load in U_ff and the load the gains are looked up at: (f·H_ii, f·Ḣ_ii), the inertia
+    and velocity coefficient the motor feels through the gear.
+    """
     if p[LQ_NH] > 1.0 or p[LQ_ADAPT] != 0.0:
         H = sig[j, S_HII]
     else:
@@ -139,13 +163,17 @@ def lqr_update(p, s, sig, j, Ts):
     h = 0.0
     if int(p[LQ_NV]) > 1:
         h, _ = load_rates(H, s, Ts)
-    De = gain(p, 0, H, h)
-    Dv = gain(p, 1, H, h)
-    Di = gain(p, 2, H, h)
+    Hff = H if p[LQ_ADAPT] != 0.0 else p[LQ_HFIX]
+    f = 1.0
+    eta = p[LQ_ETA]
+    if eta > 0.0 and eta != 1.0 and p[LQ_ADAPT] != 0.0 and p[LQ_FF] != 0.0:
+        f = gear_factor(eta, lqr_load(p, Hff, sig, j), sig[j, S_QD])
+    De = gain(p, 0, f * H, f * h)
+    Dv = gain(p, 1, f * H, f * h)
+    Di = gain(p, 2, f * H, f * h)
     e = sig[j, S_QREF] - sig[j, S_Q]
     ed = sig[j, S_QDREF] - sig[j, S_QD]
     U = De * e + Dv * ed - Di * sig[j, S_I]
-    Hff = H if p[LQ_ADAPT] != 0.0 else p[LQ_HFIX]
     if p[LQ_NG] == 5.0:
         # elastic model: motor angle and speed errors against θ_m* = i_r·(q* + τ_s*/k_s),
         # ω_m* = i_r·q̇*
@@ -159,7 +187,7 @@ def lqr_update(p, s, sig, j, Ts):
         U += (gain(p, 3, H, h) * (r * th - sig[j, S_THM])
               + gain(p, 4, H, h) * (r * sig[j, S_QDREF] - sig[j, S_WM]))
     if p[LQ_FF] != 0.0:
-        U += lqr_feedforward(p, Di, Hff, sig, j)
+        U += lqr_feedforward(p, Di, Hff, f, sig, j)
     return clip(U, p[LQ_ULIM])
 
 
@@ -538,8 +566,13 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     cells = LQ_MAXCELLS if tr is None else LQ_MAXCELLS_EL
     if nH * nV > cells:
         raise ManipcadError(f"grid {nH}×{nV} too large: at most {cells} points")
-    H_grid = np.linspace(Hmin, Hmax, nH) if Hmin < Hmax else np.array([Hmin])
-    h_grid = np.linspace(hl, hh, nV) if hl < hh else np.array([hl])
+    # the gear's losses in the load model: the law looks its gains up at f·H_ii, f·h_i
+    # (f = 1/η motoring, η braking), so the table spans [η·H_min, H_max/η] (the elastic
+    # plant models no gear losses; without the feed-forward the law has no load model)
+    eta = law_efficiency(d) if (tr is None and feedforward) else 1.0
+    H_grid = np.linspace(eta * Hmin, Hmax / eta, nH) if Hmin < Hmax else np.array([Hmin])
+    h_grid = (np.linspace(min(eta * hl, hl / eta), max(eta * hh, hh / eta), nV) if hl < hh
+              else np.array([hl]))
     w = weights_from_spec(spec, d)
     table = gain_table(d, H_grid, h_grid, w, order, progress=progress, n_jobs=n_jobs,
                        scheduler=scheduler,
@@ -548,12 +581,13 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     ulim = u_limit(d)
     pack_table(p, table, ulim, tr)
     p[LQ_FF], p[LQ_W], p[LQ_ADAPT] = float(feedforward), float(feedforward and load_torque), 1.0
+    p[LQ_ETA] = eta
     name = robot.joint_names[j]
     g = table.gains
     ffw = ""
     if feedforward:
-        ffw = (" + (D_i + R/k_u)·((H_ii + J·i_r²)·q̈* + k_v·i_r²·q̇*"
-               + (" + c_i + Q_i" if load_torque else "") + ")/(k_m·i_r) + k_w·i_r·q̇*/k_u")
+        ffw = (" + (D_i + R/k_u)·(f·(H_ii·q̈*" + (" + c_i + Q_i" if load_torque else "")
+               + ") + J·i_r²·q̈* + k_v·i_r²·q̇*)/(k_m·i_r) + k_w·i_r·q̇*/k_u")
     el = ""
     if tr is not None:
         el = (f" + D_θ·(θ_m* − θ_m) + D_ω·(ω_m* − ω_m) [elastic model k_s = {tr.stiffness:g} "
@@ -562,8 +596,10 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
               f"{g[..., 4].max():.4g}] V·s/rad]")
     law = (f"lqr_gs ({name}): U = D_e·e + D_v·ė − D_i·i{el}{ffw}, gains bilinear in a "
            f"{len(H_grid)}×"
-           f"{len(h_grid)} table over H_ii in [{Hmin:.4g}, {Hmax:.4g}] kg·m², h_i = Ḣ_ii in "
-           f"[{hl:.4g}, {hh:.4g}] N·m·s/rad (clamped at the edges): D_e in "
+           f"{len(h_grid)} table over H_ii in [{H_grid[0]:.4g}, {H_grid[-1]:.4g}] kg·m², "
+           f"h_i = Ḣ_ii in [{h_grid[0]:.4g}, {h_grid[-1]:.4g}] N·m·s/rad (clamped at the "
+           f"edges), looked up at f·H_ii, f·h_i; f = 1/η motoring or holding, η braking, "
+           f"η = {eta:g} (the gear factor also on the load in U_ff); D_e in "
            f"[{g[..., 0].min():.4g}, {g[..., 0].max():.4g}] V/rad, D_v in "
            f"[{g[..., 1].min():.4g}, {g[..., 1].max():.4g}] V·s/rad, D_i in "
            f"[{g[..., 2].min():.4g}, {g[..., 2].max():.4g}] V/A (discrete-time LQR at the "
@@ -580,7 +616,7 @@ def synthesize_lqr_gs(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     return Regulator(
         method="lqr_gs", joints=(j,), period=period, params=p, needs=tuple(needs), law=law,
         design={"table": table, "load_range": (Hmin, Hmax), "h_range": (hl, hh),
-                "weights": w, "transmission": tr})
+                "weights": w, "transmission": tr, "gear_efficiency": eta})
 
 
 def gain_table_to_file(p: np.ndarray) -> dict[str, Any]:
@@ -704,5 +740,5 @@ LQR = Method(
 LQR_GS = Method(
     name="lqr_gs", synthesize=synthesize_lqr_gs, update=lqr_update, section="3.3 (6)-(7)",
     summary="LQR gains scheduled on H_ii (and Ḣ_ii) from a table computed ahead",
-    fields=FIELDS, table=GAIN_TABLE,
-    linear=True)
+    fields=FIELDS_GS, table=GAIN_TABLE,
+    linear=True, optional_fields=GEAR_EFFICIENCY_OPTIONAL)

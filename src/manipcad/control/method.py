@@ -9,6 +9,14 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+#: the field a file made before the laws modelled the gear's losses lacks: key -> (the
+#: value taken, what it means); see :attr:`Method.optional_fields`
+GEAR_EFFICIENCY_OPTIONAL = {
+    "gear_efficiency": (1.0, "η = 1 assumed: the law does not model the gear's losses (a file "
+                             "made before the laws modelled them); to model them, "
+                             "re-synthesize, or add gear_efficiency: η of the gear, -, in "
+                             "(0, 1] (the drive's efficiency)")}
+
 
 @dataclass(frozen=True)
 class TableLayout:
@@ -56,6 +64,9 @@ class Method:
             can be checked by eigenvalues (:mod:`manipcad.control.sampled`).
         dynamic_states: the state entries that are the law's own dynamics (integrators,
             filters), as opposed to histories of measured signals.
+        optional_fields: keys of ``fields`` or ``joint_fields`` a file may lack (made by an
+            older version): key -> (the value taken, what that means; the loader warns
+            with it and adds it to the regulator's law).
     """
 
     name: str
@@ -72,3 +83,4 @@ class Method:
     drive_base: int = 0
     linear: bool = False
     dynamic_states: tuple[int, ...] = ()
+    optional_fields: dict[str, tuple[float, str]] = field(default_factory=dict)

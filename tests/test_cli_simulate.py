@@ -260,9 +260,8 @@ def test_interrupted_simulation_leaves_nothing(tmp_path, traj, monkeypatch):
     def interrupt(*_a, **_k):
         raise KeyboardInterrupt
 
-    # the command's own name for simulate
-    monkeypatch.setattr(importlib.import_module("manipcad.cli.simulate"), "run_simulation",
-                        interrupt)
+    # the run description's call of simulate
+    monkeypatch.setattr(importlib.import_module("manipcad.store.run"), "simulate", interrupt)
     out = tmp_path / "r"
     res = run("puma560", "-t", traj, "-r", EXAMPLES / "pid_puma.yaml", "-o", out)
     assert res.exit_code == 130 and not out.exists()

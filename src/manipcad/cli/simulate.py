@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import json
 import math
-import time
 import warnings
 from pathlib import Path
 from typing import Annotated, Any
@@ -51,11 +50,9 @@ from manipcad.cli.options import (
 from manipcad.cli.tables import Table, styled
 from manipcad.cli.warmup import ensure_warm
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
-from manipcad.model.load import CATALOG, load_robot
+from manipcad.model.load import CATALOG
 from manipcad.sim import SimulationDiverged
-from manipcad.sim import simulate as run_simulation
 from manipcad.sim.joint_limits import JOINT_LIMITS
-from manipcad.trajectories import load_trajectory
 
 
 def _num(x: Any, fmt: str = ".4g") -> str:
@@ -213,7 +210,7 @@ def simulate(
     from manipcad.store import check_out_dir, result_document
 
     # deferred: start-up cost: keeps manipcad.store.plan out of the CLI's start
-    from manipcad.store.plan import check_numbers, plan_run
+    from manipcad.store.plan import check_numbers
 
     check_numbers(dt, t_end, every, OPTION_NAMES)  # before anything is loaded
     if accuracy is not None and not (math.isfinite(accuracy) and accuracy > 0):
@@ -237,80 +234,65 @@ def simulate(
     robot = resolve_input("robot", robot, space)
     trajectory = Path(resolve_input("trajectory", trajectory, space))
     regulator = [Path(resolve_input("regulator", r, space)) for r in regulator or ()]
+    # deferred: start-up cost: keeps manipcad.store.run out of the CLI's start
+    from manipcad.store.run import RunSpec, execute, prepare, to_folder
 
-    with warnings.catch_warnings(record=True) as robot_notes:
-        warnings.simplefilter("always", ManipcadWarning)
-        arm = load_robot(robot)
-    notes = [str(w.message) for w in robot_notes if issubclass(w.category, ManipcadWarning)]
-    from_catalog = not Path(robot).is_file()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", ManipcadWarning)
-        traj = load_trajectory(trajectory, robot=arm)
-        plan = plan_run(arm, traj, regulator or (), dt=dt, t_end=t_end, every=every,
-                        drives=not no_drives, allow_other_robot=allow_other_robot,
-                        robot_source=robot, trajectory_source=str(trajectory),
-                        names=OPTION_NAMES)
-    regs, t_end = plan.regulators, plan.t_end
+    spec = RunSpec(robot, trajectory, tuple(regulator), dt=dt, t_end=t_end, every=every,
+                   drives=not no_drives, payload=payload, integrator=integrator, rtol=rtol,
+                   atol=atol, joint_limits=joint_limits, allow_other_robot=allow_other_robot,
+                   accuracy=accuracy, max_saturation=max_saturation, max_chatter=max_chatter)
+    prepared = prepare(spec, names=OPTION_NAMES)
+    t_end, every = prepared.spec.t_end, prepared.spec.every
     # the catalog robots' data notes are documented ('manipcad robots show'); a user's
     # robot file's are news
-    shown = [] if from_catalog else list(notes)
-    shown += [str(w.message) for w in caught if issubclass(w.category, ManipcadWarning)]
+    from_catalog = not Path(robot).is_file()
+    shown = ([] if from_catalog else list(prepared.robot_notes)) + prepared.notes
     for w in shown:
         err_console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
 
     if joint_limits not in JOINT_LIMITS:
         raise InputError("--joint-limits", "", f"must be one of {', '.join(JOINT_LIMITS)}, "
                          f"got {joint_limits!r}")
-    inputs: dict[str, Any] = {}
-    # the robot as it ran, drives included, saved as one self-contained file (a robot file
-    # that points to a URDF by a relative path would not re-run from the result folder)
-    inputs["robot"] = arm
-    inputs["trajectory"] = trajectory
-    if regulator:
-        inputs["regulator"] = list(regulator)
-    run = {"robot": str(robot), "trajectory": str(trajectory),
-           "regulators": [str(p) for p in regulator or ()], "t_end": t_end, "dt": dt,
-           "every": plan.every, "drives": not no_drives, "payload": payload,
-           "robot_notes": notes, "integrator": integrator, "rtol": rtol, "atol": atol}
-    every = plan.every
+    if space is None:
+        store = to_folder(out, force=force, csv=csv)
+    else:
+        # deferred: start-up cost: keeps manipcad.workspace.runs out of the CLI's start
+        from manipcad.workspace.runs import to_workspace
+
+        into = to_workspace(space, out, force=force)
+
+        def store(result, **kw) -> Path:
+            return space.root / "results" / into(result, **kw).name
 
     ensure_warm("simulator")
-    wall = time.perf_counter()
     steps = (f"{int(round(t_end / dt))} RK4 steps" if integrator == "rk4"
              else "adaptive steps")
-    with err_console.status(f"simulating {arm.name}: {t_end:g} s at dt = {dt:g} s "
-                            f"({steps})..."), \
+    with err_console.status(f"simulating {prepared.robot.name}: {t_end:g} s at dt = {dt:g} s "
+                            f"({steps})...") as status, \
             warnings.catch_warnings(record=True) as run_notes:
         warnings.simplefilter("always", ManipcadWarning)
+
+        def writing(result, **kw) -> Path:
+            status.update("writing the result...")
+            return store(result, **kw)
+
         try:
-            res = run_simulation(arm, t_end=t_end, dt=dt, trajectory=traj, regulators=regs,
-                                 payload=payload, drives=not no_drives, every=every,
-                                 joint_limits=joint_limits, integrator=integrator,
-                                 rtol=rtol, atol=atol)
+            done = execute(prepared, writing, save_diverged=save_diverged)
         except SimulationDiverged as exc:
             if save_diverged:
-                where = _store(space, exc.result, out, inputs, arm, trajectory, regulator,
-                               run, force, status="diverged", message=str(exc), csv=csv)
-                raise ManipcadError(f"{exc}; the partial result is in {where}") from None
+                raise ManipcadError(f"{exc}; the partial result is in {exc.stored}") from None
             raise ManipcadError(f"{exc}; nothing was written to "
                                 f"{out if space is None else space.root}") from None
-    wall = time.perf_counter() - wall
     for w in run_notes:
         if issubclass(w.category, ManipcadWarning):
             err_console.print(f"[yellow]warning:[/] {w.message}", highlight=False,
                               soft_wrap=True)
-    run["wall_time_s"] = wall
-    # deferred: start-up cost: keeps manipcad.sim.checks out of the CLI's start
-    from manipcad.sim.checks import run_checks
+    # deferred: start-up cost: keeps manipcad.store.run out of the CLI's start
+    from manipcad.store.run import run_inputs
 
-    checks = run_checks(res, arm, accuracy=accuracy, payload=payload,
-                        max_saturation=max_saturation, max_chatter=max_chatter)
-    res.checks = checks.to_dict()
-    run["checks"] = {"accuracy": accuracy, "max_saturation": max_saturation,
-                     "max_chatter": max_chatter, "verdict": checks.verdict}
-    with err_console.status("writing the result..."):
-        out = _store(space, res, out, inputs, arm, trajectory, regulator, run, force, csv=csv)
-    doc = result_document(res, joint_types=arm.joint_types, inputs=inputs, run=run)
+    checks, out = done.checks, done.where
+    doc = result_document(done.result, joint_types=prepared.robot.joint_types,
+                          inputs=run_inputs(prepared.robot, prepared.spec), run=done.run)
     doc["out"] = str(out)
     failed = strict and checks.verdict == "fail"
     if as_json:
@@ -323,7 +305,7 @@ def simulate(
     style = VERDICT_STYLE[checks.verdict]
     console.print(f"[{style}]{escape(checks.summary())}[/]", soft_wrap=True)
     console.print(f"simulated {t_end:g} s ({int(round(t_end / dt))} steps of {dt:g} s) in "
-                  f"{wall:.3g} s wall (the first run compiles); wrote {out}/ (inputs/, "
+                  f"{done.wall:.3g} s wall (the first run compiles); wrote {out}/ (inputs/, "
                   + ("timeseries.csv, " if csv else "")
                   + "timeseries.npz with "
                   + ("every step" if every == 1 else f"one sample every {every} steps")
@@ -332,20 +314,3 @@ def simulate(
                   highlight=False, soft_wrap=True)
     if failed:
         raise typer.Exit(1)
-
-
-def _store(space, res, out, inputs, arm, trajectory, regulators, run, force, *,
-           status: str = "ok", message: str = "", csv: bool = False) -> Path:
-    """Save a result into a folder, or store and index it in a workspace; its folder."""
-    # deferred: start-up cost: keeps manipcad.store out of the CLI's start
-    from manipcad.store import save_result
-
-    if space is None:
-        save_result(res, out, inputs=inputs, joint_types=arm.joint_types, force=force,
-                    status=status, message=message, run=run, csv=csv)
-        return Path(out)
-    item = space.store_result(res, name=out, robot=arm, trajectory=trajectory,
-                              regulators=list(regulators), run=run,
-                              joint_types=arm.joint_types, force=force, status=status,
-                              message=message)
-    return space.root / "results" / item.name

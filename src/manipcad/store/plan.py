@@ -78,7 +78,8 @@ def plan_run(robot, trajectory, regulator_files: Sequence[str | Path] = (), *, d
 
     Args:
         robot: the loaded :class:`~manipcad.model.robot.Robot`.
-        trajectory: the loaded trajectory (``.n`` joints, ``.duration`` s).
+        trajectory: the loaded trajectory (``.n`` joints, ``.duration`` s), or None (the
+            start pose held; ``t_end`` needed).
         regulator_files: regulator files (:func:`manipcad.load_regulators`); a joint may
             have a regulator in one of them only.
         dt: integration step, s; every regulator period must be a multiple of it.
@@ -111,7 +112,7 @@ def plan_run(robot, trajectory, regulator_files: Sequence[str | Path] = (), *, d
 
     check_numbers(dt, t_end, every, names)
     robot_source = robot.name if robot_source is None else robot_source
-    if trajectory.n != robot.n:
+    if trajectory is not None and trajectory.n != robot.n:
         raise InputError(trajectory_source, "", f"has {trajectory.n} joints, robot "
                          f"{robot.name!r} has {robot.n}")
     regs = []
@@ -128,6 +129,8 @@ def plan_run(robot, trajectory, regulator_files: Sequence[str | Path] = (), *, d
                 owner[j] = str(path)
             regs.append(reg)
     if t_end is None:
+        if trajectory is None:
+            raise InputError(names["t_end"], "", "needed: there is no trajectory")
         t_end = float(trajectory.duration)
         if not (math.isfinite(t_end) and t_end > 0):
             raise InputError(names["t_end"], "", "needed: the trajectory has no finite "

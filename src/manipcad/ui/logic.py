@@ -156,18 +156,32 @@ def load_robot_ref(ws: Workspace, ref: str):
         3
     """
 
-    if ref in catalog_names():
-        source = ref
-    else:
-        kind, _, name = ref.partition("/")
-        if kind != "robots":
-            raise InputError("robot", "", f"{ref!r}: pick a catalog robot or robots/NAME")
-        check_name(name, "robot")
-        source = str(ws.resolve("robots", name))
+    source = robot_source(ws, ref)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ManipcadWarning)
         robot = load_robot(source)
     return robot, [short_paths(n, ws.root) for n in loader_notes(caught, robot)]
+
+
+def robot_source(ws: Workspace, ref: str) -> str:
+    """What :func:`manipcad.load_robot` loads for a robot reference: a catalog name as it
+    is, ``robots/NAME`` as the workspace item's file (name checked).
+
+    Raises:
+        InputError: an unknown or unsafe reference.
+
+    Example:
+        >>> import tempfile
+        >>> robot_source(open_workspace(tempfile.mkdtemp()), "cylindrical")
+        'cylindrical'
+    """
+    if ref in catalog_names():
+        return ref
+    kind, _, name = ref.partition("/")
+    if kind != "robots":
+        raise InputError("robot", "", f"{ref!r}: pick a catalog robot or robots/NAME")
+    check_name(name, "robot")
+    return str(ws.resolve("robots", name))
 
 
 def _unit(joint_type: str) -> str:

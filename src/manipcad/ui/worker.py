@@ -35,12 +35,19 @@ from manipcad.design import DesignNotMet, run_design
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.model import load_robot
 from manipcad.sim import SimulationDiverged, simulate
-from manipcad.sim.checks import run_checks
-from manipcad.store.plan import NAMES, plan_run
+from manipcad.store.plan import NAMES
+from manipcad.store.run import RunSpec, execute, prepare
 from manipcad.study import run_fig3
 from manipcad.study.claims import run_claims
-from manipcad.ui.logic import load_robot_ref, load_trajectory_ref, open_workspace, recommend_for
+from manipcad.ui.logic import (
+    load_robot_ref,
+    load_trajectory_ref,
+    open_workspace,
+    recommend_for,
+    robot_source,
+)
 from manipcad.workspace import Workspace, check_name
+from manipcad.workspace.runs import to_workspace
 
 
 @dataclass
@@ -249,42 +256,35 @@ def run_spec(spec: SimSpec, progress=None) -> tuple[str, dict[str, Any]]:
 
 
     ws = open_workspace(spec.workspace)
-    arm, _ = load_robot_ref(ws, spec.robot)
-    traj = load_trajectory_ref(ws, spec.trajectory, arm)
+    robot = robot_source(ws, spec.robot)
+    check_name(spec.trajectory, "trajectory")
     for name in spec.regulators:
         check_name(name, "regulator")
     if spec.name:
         check_name(spec.name, "result name")
-    # the same checks and record stride as `manipcad simulate` (one sample per period)
-    plan = plan_run(arm, traj, [ws.resolve("regulators", n) for n in spec.regulators],
-                    dt=spec.dt, t_end=spec.t_end, robot_source=spec.robot,
-                    trajectory_source=spec.trajectory,
-                    names={**NAMES, "drives": "the Drives page to attach motors and gears"})
-    regs, t_end, every = plan.regulators, plan.t_end, plan.every
+    # the same run description, checks and record stride as `manipcad simulate` (one
+    # sample per period)
+    run = RunSpec(robot, ws.resolve("trajectories", spec.trajectory),
+                  tuple(ws.resolve("regulators", n) for n in spec.regulators),
+                  dt=spec.dt, t_end=spec.t_end)
+    prepared = prepare(run, sources={"robot": spec.robot, "trajectory": spec.trajectory},
+                       names={**NAMES, "drives": "the Drives page to attach motors and gears"})
+    for note in prepared.notes:  # the page shows them (a trajectory beyond the limits, ...)
+        warnings.warn(note, ManipcadWarning, stacklevel=2)
     if spec.name:
         ws.check_free("results", spec.name)            # before the run, not after
-    run = {"robot": spec.robot, "trajectory": spec.trajectory, "regulators": spec.regulators,
-           "t_end": t_end, "dt": spec.dt, "every": every, "drives": True, "payload": None}
+    store = to_workspace(ws, spec.name, trajectory=spec.trajectory, regulators=spec.regulators)
     with warnings.catch_warnings():
         # said as `manipcad simulate` says them (a joint beyond its limits, ...): the
         # worker passes them to the page as the job's notes
         warnings.simplefilter("always", ManipcadWarning)
         try:
-            res = simulate(arm, t_end=t_end, dt=spec.dt, trajectory=traj, regulators=regs,
-                           every=every, progress=progress)
+            done = execute(prepared, store, progress, save_diverged=spec.save_diverged)
         except SimulationDiverged as exc:
-            if spec.save_diverged:
-                item = ws.store_result(exc.result, name=spec.name, robot=arm,
-                                       trajectory=spec.trajectory,
-                                       regulators=spec.regulators, run=run,
-                                       status="diverged", message=str(exc))
-                raise ManipcadError(f"{exc}; the partial result is {item.name}") from None
+            if exc.stored is not None:
+                raise ManipcadError(f"{exc}; the partial result is {exc.stored.name}") from None
             raise ManipcadError(f"{exc}; nothing was stored") from None
-
-        res.checks = run_checks(res, arm).to_dict()   # every rating (docs/checks.md)
-        item = ws.store_result(res, name=spec.name, robot=arm, trajectory=spec.trajectory,
-                               regulators=spec.regulators, run=run)
-    return item.name, item.metrics
+    return done.where.name, done.where.metrics
 
 
 def _warm() -> None:
@@ -296,6 +296,7 @@ def _warm() -> None:
         # deferred: the warm-up itself: what a run imports, loaded while the worker waits
         import manipcad.store.plan  # noqa: F401
         import manipcad.store.results  # noqa: F401
+        import manipcad.store.run  # noqa: F401
         import manipcad.workspace  # noqa: F401
 
         with warnings.catch_warnings():

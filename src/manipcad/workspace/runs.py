@@ -9,13 +9,10 @@ from typing import Any
 
 import numpy as np
 
-from manipcad.control.files import load_regulators
 from manipcad.errors import InputError
-from manipcad.model.load import load_robot
 from manipcad.report.plots import compare_figure
-from manipcad.sim import simulate
 from manipcad.store.results import SERIES, load_result
-from manipcad.trajectories import load_trajectory
+from manipcad.store.run import execute, stored_spec
 from manipcad.workspace.core import Workspace
 
 #: the columns of ``ws compare`` (largest over the joints; SI units)
@@ -85,9 +82,10 @@ class Rerun:
 def rerun(ws: Workspace, ref: str) -> Rerun:
     """Run a stored result again from its stored inputs and settings and compare.
 
-    The inputs are the copies in ``results/NAME/inputs/`` (robot, trajectory,
-    regulators); the settings are the run's (``t_end``, ``dt``, ``every``,
-    ``drives``, ``payload`` in metrics.json's ``run``, else its ``settings``).
+    The run is the stored description (metrics.json's ``run``,
+    :meth:`manipcad.store.run.RunSpec.from_dict`, what an earlier version did not store
+    taken from its ``settings``) on the copies of its inputs in ``results/NAME/inputs/``
+    (robot, trajectory, regulators): :func:`manipcad.store.run.stored_spec`.
 
     Returns:
         A :class:`Rerun`; ``identical`` is True when every array and metric is
@@ -127,37 +125,31 @@ def rerun(ws: Workspace, ref: str) -> Rerun:
 
 
 def run_from_folder(folder: Path, doc: dict[str, Any]):
-    """Simulate again from a result folder's ``inputs/`` and recorded settings."""
-
-    inputs = folder / "inputs"
-    run = dict(doc.get("settings") or {})
-    run.update(doc.get("run") or {})
-    robot_files = sorted(inputs.glob("robot.*"))
-    traj_files = sorted(inputs.glob("trajectory.*"))
-    if not robot_files:
-        raise InputError(str(inputs), "robot", "no stored robot file; cannot re-run")
-    for key in ("t_end", "dt"):
-        if not isinstance(run.get(key), int | float):
-            raise InputError(str(folder / "metrics.json"), f"run.{key}", "missing; cannot "
-                             "re-run")
-    robot = load_robot(robot_files[0])
-    drives = bool(run.get("drives", True))
-    dt = float(run["dt"])
-    traj = load_trajectory(traj_files[0], robot=robot) if traj_files else None
-    regs = []
-    for f in sorted(inputs.glob("regulator*.*"), key=_input_order):
-        regs += load_regulators(f, robot, dt=dt, drives=drives)
-    # the numerical path the run took (kernels, integrator, drive order) is part of it:
-    # a rerun takes the same, so that it is identical bit for bit
-    same = {k: run[k] for k in ("integrator", "rtol", "atol", "order") if k in run}
-    if "generated" in run:
-        same["use_generated"] = bool(run["generated"])
-    return simulate(robot, t_end=float(run["t_end"]), dt=dt, trajectory=traj,
-                    regulators=regs, payload=run.get("payload"), drives=drives,
-                    every=int(run.get("every") or 1),
-                    **same)
+    """Simulate again from a result folder's ``inputs/`` and recorded run
+    (:func:`manipcad.store.run.stored_spec`); the new :class:`~manipcad.sim.SimulationResult`."""
+    return execute(stored_spec(folder, doc)).result
 
 
-def _input_order(p: Path) -> tuple[int, str]:
-    tail = p.stem.rsplit("-", 1)[-1]
-    return (int(tail) if tail.isdigit() else 0, p.name)
+def to_workspace(ws: Workspace, name: str | None = None, *, force: bool = False,
+                 trajectory: str | None = None, regulators=None):
+    """A :data:`manipcad.store.run.ResultStore` that stores a result in the workspace as
+    ``results/NAME`` and indexes it (:meth:`Workspace.store_result`); it returns the
+    indexed :class:`~manipcad.workspace.core.Item`.
+
+    Args:
+        ws: the workspace.
+        name: the result's name; None: one is made.
+        force: replace a result of the same name.
+        trajectory, regulators: how the inputs are referred to (workspace names or
+            files); default the run's files.
+    """
+
+    def store(result, *, robot, spec, run, status="ok", message=""):
+        return ws.store_result(result, name=name, robot=robot,
+                               trajectory=spec.trajectory if trajectory is None else trajectory,
+                               regulators=list(spec.regulators if regulators is None
+                                               else regulators),
+                               run=run, joint_types=robot.joint_types, force=force,
+                               status=status, message=message)
+
+    return store

@@ -198,13 +198,13 @@ def test_bad_integrator_options(kw, what):
         simulate(arm, t_end=0.01, dt=1e-3, drives=False, **kw)
 
 
-def test_adaptive_refuses_elastic_gears():
+def test_adaptive_exact_refuses_elastic_gears():
     from manipcad.drives.params import Transmission
 
     arm = manipcad.load_robot("cylindrical")
     tr = [Transmission(stiffness=5e3, damping=1.0), None, None]
-    with pytest.raises(ManipcadError, match="rigid drives only.*rk4"):
-        simulate(arm, t_end=0.01, dt=1e-4, transmissions=tr, integrator="adaptive")
+    with pytest.raises(ManipcadError, match="rigid drives' currents exactly.*'adaptive'"):
+        simulate(arm, t_end=0.01, dt=1e-4, transmissions=tr, integrator="adaptive-exact")
 
 
 def test_cli_integrator_options(tmp_path):

@@ -23,12 +23,13 @@ import numpy as np
 
 from manipcad.drives.dc import rigid_drive_rate
 from manipcad.drives.params import KIND_ELASTIC, KIND_ELASTIC_STATIC, KIND_RIGID, P_KIND
-from manipcad.drives.transmission import elastic_motor_rhs
+from manipcad.drives.transmission import elastic_motor_modal, elastic_motor_rhs
 
 
 @numba.njit(cache=True)
 def drive_rates(table: np.ndarray, off: np.ndarray, xd: np.ndarray, U: np.ndarray,
-                q: np.ndarray, qd: np.ndarray, tau: np.ndarray, dxd: np.ndarray) -> None:
+                q: np.ndarray, qd: np.ndarray, tau: np.ndarray, dxd: np.ndarray,
+                gm: np.ndarray | None = None, held: np.ndarray | None = None) -> None:
     """Joint torques and drive-state derivatives of all drives.
 
     Args:
@@ -40,6 +41,12 @@ def drive_rates(table: np.ndarray, off: np.ndarray, xd: np.ndarray, U: np.ndarra
         qd: (n,) joint velocities, rad/s (m/s).
         tau: (n,) output joint torques from the drives, N·m (N).
         dxd: output, shape of xd: drive-state derivatives.
+        gm: (n, 2) the elastic gears' modes (the hybrid plant of
+            :mod:`manipcad.sim.events`): contact and motor shaft, the ``c`` and ``s`` of
+            :func:`manipcad.drives.transmission.elastic_motor_modal` (nan: from the
+            state); None: both from the state.
+        held: (n,) output with ``gm``: the torque a stuck motor shaft's friction holds,
+            N·m (written for the joints whose shaft is stuck, ``gm[j, 1] == 0``).
 
     Example:
         >>> import numpy as np
@@ -64,8 +71,14 @@ def drive_rates(table: np.ndarray, off: np.ndarray, xd: np.ndarray, U: np.ndarra
             dxd[o] = di
             tau[j] = t
         elif kind == KIND_ELASTIC or kind == KIND_ELASTIC_STATIC:
-            tau[j] = elastic_motor_rhs(xd[o:off[j + 1]], U[j], q[j], qd[j], p,
-                                       dxd[o:off[j + 1]])
+            if gm is None:
+                tau[j] = elastic_motor_rhs(xd[o:off[j + 1]], U[j], q[j], qd[j], p,
+                                           dxd[o:off[j + 1]])
+            else:
+                tau[j], T = elastic_motor_modal(xd[o:off[j + 1]], U[j], q[j], qd[j], p,
+                                                dxd[o:off[j + 1]], gm[j, 0], gm[j, 1])
+                if gm[j, 1] == 0.0:
+                    held[j] = T
         elif kind != 0:  # KIND_RIGID_STATIC: no state
             _, t = rigid_drive_rate(0.0, U[j], qd[j], p)
             tau[j] = t

@@ -117,12 +117,38 @@ def dry_friction(omega_m: float, p: np.ndarray) -> float:
     """
     if omega_m == 0.0:
         return 0.0
-    fwd = (omega_m > 0.0) == (p[P_RATIO] > 0.0)
-    mf = p[P_MFP] if fwd else p[P_MFN]
     weps = p[P_WEPS]
     if weps > 0.0 and abs(omega_m) < weps:
-        return mf * omega_m / weps
-    return mf if omega_m > 0.0 else -mf
+        return abs(kinetic_friction(omega_m, p)) * omega_m / weps
+    return kinetic_friction(omega_m, p)
+
+
+@numba.njit(cache=True)
+def kinetic_friction(s: float, p: np.ndarray) -> float:
+    """The dry friction torque on the motor shaft for motion of sign s, opposing it.
+
+    M_f+ when the motion moves the joint positively (``sign(s·i_r) > 0``), M_f- otherwise
+    (no linear zone: the friction of a shaft sliding that way).
+
+    Args:
+        s: the direction of the motor's motion (its sign counts), rad/s or -.
+        p: packed drive parameters.
+
+    Returns:
+        +M_f for s > 0, -M_f for s < 0, 0 for s = 0, N·m.
+
+    Example:
+        >>> from manipcad.drives.dc import kinetic_friction
+        >>> from manipcad.drives.params import pack_drive
+        >>> from manipcad.model.robot import Drive
+        >>> p = pack_drive(Drive(ratio=-5, M_f=(0.1, 0.3), R=1, L=1e-3, k_m=.1, k_w=.1))
+        >>> kinetic_friction(-1.0, p), kinetic_friction(1.0, p)
+        (-0.1, 0.3)
+    """
+    if s == 0.0:
+        return 0.0
+    mf = p[P_MFP] if (s > 0.0) == (p[P_RATIO] > 0.0) else p[P_MFN]
+    return mf if s > 0.0 else -mf
 
 
 @numba.njit(cache=True)

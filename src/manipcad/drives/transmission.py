@@ -15,9 +15,13 @@ Equations (δ = θ_m/i_r - q is the joint-side deflection, rad)::
     joint side: the multibody model receives τ_s as the joint torque
 
 How the simulator combines an ELASTIC drive with the multibody model: at
-every RK4 stage call :func:`elastic_motor_rhs` with the joint's (q, q̇);
-it writes the motor-state derivatives and returns τ_s, which is the joint
-torque handed to the multibody forward dynamics. For such a joint the
+every stage it calls :func:`elastic_motor_modal` with the joint's (q, q̇) and the
+gear's modes (the hybrid plant of :mod:`manipcad.sim.events`: the contact c of
+:func:`gear_torque`, switched where the gap closes or opens, and the motor shaft's
+stick-slip mode, switched where it stops or breaks away, both located in time); it
+writes the motor-state derivatives and returns τ_s, which is the joint torque handed
+to the multibody forward dynamics. :func:`elastic_motor_rhs` is the same with the
+modes read from the state (the dead zone's clamp, sign(ω_m) friction). For such a joint the
 multibody model must NOT add the rotor inertia, viscous or dry friction
 (they are on the motor states here): see
 :func:`manipcad.drives.params.joint_referred_terms`.
@@ -28,10 +32,17 @@ Stiffness sets the step: RK4 needs ``dt`` well below ``2.8/ω_s``, with
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
-from manipcad.drives.dc import armature_current_rate, dry_friction, static_current
+from manipcad.drives.dc import (
+    armature_current_rate,
+    dry_friction,
+    kinetic_friction,
+    static_current,
+)
 from manipcad.drives.params import (
     KIND_ELASTIC,
     P_DS,
@@ -103,15 +114,70 @@ def transmission_torque(theta_m: float, omega_m: float, q: float, qd: float,
     r = p[P_RATIO]
     d = theta_m / r - q
     dd = omega_m / r - qd
+    return gear_torque(d, dd, p, contact_of(d, dd, p))
+
+
+@numba.njit(cache=True)
+def gear_torque(d: float, dd: float, p: np.ndarray, c: float) -> float:
+    """Torque the gear passes to the joint in contact mode c, joint side.
+
+    ``k_s·(δ - c·b) + d_s·δ̇`` with the teeth in contact on the flank c = +1
+    (δ > b) or c = -1 (δ < -b), 0 in the gap (c = 0); without backlash
+    (``b = 0``) ``k_s·δ + d_s·δ̇`` whatever c.
+
+    Args:
+        d: deflection δ = θ_m/i_r - q, rad (m).
+        dd: its rate δ̇, rad/s (m/s).
+        p: packed drive parameters (k_s, d_s, b).
+        c: contact mode, +1, -1 or 0.
+
+    Returns:
+        τ_s, N·m (N).
+
+    Example:
+        >>> from manipcad.drives.transmission import gear_torque
+        >>> from manipcad.drives.params import pack_drive, Transmission
+        >>> from manipcad.model.robot import Drive
+        >>> p = pack_drive(Drive(ratio=10, R=1, L=1e-3, k_m=.1, k_w=.1),
+        ...                Transmission(1000.0, 2.0, 0.01))
+        >>> round(gear_torque(0.03, -1.0, p, 1.0), 9), gear_torque(0.03, -1.0, p, 0.0)
+        (18.0, 0.0)
+    """
     b = p[P_GAP]
     if b == 0.0:
         return p[P_KS] * d + p[P_DS] * dd
-    if d > b:
-        t = p[P_KS] * (d - b) + p[P_DS] * dd
-        return t if t > 0.0 else 0.0
-    if d < -b:
-        t = p[P_KS] * (d + b) + p[P_DS] * dd
-        return t if t < 0.0 else 0.0
+    if c == 0.0:
+        return 0.0
+    return p[P_KS] * (d - c * b) + p[P_DS] * dd
+
+
+@numba.njit(cache=True)
+def contact_of(d: float, dd: float, p: np.ndarray) -> float:
+    """The contact mode of a backlash gear at δ, δ̇ (the dead zone's clamp): +1 when
+    δ > b and the contact pushes (its torque > 0), -1 when δ < -b and it pushes the
+    other way, else 0 (the gap, or teeth that separate faster than the spring
+    closes them: a damper cannot glue them together).
+
+    Args:
+        d: deflection δ, rad (m); dd: δ̇, rad/s (m/s); p: packed drive parameters.
+
+    Returns:
+        +1, -1 or 0.
+
+    Example:
+        >>> from manipcad.drives.transmission import contact_of
+        >>> from manipcad.drives.params import pack_drive, Transmission
+        >>> from manipcad.model.robot import Drive
+        >>> p = pack_drive(Drive(ratio=10, R=1, L=1e-3, k_m=.1, k_w=.1),
+        ...                Transmission(1000.0, 2.0, 0.01))
+        >>> contact_of(0.03, 0.0, p), contact_of(0.03, -20.0, p), contact_of(-0.02, 0.0, p)
+        (1.0, 0.0, -1.0)
+    """
+    b = p[P_GAP]
+    if d > b and gear_torque(d, dd, p, 1.0) > 0.0:
+        return 1.0
+    if d < -b and gear_torque(d, dd, p, -1.0) < 0.0:
+        return -1.0
     return 0.0
 
 
@@ -170,6 +236,39 @@ def elastic_motor_rhs(xm: np.ndarray, U: float, q: float, qd: float,
         >>> round(elastic_motor_rhs(np.array([0.1, 0., 0.]), 0., 0., 0., p, d), 9)
         10.0
     """
+    return elastic_motor_modal(xm, U, q, qd, p, dxm, math.nan, math.nan)[0]
+
+
+@numba.njit(cache=True)
+def elastic_motor_modal(xm: np.ndarray, U: float, q: float, qd: float, p: np.ndarray,
+                        dxm: np.ndarray, c: float, s: float) -> tuple[float, float]:
+    """:func:`elastic_motor_rhs` in given modes (the hybrid plant, :mod:`manipcad.sim.events`).
+
+    Args:
+        xm, U, q, qd, p, dxm: as :func:`elastic_motor_rhs`.
+        c: the gear's contact mode (:func:`gear_torque`: +1, -1 in contact on that
+            flank, 0 in the gap); nan: taken from the state (:func:`contact_of`).
+        s: the motor shaft's mode: +1 / -1 sliding that way (the kinetic friction
+            :func:`manipcad.drives.dc.kinetic_friction` against it, whatever the sign
+            ω_m takes), 0 stuck (ω̇_m = 0 and θ̇_m = ω_m, which is 0); nan: the friction
+            law :func:`manipcad.drives.dc.dry_friction` of ω_m.
+
+    Returns:
+        (τ_s N·m joint side, T N·m): T the torque on a stuck shaft that its friction
+        must hold, k_m·i - τ_s/i_r (0 unless s = 0).
+
+    Example:
+        >>> import numpy as np
+        >>> from manipcad.drives.transmission import elastic_motor_modal
+        >>> from manipcad.drives.params import pack_drive, Transmission
+        >>> from manipcad.model.robot import Drive
+        >>> p = pack_drive(Drive(J=1e-4, ratio=10, R=1, L=1e-3, k_m=.1, k_w=.1),
+        ...                Transmission(1000.0, 0.0, 0.001))
+        >>> d = np.zeros(3)
+        >>> t = elastic_motor_modal(np.array([0.1, 0., 2.]), 0., 0., 0., p, d, 1.0, 0.0)
+        >>> [round(v, 9) for v in t], d[:2].tolist()     # τ_s = 1000·(0.01 - 0.001)
+        ([9.0, -0.7], [0.0, 0.0])
+    """
     r = p[P_RATIO]
     theta, omega = xm[0], xm[1]
     if int(p[P_KIND]) == KIND_ELASTIC:
@@ -177,10 +276,18 @@ def elastic_motor_rhs(xm: np.ndarray, U: float, q: float, qd: float,
         dxm[2] = armature_current_rate(i, U, omega, p)
     else:
         i = static_current(U, omega, p)
-    tau_s = transmission_torque(theta, omega, q, qd, p)
+    d = theta / r - q
+    dd = omega / r - qd
+    if c != c:
+        c = contact_of(d, dd, p)
+    tau_s = gear_torque(d, dd, p, c)
     dxm[0] = omega
-    dxm[1] = (p[P_KM] * i - p[P_KV] * omega - dry_friction(omega, p) - tau_s / r) / p[P_J]
-    return tau_s
+    if s == 0.0:
+        dxm[1] = 0.0
+        return tau_s, p[P_KM] * i - tau_s / r
+    f = dry_friction(omega, p) if s != s else kinetic_friction(s, p)
+    dxm[1] = (p[P_KM] * i - p[P_KV] * omega - f - tau_s / r) / p[P_J]
+    return tau_s, 0.0
 
 
 @numba.njit(cache=True)

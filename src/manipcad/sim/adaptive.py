@@ -35,8 +35,9 @@ Here the step is set by the accuracy and by the regulators' sample instants:
 The right-hand side is :func:`manipcad.sim.loop._rates` (drives of
 :mod:`manipcad.drives.dc`, then the articulated-body algorithm), the one place both
 integrators evaluate it. Elastic gears and backlash (the generic drive states of
-:mod:`manipcad.drives.coupling`) are not handled here: ``simulate`` refuses them
-with ``integrator="adaptive"``.
+:mod:`manipcad.drives.coupling`) are integrated by the pair with q, q̇ (``exact=False``;
+their contact and motor-shaft events located as the friction's); with ``exact`` only the
+rigid drives' currents have a formula, so ``simulate`` refuses elastic gears there.
 """
 
 from __future__ import annotations
@@ -433,7 +434,7 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
                     stats[3] += 1
                     event_values(plant, x, n, ev.e0)
                 else:
-                    for j in range(n):
+                    for j in range(ev.e0.shape[0]):
                         ev.e0[j] = ev.e1[j]
             kt = k + int(round(s / dt))
             status, joint = check_state(plant, work, x, Ks[0], t0 + s, stop_at_limits)

@@ -38,7 +38,7 @@ from manipcad.errors import ManipcadError
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot
 from manipcad.objcache import PerObject
 from manipcad.sim import joint_limits as jl
-from manipcad.sim.events import events_part, friction_table
+from manipcad.sim.events import events_part, friction_table, gear_part
 from manipcad.sim.integrate import CHUNK, reference_rows
 from manipcad.sim.loop import Control, Plant
 
@@ -141,8 +141,8 @@ def build(robot: Robot, start: Start, *, dt: float, t_end: float, steps: int,
 
     Raises:
         ManipcadError: drives asked of a robot without them, a q0 beyond its stops, a
-            regulator that does not fit the robot or the run, an adaptive integrator with
-            elastic gears or a pickup off the sample grid.
+            regulator that does not fit the robot or the run, an exact-current adaptive
+            integrator with elastic gears or a pickup off the sample grid.
     """
     # deferred: start-up cost: keeps manipcad.sim.pickup out of import manipcad
     from manipcad.sim import pickup as pk
@@ -162,15 +162,17 @@ def build(robot: Robot, start: Start, *, dt: float, t_end: float, steps: int,
                   dtable, off, bool(drives), generic, b.wide, *gen,
                   pk.no_pickup() if picked is None else
                   pk.pickup_part(picked[0], picked[1], dtable, model_payload == "true"),
-                  _events(robot, dtable, rtable, bool(drives), start.qd, len(x0), b.stops))
+                  _events(robot, dtable, rtable, bool(drives), start.qd, len(x0), b.stops,
+                          off, x0))
     est = pk.estimator_part(estimator, robot, dt, steps, ctable,
                             feed=model_payload == "online", drives=bool(drives))
     ctrl, described = pack_regulators(robot, regulators, dt, est, t_end)
     if adaptive:
         pk.check_adaptive(integrator, None if picked is None else picked[1], ctrl, dt)
-    if adaptive and generic:
-        raise ManipcadError(f"integrator={integrator!r} handles rigid drives only; elastic "
-                            "gears and backlash (transmissions=...) need integrator='rk4'")
+    if adaptive and adaptive[1] and generic:
+        raise ManipcadError(f"integrator={integrator!r} advances rigid drives' currents "
+                            "exactly; elastic gears and backlash (transmissions=...) need "
+                            "integrator='rk4', 'adaptive' or 'adaptive-bs32'")
     return ClosedLoop(plant, ctrl, x0, dtable, b, described, bool(gen[0]), generic, est)
 
 
@@ -216,10 +218,12 @@ def packed_drives(robot: Robot, drives: bool, transmissions, order):
 
 
 
-def _events(robot: Robot, dtable, rtable, drives: bool, qd0, nx: int, stops=None):
+def _events(robot: Robot, dtable, rtable, drives: bool, qd0, nx: int, stops=None, off=None,
+            x0=None):
     """The plant's stick-slip friction, gear losses and hard stops (:mod:`manipcad.sim.events`):
     the rigid drives' joint-referred dry friction and gear efficiencies; ``stops`` (n, 2)
-    the joints' hard stops, rad or m, or None."""
+    the joints' hard stops, rad or m, or None; the elastic gears' backlash and motor
+    shafts from the drive states' offsets ``off`` and the initial state ``x0``."""
 
     kinds = dtable[:, P_KIND].astype(np.int64)
     rigid = drives & ((kinds == KIND_RIGID) | (kinds == KIND_RIGID_STATIC))
@@ -227,7 +231,11 @@ def _events(robot: Robot, dtable, rtable, drives: bool, qd0, nx: int, stops=None
     static = np.array([(0.0, 0.0) if d is None else
                        (abs(d.ratio) * d.static_friction[0], abs(d.ratio) * d.static_friction[1])
                        for d in robot.drives]).reshape(-1, 2)
-    return events_part(friction_table(dtable, rtable, eta, rigid, static), qd0, nx, stops)
+    gears = (None if off is None or not drives else
+             gear_part(dtable, off, x0, [(0.0, 0.0) if d is None else d.static_friction
+                                         for d in robot.drives]))
+    return events_part(friction_table(dtable, rtable, eta, rigid, static), qd0, nx, stops,
+                       gears)
 
 
 def _drive_initial_state(dtable, off, q, qd) -> np.ndarray:

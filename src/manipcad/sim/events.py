@@ -54,6 +54,18 @@ import numba as nb
 import numpy as np
 
 from manipcad.drives.gear import gear_factor, holding_band
+from manipcad.drives.params import (
+    KIND_ELASTIC,
+    KIND_ELASTIC_STATIC,
+    P_GAP,
+    P_KIND,
+    P_KS,
+    P_MFN,
+    P_MFP,
+    P_RATIO,
+    P_WEPS,
+)
+from manipcad.drives.transmission import contact_of, gear_torque
 from manipcad.dynamics.aba import aba_one
 from manipcad.dynamics.crba import CRBA_WORK, crba_one
 from manipcad.dynamics.forward_crba import cholesky_solve
@@ -69,17 +81,23 @@ FK_POS, FK_NEG, FS_POS, FS_NEG, F_ETA = range(5)
 #: ``fric`` (n, 5) (see FK_POS..F_ETA), ``mode`` (n,) (+1, -1 slipping, 0 stuck; carried
 #: from chunk to chunk), ``marg`` and ``dirn`` (n,) the stuck joints' margins (N·m, N;
 #: +inf for the others) and break-away directions of the last right-hand side, ``e0``,
-#: ``e1`` (n,) event values, ``xe`` (nx,) and ``Ke`` (1, nx) a state and its rates, and
+#: ``e1`` event values (below), ``xe`` (nx,) and ``Ke`` (1, nx) a state and its rates, and
 #: scratch: ``tf``, ``b``, ``rhs``, ``frj``, ``gv`` (n,), ``A``, ``M`` (n, n), ``cw``
 #: (n, CRBA_WORK), ``ctmp`` (8, 3); ``count`` (2,): mode switches, rounds of location;
 #: ``log`` (LOG, 3): the first LOG switches' time (s), joint and new mode
 #: ``il`` (8,) the bracket of the event being located (:func:`bracket_start`); hard stops
 #: (``joint_limits="hard-stop"``): ``lims`` (n, 2) the stops' positions (rad, m; ±inf: none)
 #: and ``lim`` (n,) where each joint is: 0 away from its stops, +1 / -1 held at its upper /
-#: lower stop (then ``mode`` is 0); ``e0``, ``e1`` (2n,): the joints' mode events, then
-#: their distances to the nearest stop
+#: lower stop (then ``mode`` is 0); elastic gears (:func:`gear_part`): ``gear`` (any gear taking
+#: part), ``gm`` (n, 2) each gear's contact mode (+1 / -1 the teeth in contact on that
+#: flank, 0 in the gap) and its motor shaft's mode (+1 / -1 sliding that way, 0 stuck), nan
+#: where the gear or its shaft does not take part; ``gs`` (n, 2) the shaft's static
+#: friction against positive and negative motor motion, N·m (motor side); ``gh`` (n,) the
+#: torque a stuck shaft holds (of the last right-hand side), N·m; ``e0``, ``e1`` (4n,):
+#: the joints' mode events, their distances to the nearest stop, then the gears' contact
+#: and shafts' events
 Events = namedtuple("Events", "on fric mode marg dirn e0 e1 xe Ke tf b rhs frj gv A M cw "
-                              "ctmp count log il lim lims")
+                              "ctmp count log il lim lims gear gm gs gh")
 
 #: mode switches kept in :attr:`Events.log` (the rest are counted only)
 LOG = 100000
@@ -89,11 +107,13 @@ LOG = 100000
 MAX_EVENTS = 24
 
 
-def events_part(fric: np.ndarray, qd0: np.ndarray, nx: int, stops=None) -> Events:
+def events_part(fric: np.ndarray, qd0: np.ndarray, nx: int, stops=None,
+                gears=None) -> Events:
     """The :class:`Events` of a run: ``fric`` (n, 5) (see :data:`FK_POS`), the initial
     joint speeds ``qd0`` (rad/s, m/s) set the modes (a lossy joint at rest starts
     stuck), ``nx`` the state's length; ``stops`` (n, 2): the joints' hard stops (lower,
-    upper; rad or m, ±inf: none), or None.
+    upper; rad or m, ±inf: none), or None; ``gears``: the elastic gears' initial modes and
+    static friction (:func:`gear_part`), or None.
 
     Example:
         >>> import numpy as np
@@ -109,14 +129,61 @@ def events_part(fric: np.ndarray, qd0: np.ndarray, nx: int, stops=None) -> Event
     mode = np.where(lossy, np.sign(np.asarray(qd0, dtype=float)), 0.0)
     lims = (np.tile([-math.inf, math.inf], (n, 1)) if stops is None
             else np.array(stops, dtype=float).reshape(n, 2))
-    on = bool(lossy.any()) or bool(np.isfinite(lims).any())
+    gm, gs = (np.full((n, 2), math.nan), np.zeros((n, 2))) if gears is None else gears
+    gear = bool(np.isfinite(gm).any())
+    on = bool(lossy.any()) or bool(np.isfinite(lims).any()) or gear
     return Events(on, fric, mode.astype(float), np.full(n, math.inf),
-                  np.zeros(n), np.zeros(2 * n), np.zeros(2 * n), np.zeros(nx),
+                  np.zeros(n), np.zeros(4 * n), np.zeros(4 * n), np.zeros(nx),
                   np.zeros((1, nx)),
                   np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.ones(n),
                   np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, CRBA_WORK)),
                   np.zeros((8, 3)), np.zeros(2, dtype=np.int64),
-                  np.empty((LOG if on else 0, 3)), np.zeros(8), np.zeros(n), lims)
+                  np.empty((LOG if on else 0, 3)), np.zeros(8), np.zeros(n), lims,
+                  gear, np.array(gm, dtype=float), np.array(gs, dtype=float), np.zeros(n))
+
+
+def gear_part(dtable: np.ndarray, off: np.ndarray, x0: np.ndarray, static) -> tuple:
+    """The elastic gears' part of :func:`events_part`: (gm, gs), each (n, 2).
+
+    A gear with backlash (b > 0) takes part with its contact (its initial mode from the
+    state, :func:`manipcad.drives.transmission.contact_of`); its motor shaft when it has
+    dry friction and no linear zone (``P_WEPS`` 0): sliding the way it turns, stuck at
+    rest (released at once if it cannot be held). The shaft's static friction against
+    positive and negative motor motion (N·m, motor side) from ``static``, the drives'
+    M_s pairs named after the joint direction (never below M_f).
+
+    Args:
+        dtable: (n, NPAR) packed drives; off: their states' offsets; x0: the initial
+            state (q, q̇, drive states); static: (n, 2) M_s+, M_s- (N·m, motor side).
+
+    Example:
+        >>> import numpy as np
+        >>> from manipcad.drives.params import pack_drives, state_offsets, Transmission
+        >>> from manipcad.model.robot import Drive
+        >>> t = pack_drives([Drive(J=1e-4, ratio=-10, R=1, L=1e-3, k_m=.1, k_w=.1,
+        ...                        M_f=(0.02, 0.03))], [Transmission(1e3, 0.0, 1e-3)])
+        >>> gm, gs = gear_part(t, state_offsets(t), np.zeros(5), [(0.04, 0.03)])
+        >>> gm.tolist(), gs.tolist()
+        ([[0.0, 0.0]], [[0.03, 0.04]])
+    """
+    n = dtable.shape[0]
+    gm = np.full((n, 2), math.nan)
+    gs = np.zeros((n, 2))
+    static = np.asarray(static, dtype=float).reshape(n, 2)
+    for j in range(n):
+        p = dtable[j]
+        if int(p[P_KIND]) not in (KIND_ELASTIC, KIND_ELASTIC_STATIC):
+            continue
+        o = 2 * n + off[j]
+        r = p[P_RATIO]
+        if p[P_GAP] > 0.0:
+            gm[j, 0] = contact_of(x0[o] / r - x0[j], x0[o + 1] / r - x0[n + j], p)
+        if (p[P_MFP] > 0.0 or p[P_MFN] > 0.0 or static[j].any()) and p[P_WEPS] == 0.0:
+            gm[j, 1] = float(np.sign(x0[o + 1]))
+            sp = max(static[j, 0], p[P_MFP])
+            sn = max(static[j, 1], p[P_MFN])
+            gs[j] = (sp, sn) if r > 0.0 else (sn, sp)
+    return gm, gs
 
 
 def friction_table(dtable: np.ndarray, rtable: np.ndarray, efficiency, kinds,
@@ -404,10 +471,13 @@ def release_worst(plant, t):
 
 @nb.njit(cache=True)
 def event_values(plant, x, n, e):
-    """The event functions at state x into ``e`` (2n,): e[j] d·q̇_j of a slipping lossy
+    """The event functions at state x into ``e`` (4n,): e[j] d·q̇_j of a slipping lossy
     joint (rad/s, m/s), the margin of a held one (N·m, N; of the last right-hand side,
     which must be x's), 0 for the others; e[n + j] a joint's distance to its nearest hard
-    stop (rad, m) while away from its stops, 0 for the others."""
+    stop (rad, m) while away from its stops, 0 for the others; e[2n + j] its gear's
+    contact event (:func:`_contact_value`, rad or m) and e[3n + j] its motor shaft's: s·ω_m
+    sliding (rad/s), the margin stuck (N·m; of the last right-hand side), 0 where the
+    gear or shaft does not take part."""
     ev = plant.ev
     for j in range(n):
         if held(ev.mode, ev.lim, ev.fric, j):
@@ -420,6 +490,99 @@ def event_values(plant, x, n, e):
             e[n + j] = min(x[j] - ev.lims[j, 0], ev.lims[j, 1] - x[j])
         else:
             e[n + j] = 0.0
+    if ev.gear:
+        gm = ev.gm
+        for j in range(n):
+            o = 2 * n + plant.off[j]
+            c = gm[j, 0]
+            if c == c:
+                p = plant.dtable[j]
+                r = p[P_RATIO]
+                e[2 * n + j] = _contact_value(p, x[o] / r - x[j], x[o + 1] / r - x[n + j], c)
+            s = gm[j, 1]
+            if s == 0.0:
+                e[3 * n + j] = _shaft_margin(ev.gs, ev.gh, j)[0]
+            elif s == s:
+                e[3 * n + j] = s * x[o + 1]
+
+
+@nb.njit(cache=True)
+def _contact_value(p, d, dd, c):
+    """The contact event of a gear (packed drive ``p``) in contact mode c at δ, δ̇ (rad,
+    rad/s; m, m/s), positive while the mode holds, rad (m): with u± = τ_s(±1)/k_s =
+    δ ∓ b + (d_s/k_s)·δ̇ the contact's stretch, u+ in contact on the flank +1 (it opens
+    when the contact would pull), -u- on the flank -1, and in the gap
+    min(max(b - δ, -u+), max(δ + b, u-)): it closes when δ passes ±b with the contact
+    pushing (the dead zone's clamp, :func:`manipcad.drives.transmission.contact_of`)."""
+    k = p[P_KS]
+    up = gear_torque(d, dd, p, 1.0) / k
+    lo = gear_torque(d, dd, p, -1.0) / k
+    if c > 0.0:
+        return up
+    if c < 0.0:
+        return -lo
+    b = p[P_GAP]
+    return min(max(b - d, -up), max(d + b, lo))
+
+
+@nb.njit(cache=True, inline="always")
+def _shaft_margin(gs, gh, j):
+    """(margin N·m, break-away direction) of joint j's stuck motor shaft: its static
+    friction ``gs[j]`` against the torque ``gh[j]`` it holds (:class:`Events`)."""
+    up = gs[j, 0] - gh[j]
+    dn = gh[j] + gs[j, 1]
+    return min(up, dn), (1.0 if up < dn else -1.0)
+
+
+@nb.njit(cache=True)
+def _gear_switch(plant, x, n, j, t, which):
+    """Switch joint j's gear at t s: ``which`` 0 its contact (the gap closes on the flank
+    δ points to, or the contact opens), 1 its motor shaft (a sliding one stops: ω_m = 0
+    exactly, stuck; a stuck one breaks away in its margin's direction). Logged as 10 + the
+    new contact mode, 20 + the shaft's new mode."""
+    ev = plant.ev
+    o = 2 * n + plant.off[j]
+    if which == 0:
+        if ev.gm[j, 0] == 0.0:
+            d = x[o] / plant.dtable[j, P_RATIO] - x[j]
+            ev.gm[j, 0] = 1.0 if d > 0.0 else -1.0
+        else:
+            ev.gm[j, 0] = 0.0
+        _log(ev, t, j, 10.0 + ev.gm[j, 0])
+    else:
+        if ev.gm[j, 1] == 0.0:
+            ev.gm[j, 1] = _shaft_margin(ev.gs, ev.gh, j)[1]
+        else:
+            ev.gm[j, 1] = 0.0
+            x[o + 1] = 0.0
+        _log(ev, t, j, 20.0 + ev.gm[j, 1])
+
+
+@nb.njit(cache=True)
+def release_shafts(plant, t):
+    """Release, at t s, the stuck motor shafts whose static friction cannot hold their
+    torque (of the last right-hand side) in its direction; whether one was."""
+    ev = plant.ev
+    any_ = False
+    if not ev.gear:
+        return any_
+    for j in range(ev.gm.shape[0]):
+        if ev.gm[j, 1] == 0.0:
+            m, d = _shaft_margin(ev.gs, ev.gh, j)
+            if m < 0.0:
+                ev.gm[j, 1] = d
+                _log(ev, t, j, 20.0 + d)
+                any_ = True
+    return any_
+
+
+@nb.njit(cache=True, inline="always")
+def shaft_stuck(gm, n):
+    """Whether a motor shaft is stuck (``gm`` of :class:`Events`)."""
+    for j in range(n):
+        if gm[j, 1] == 0.0:
+            return True
+    return False
 
 
 @nb.njit(cache=True)
@@ -442,7 +605,8 @@ def release_edge(plant, x, n, e0, e1, t):
     is at the start (the measure of :func:`crossing` cannot see it). Their direction is
     the end's (``dirn`` of the last right-hand side, at the step's end). Likewise a joint
     on (or past) a hard stop at the start (distance e0 <= 0) and into it at the end is
-    put on the stop at the start (x, the step's start state, changed). Whether one was;
+    put on the stop at the start (x, the step's start state, changed), and a gear whose
+    contact event (or a stuck shaft whose margin) sat at 0 switched there. Whether one was;
     the caller then takes the step again."""
     ev = plant.ev
     any_ = False
@@ -454,6 +618,14 @@ def release_edge(plant, x, n, e0, e1, t):
               and e1[n + j] < 0.0):
             _contact(plant, x, n, j, t)
             any_ = True
+    if ev.gear:
+        for j in range(n):
+            if ev.gm[j, 0] == ev.gm[j, 0] and e0[2 * n + j] <= 0.0 and e1[2 * n + j] < 0.0:
+                _gear_switch(plant, x, n, j, t, 0)
+                any_ = True
+            if ev.gm[j, 1] == 0.0 and e0[3 * n + j] <= 0.0 and e1[3 * n + j] < 0.0:
+                _gear_switch(plant, x, n, j, t, 1)
+                any_ = True
     return any_
 
 
@@ -462,7 +634,9 @@ def switch(plant, x, n, e0, e1, t):
     """Switch the modes of the joints whose events crossed (e0 > 0 >= e1): a slipping joint
     stops (stuck, q̇_j = 0 exactly; :func:`release_worst` turns it back if it cannot be
     held), a held one breaks away (``dirn``, of the last right-hand side at x), a joint
-    reaching a hard stop is put on it (:func:`_contact`); t: the time, s."""
+    reaching a hard stop is put on it (:func:`_contact`), a gear's contact closes or
+    opens and its motor shaft sticks or breaks away (:func:`_gear_switch`); t: the time,
+    s."""
     ev = plant.ev
     for j in range(n):
         if e0[j] > 0.0 and e1[j] <= 0.0:
@@ -474,6 +648,11 @@ def switch(plant, x, n, e0, e1, t):
                 _log(ev, t, j, 0.0)
         if e0[n + j] > 0.0 and e1[n + j] <= 0.0 and ev.lim[j] == 0.0:
             _contact(plant, x, n, j, t)
+    if ev.gear:
+        for j in range(n):
+            for w in range(2):
+                if e0[(2 + w) * n + j] > 0.0 and e1[(2 + w) * n + j] <= 0.0:
+                    _gear_switch(plant, x, n, j, t, w)
 
 
 @nb.njit(cache=True)

@@ -74,7 +74,9 @@ from manipcad.sim.events import (
     event_values,
     hybrid_rates,
     release_edge,
+    release_shafts,
     release_worst,
+    shaft_stuck,
     switch,
 )
 
@@ -126,7 +128,7 @@ def _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st):
         if plant.generic_drives:
             for j in range(xd.shape[0]):
                 xd[j] = xs[m + j]
-            drive_rates(dtable, off, xd, U, q, qd, tau, dxd)
+            drive_rates(dtable, off, xd, U, q, qd, tau, dxd, plant.ev.gm, plant.ev.gh)
             for j in range(xd.shape[0]):
                 K4[st, m + j] = dxd[j]
         else:
@@ -430,26 +432,32 @@ def hybrid_at(xs, U, dist, n, plant, sc, K, st):
 def settle(plant, x, U, dist, n, sc, K, t):
     """The rates at x (time t s) into K[0] with consistent modes: while a stuck joint
     cannot be held, release the one furthest beyond its band and solve again
-    (:func:`manipcad.sim.events.release_worst`)."""
-    for _ in range(n + 1):
+    (:func:`manipcad.sim.events.release_worst`); likewise every stuck motor shaft of an
+    elastic gear that cannot be held (:func:`manipcad.sim.events.release_shafts`)."""
+    for _ in range(2 * n + 1):
         hybrid_at(x, U, dist, n, plant, sc, K, 0)
-        if not release_worst(plant, t):
+        shafts = release_shafts(plant, t)
+        if not release_worst(plant, t) and not shafts:
             return
 
 
 @nb.njit(cache=True)
 def _rk4_sub(plant, x, U, dist, n, sc, K, h, xs, xn, e1):
     """An RK4 step of h s from x (K[0] its rates) into xn, the modes held; the event
-    values at xn into e1 (the rates at xn computed for the stuck joints' margins)."""
+    values at xn into e1 (the rates at xn computed for the stuck joints' and motor shafts'
+    margins)."""
     ev = plant.ev
     for st in range(1, 4):
         rk4_stage(x, K, st, h, xs)
         hybrid_at(xs, U, dist, n, plant, sc, K, st)
     rk4_update(x, K, h, xn)
+    again = ev.gear and shaft_stuck(ev.gm, n)
     for j in range(n):
         if ev.mode[j] == 0.0 and ev.marg[j] < math.inf:
-            hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, 0)
+            again = True
             break
+    if again:
+        hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, 0)
     event_values(plant, xn, n, e1)
 
 

@@ -56,7 +56,10 @@ class SimulationResult:
         events: (E, 3) the located stick-slip switches of the lossy joints (dry friction
             or gear losses, :mod:`manipcad.sim.events`): time (s), joint index, new mode
             (+1 or -1 slipping that way, 0 stuck; +2 / -2 reaching the upper / lower hard
-            stop with ``joint_limits="hard-stop"``); None without lossy joints or stops.
+            stop with ``joint_limits="hard-stop"``; an elastic gear's contact as 10 + c, c
+            +1 / -1 the teeth closing on that flank, 0 the gap opening; its motor shaft as
+            20 + its mode, +1 / -1 sliding that way, 0 stuck); None without lossy joints,
+            stops or such gears.
     """
 
     t: np.ndarray

@@ -115,7 +115,8 @@ def simulate(
             3rd-order solution against a 5th-order one): cheaper where the steps are
             bounded by the sample period rather than by the tolerance (a rigid arm
             with a 1 kHz regulator: see docs/performance.md), costlier at tight
-            tolerances. Elastic gears and backlash (``transmissions``) need "rk4".
+            tolerances. Elastic gears and backlash (``transmissions``) need "rk4",
+            "adaptive" or "adaptive-bs32" (the exact currents are the rigid drives').
         rtol: relative tolerance of the adaptive integrator's local error (-, in
             [1e-12, 0.1]; default 1e-6); only with an adaptive integrator.
         atol: absolute tolerance on q (rad or m) and q̇ (rad/s or m/s) (> 0; default

@@ -39,7 +39,7 @@ from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot
 from manipcad.objcache import PerObject
 from manipcad.sim import joint_limits as jl
 from manipcad.sim.events import events_part, friction_table, gear_part
-from manipcad.sim.integrate import CHUNK, reference_rows
+from manipcad.sim.integrate import CHUNK, INTEGRATORS, reference_rows
 from manipcad.sim.loop import Control, Plant
 
 
@@ -169,7 +169,7 @@ def build(robot: Robot, start: Start, *, dt: float, t_end: float, steps: int,
     ctrl, described = pack_regulators(robot, regulators, dt, est, t_end)
     if adaptive:
         pk.check_adaptive(integrator, None if picked is None else picked[1], ctrl, dt)
-    if adaptive and adaptive[1] and generic:
+    if adaptive and INTEGRATORS[integrator][1] and generic:
         raise ManipcadError(f"integrator={integrator!r} advances rigid drives' currents "
                             "exactly; elastic gears and backlash (transmissions=...) need "
                             "integrator='rk4', 'adaptive' or 'adaptive-bs32'")

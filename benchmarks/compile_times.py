@@ -4,8 +4,8 @@ Usage::
 
     python benchmarks/compile_times.py [--json out.json]
 
-Runs each step of the test suite's prewarm (``tests/conftest.py`` ``PREWARM``: the
-functions the simulator's cores call, in two halves — the regulators and the payload
+Runs each step of ``manipcad warmup`` (:data:`manipcad.sim.warm.STEPS`: the functions
+the simulator's cores call — the stick-slip events' steps, the regulators and the payload
 estimator, the plant's side —, the batched inverse dynamics, the RK4 loop and the
 error-controlled loop themselves — each one specialization, with or without the online
 payload estimator —, the batched forward dynamics) one after another in this process,
@@ -13,11 +13,10 @@ with the kernel cache pointed at a new empty folder (``XDG_CACHE_HOME``), and pr
 each step's CPU time (``time.process_time``, less sensitive to other load than the wall
 time, also printed).
 A step reuses what earlier steps compiled (callees with the same signature), so the
-figures depend on the order, which is the prewarm's.
+figures depend on the order, which is :data:`~manipcad.sim.warm.STEPS`'.
 
-This is what a user's first simulation costs on a fresh install, and most of what the
-test suite's first minute and a half is spent on (docs/performance.md, "Compile and the
-test suite").
+This is the compile a user's first simulation needs on a fresh install, on one core
+(docs/performance.md, "Compile and first run").
 It measures, it does not compare: there is no peer for numba's compile of our code.
 """
 
@@ -40,11 +39,10 @@ def main() -> None:
         sys.exit("run this as a script: the kernel cache must be set before manipcad loads")
     os.environ.pop("NUMBA_CACHE_DIR", None)
     os.environ["XDG_CACHE_HOME"] = tempfile.mkdtemp(prefix="manipcad-compile-")
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-    import conftest  # the suite's prewarm steps: one definition of what is compiled
+    from manipcad.sim.warm import STEPS  # after the cache is set: manipcad configures it
 
     out = {}
-    for name, step in conftest.PREWARM.items():
+    for name, (_, step) in STEPS.items():
         c0, w0 = time.process_time(), time.perf_counter()
         step()
         out[name] = {"cpu_s": time.process_time() - c0, "wall_s": time.perf_counter() - w0}

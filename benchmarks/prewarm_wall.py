@@ -1,11 +1,12 @@
-"""Measurement: the test suite's prewarm on 2 workers, on an empty kernel cache, as timed.
+"""Measurement: ``manipcad warmup``'s steps on 2 workers, on an empty kernel cache, as timed.
 
 Usage::
 
     python benchmarks/prewarm_wall.py [--workers 2]
 
-Starts ``--workers`` processes that run ``tests/conftest.py``'s ``_prewarm(w, W)`` at
-once, as the pytest-xdist workers do at the start of the README's test command (each
+Starts ``--workers`` processes that run :func:`manipcad.sim.warm.share` ``(w, W)`` at
+once, as ``manipcad warmup`` and the pytest-xdist workers of the README's test command
+do (each
 takes the steps of each phase of ``PHASES`` from its own starting point, a file lock
 per step in the kernel cache folder, then waits for the others' steps of that phase),
 all on one new empty cache (``XDG_CACHE_HOME``). Prints when each worker starts and ends
@@ -33,8 +34,7 @@ ROOT = Path(__file__).resolve().parents[1]
 WORKER = r'''
 import sys, time
 t0, w, W = float(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
-sys.path.insert(0, "tests")
-import conftest
+from manipcad.sim import warm
 from numba.core import event
 
 compiled = []  # the functions numba compiles (not loads) in a step: called from Python,
@@ -68,9 +68,10 @@ def timed(name, step):
               f"{', '.join(dict.fromkeys(compiled)) or '-'}", flush=True)
     return run
 
-for name in list(conftest.PREWARM):
-    conftest.PREWARM[name] = timed(name, conftest.PREWARM[name])
-conftest._prewarm(w, W)
+for name, (what, step) in list(warm.STEPS.items()):
+    warm.STEPS[name] = (what, timed(name, step))
+for line in warm.share(w, W):
+    print(f"  worker {w} FAILED {line}", flush=True)
 print(f"  worker {w} done       {time.perf_counter() - t0:6.1f} s   "
       f"CPU {time.process_time():5.1f} s (with the imports)", flush=True)
 '''

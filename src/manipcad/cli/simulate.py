@@ -53,6 +53,7 @@ from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.model.load import CATALOG
 from manipcad.sim import SimulationDiverged
 from manipcad.sim.joint_limits import JOINT_LIMITS
+from manipcad.sim.warm import needs
 
 
 def _num(x: Any, fmt: str = ".4g") -> str:
@@ -264,7 +265,7 @@ def simulate(
         def store(result, **kw) -> Path:
             return space.root / "results" / into(result, **kw).name
 
-    ensure_warm("simulator")
+    ensure_warm(*needs(integrator))
     steps = (f"{int(round(t_end / dt))} RK4 steps" if integrator == "rk4"
              else "adaptive steps")
     with err_console.status(f"simulating {prepared.robot.name}: {t_end:g} s at dt = {dt:g} s "

@@ -1,9 +1,11 @@
 """Regulators that model the gear's losses against the same laws assuming none (η = 1).
 
-Usage: ``python benchmarks/gear_losses.py [fig3|puma|ur5 ...]`` (default all three; a few
-minutes). Each method is synthesized as it is (its law models the gear efficiency η of the
-drive, as the simulated plant applies it) and run again with its stored η set to 1 (the
-same law with no gear losses: what the regulators did before they modelled them), on:
+Usage: ``python benchmarks/gear_losses.py [fig3|puma|ur5 ...] [METHOD ...]`` (default all
+three cases and every method below; about 6 minutes; a METHOD is a label of
+:data:`METHOD_CASES`, e.g. ``"ace_tf controllable"``). Each method is synthesized as it
+is (its law models the gear efficiency η of the drive, as the simulated plant applies
+it) and run again with its stored η set to 1 (the same law with no gear losses; the
+design-time uses of η, ace_tf's T_1 and lqr_gs's table range, stay), on:
 
 - ``fig3``: the Fig. 2 arm on its own gears (η 0.75 / 0.81 / 0.95), the turn by the method,
   the lift and the reach by ``pid`` (as ``recommend --verify``), laws (2) for 1.6 s, dt and
@@ -30,8 +32,12 @@ from manipcad.control import METHODS
 from manipcad.errors import ManipcadError
 from manipcad.sim.checks import run_checks
 
-FIG3 = ["ace_de", "ace_tf", "asvs", "lqr_gs", "computed_torque", "computed_torque_full"]
-ARM = ["ace_de", "ace_tf", "asvs", "lqr_gs", "computed_torque", "computed_torque_full"]
+#: (label, method, synthesis options)
+METHOD_CASES = [("ace_de", "ace_de", {}), ("ace_tf", "ace_tf", {}),
+                ("ace_tf controllable", "ace_tf", {"realization": "controllable"}),
+                ("asvs", "asvs", {}), ("lqr_gs", "lqr_gs", {}),
+                ("computed_torque", "computed_torque", {}),
+                ("computed_torque_full", "computed_torque_full", {})]
 
 
 def without_losses(reg):
@@ -58,7 +64,7 @@ def row(label, robot, res, joints, accuracy):
           f"{'; '.join(fails) or '-'} |", flush=True)
 
 
-def fig3():
+def fig3(cases):
     dt = 1e-4
     arm = manipcad.load_robot("cylindrical")
     laws = manipcad.load_trajectory("examples/fig3_laws.yaml", robot=arm)
@@ -66,27 +72,28 @@ def fig3():
     print("\nFig. 3 case, Fig. 2 arm on its gears (turn: η = 0.75)")
     print("| method, law's η | max abs(e), rad | RMS, rad | checks (turn) | failing |")
     print("|---|---|---|---|---|")
-    for m in FIG3:
+    for name, m, opts in cases:
         reg = (manipcad.synthesize(arm, "all", m, period=dt) if METHODS[m].spans
-               else manipcad.synthesize(arm, "turn", m, period=dt))
-        for label, r in ((f"{m}, η as the drive", reg), (f"{m}, η = 1", without_losses(reg))):
+               else manipcad.synthesize(arm, "turn", m, period=dt, **opts))
+        for label, r in ((f"{name}, η as the drive", reg),
+                         (f"{name}, η = 1", without_losses(reg))):
             regs = [r] if METHODS[m].spans else [r, *others]
             res = manipcad.simulate(arm, t_end=laws.duration, dt=dt, trajectory=laws,
                                     regulators=regs)
             row(label, arm, res, [0], 1e-4)
 
 
-def whole_arm(name, robot, traj, t_end, accuracy):
+def whole_arm(title, robot, traj, t_end, accuracy, cases):
     dt, period = 1e-4, 1e-3
-    print(f"\n{name}")
+    print(f"\n{title}")
     print("| method, law's η | max abs(e), rad | RMS, rad | checks (all joints) | failing |")
     print("|---|---|---|---|---|")
-    for m in ARM:
-        regs = (manipcad.synthesize(robot, "all", m, period=period) if METHODS[m].spans
-                else [manipcad.synthesize(robot, j, m, period=period) for j in range(robot.n)])
-        regs = regs if isinstance(regs, list) else [regs]
-        for label, rs in ((f"{m}, η as the drive", regs),
-                          (f"{m}, η = 1", [without_losses(r) for r in regs])):
+    for name, m, opts in cases:
+        regs = ([manipcad.synthesize(robot, "all", m, period=period)] if METHODS[m].spans
+                else [manipcad.synthesize(robot, j, m, period=period, **opts)
+                      for j in range(robot.n)])
+        for label, rs in ((f"{name}, η as the drive", regs),
+                          (f"{name}, η = 1", [without_losses(r) for r in regs])):
             try:
                 res = manipcad.simulate(robot, t_end=t_end, dt=dt, trajectory=traj,
                                         regulators=rs)
@@ -98,18 +105,21 @@ def whole_arm(name, robot, traj, t_end, accuracy):
 
 def main() -> None:
     warnings.simplefilter("ignore")
-    which = sys.argv[1:] or ["fig3", "puma", "ur5"]
+    args = sys.argv[1:]
+    which = [a for a in args if a in ("fig3", "puma", "ur5")] or ["fig3", "puma", "ur5"]
+    cases = [c for c in METHOD_CASES if c[0] in args] or METHOD_CASES
     if "fig3" in which:
-        fig3()
+        fig3(cases)
     if "puma" in which:
         puma = manipcad.load_robot("puma560")
         whole_arm("PUMA 560 with its drives (η = 1), examples/waypoints_puma.yaml, 2 s", puma,
                   manipcad.load_trajectory("examples/waypoints_puma.yaml", robot=puma), 2.0,
-                  1e-3)
+                  1e-3, cases)
     if "ur5" in which:
         ur5 = manipcad.load_robot("examples/ur5/ur5.yaml")
         whole_arm("UR5 example (η = 0.725), examples/ur5/pick.yaml, 2 s", ur5,
-                  manipcad.load_trajectory("examples/ur5/pick.yaml", robot=ur5), 2.0, 1e-3)
+                  manipcad.load_trajectory("examples/ur5/pick.yaml", robot=ur5), 2.0, 1e-3,
+                  cases)
 
 
 if __name__ == "__main__":

@@ -197,9 +197,9 @@ def run_pickup(out_dir: str | Path, *, robot: Robot | str | None = None, mass: f
         if not isinstance(robot, Robot) else robot
     if not arm.has_drives:
         raise InputError(arm.name, "drives", "the pickup study needs a drive on every joint")
-    # the regulators compared here do not model the gears' losses, which the simulated
-    # plant has (docs/simulation.md): the study measures what knowing the payload gains,
-    # so it runs on lossless gears
+    # the study measures what knowing the payload gains, not what modelling the gears'
+    # losses does (which the simulated plant has, and ACE (1)'s quasi-stationary
+    # realization cannot model: docs/synthesis.md), so it runs on lossless gears
     arm = arm.replace(drives=tuple(None if d is None else d.replace(efficiency=1.0)
                                    for d in arm.drives))
     com = [float(c) for c in arm.tool_p]

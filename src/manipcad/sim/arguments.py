@@ -4,7 +4,7 @@ one clear error naming the argument and why."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from manipcad.errors import ManipcadError, refuse_renamed
 from manipcad.model.payload import apply_payload
@@ -13,8 +13,7 @@ from manipcad.sim import joint_limits as jl
 from manipcad.sim.integrate import integrator_options
 
 
-@dataclass(frozen=True)
-class Arguments:
+class Arguments(NamedTuple):
     """A run's arguments, checked.
 
     Attributes:

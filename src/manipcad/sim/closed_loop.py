@@ -13,7 +13,7 @@ it): 0.05-0.1 ms of every :func:`~manipcad.sim.simulate` call.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -43,8 +43,7 @@ from manipcad.sim.integrate import CHUNK, INTEGRATORS, reference_rows
 from manipcad.sim.loop import Control, Plant
 
 
-@dataclass(frozen=True)
-class Start:
+class Start(NamedTuple):
     """Where a run starts.
 
     Attributes:
@@ -104,8 +103,7 @@ def _vec(x, n: int, name: str) -> np.ndarray:
     return a.copy()
 
 
-@dataclass(frozen=True)
-class ClosedLoop:
+class ClosedLoop(NamedTuple):
     """A run's closed loop, packed for the compiled cores.
 
     Attributes:

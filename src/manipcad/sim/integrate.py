@@ -7,7 +7,7 @@ diverged when a drive's electrical mode is the cause."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -77,8 +77,7 @@ def _rows_or_hold(trajectory, x_q, t_rows, n):
 
 
 
-@dataclass(frozen=True)
-class Integrated:
+class Integrated(NamedTuple):
     """What the compiled loop left: the kept samples ``rec`` (:class:`~manipcad.sim.loop.Record`,
     ``work.rec[0]`` of them), its ``work`` (the final state, the limit excursions), the
     status (0 done, 1 NaN, 2 runaway speed, 3 a joint beyond its limits with "stop") with

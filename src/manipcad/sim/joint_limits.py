@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -41,8 +41,7 @@ def check_mode(joint_limits) -> None:
                             f"{joint_limits!r}")
 
 
-@dataclass(frozen=True)
-class Bounds:
+class Bounds(NamedTuple):
     """The joint limits a run watches.
 
     Attributes:

@@ -12,6 +12,7 @@ naming the field; on the Fig. 2 arm's own gears the loss model lowers the tracki
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -227,7 +228,8 @@ def test_loss_model_lowers_the_fig3_error_on_the_arms_gears(arm):
     and reach by pid: with the gear's losses modelled the turn's error is several times
     smaller than with the same law assuming η = 1."""
     dt = 1e-4
-    laws = manipcad.load_trajectory("examples/fig3_laws.yaml", robot=arm)
+    laws = manipcad.load_trajectory(Path(__file__).resolve().parents[1] / "examples"
+                                    / "fig3_laws.yaml", robot=arm)
     others = [synthesize(arm, j, "pid", period=dt) for j in ("lift", "reach")]
     for method in ("computed_torque", "lqr_gs"):
         reg = synthesize(arm, "turn", method, period=dt)
@@ -239,3 +241,23 @@ def test_loss_model_lowers_the_fig3_error_on_the_arms_gears(arm):
                                     regulators=[r, *others])
             errs.append(float(np.abs(res.error[:, 0]).max()))
         assert errs[0] < errs[1] / 3, (method, errs)
+
+
+def test_simulate_runs_an_old_file_and_says_what_it_assumed(arm, regs, tmp_path):
+    """From the command line: a file without gear_efficiency runs (exit 0) and the
+    warning tells the user what was assumed and how to change it."""
+    from typer.testing import CliRunner
+
+    from manipcad.cli import app
+
+    doc = regulators_document([regs["ace_de"]], robot=arm)
+    del doc["regulators"][0]["gains"]["gear_efficiency"]
+    path = tmp_path / "old.yaml"
+    path.write_text(yaml.safe_dump(doc, allow_unicode=True))
+    laws = Path(__file__).resolve().parents[1] / "examples" / "fig3_laws.yaml"
+    r = CliRunner().invoke(app, ["simulate", "cylindrical", "-t", str(laws),
+                                 "-r", str(path), "--t-end", "0.01", "--dt", "1e-3",
+                                 "--out", str(tmp_path / "run")], env={"COLUMNS": "200"})
+    assert r.exit_code == 0, r.output
+    out = " ".join(r.output.split())
+    assert "gear_efficiency missing: η = 1 assumed" in out and "re-synthesize" in out

@@ -6,12 +6,12 @@ Usage::
                                          [--profile] [--no-python-rk4]
                                          [--part python-control|integrators|ur5]
 
-``--part integrators`` and ``--part ur5`` (issue 9, "Performance") compare the
+``--part integrators`` and ``--part ur5`` compare the
 adaptive integrators with RK4 (PUMA + drives + PD at 1 kHz; LQR-GS and ASVS on the
 cylindrical arm) and the rigid UR5 PD job with MuJoCo and Drake; see
 benchmarks/_bench_integrators.py. The default part is the comparison below.
 
-The closed loop (issue 3, "Speed"): the 6-joint PUMA 560 of the catalog with
+The closed loop: the 6-joint PUMA 560 of the catalog with
 its DC drives' electrical dynamics (armature inductance L kept: one current
 state per joint, 18 states in all), rigid gears with rotor inertia, viscous
 and dry friction, and a PD regulator on every joint (the ``pid`` regulator
@@ -21,7 +21,7 @@ examples/pid_puma.yaml), following a 1 s quintic move of all six joints.
 What is timed (``time.perf_counter``, wall clock; real-time factor RTF =
 simulated seconds per wall second):
 
-* **manipcad**: ``manipcad.sim.simulate`` — fixed-step RK4, dt = 1e-4 s, the
+* **manipcad**: ``manipcad.simulate`` — fixed-step RK4, dt = 1e-4 s, the
   regulators sampled every step (period = dt, the closest match to the
   peer's continuous PD law), every step recorded; the whole call (setup,
   reference sampling, compiled loop, metrics), after a warm-up call that
@@ -39,7 +39,7 @@ best (and median) wall time over the rounds. The agreement of the peers with
 manipcad (max |Δq| over the move) is printed so the three are seen to
 integrate the same closed loop.
 
-Targets (issue 3, "Speed"): RTF >= 20 and >= 10x the python-control peer.
+Targets: RTF >= 20 and >= 10x the python-control peer.
 
 ``--profile`` adds a breakdown of one simulator step: compiled micro-loops
 timing the right-hand side (drives + ABA) and the ABA alone per call, and

@@ -18,7 +18,7 @@ from rich.markup import escape
 
 from manipcad import catalog
 from manipcad.cli.app import app, console, guarded
-from manipcad.cli.options import json_flag, ws_option
+from manipcad.cli.options import json_flag, option, ws_option
 from manipcad.cli.tables import Table
 from manipcad.errors import InputError
 from manipcad.fileio import json_safe
@@ -62,14 +62,11 @@ def _kinds(kind: str | None) -> tuple[str, ...]:
 @catalog_app.command("list")
 @guarded
 def list_parts(
-    kind: Annotated[str | None, typer.Option(
-        "--kind", help="motor or gear (default both).")] = None,
-    makers: Annotated[str | None, typer.Option(
-        "--makers", help="Comma-separated makers: maxon, faulhaber, allied_motion, tmotor, "
-        "'Harmonic Drive', Beckhoff, ... (default all).")] = None,
-    where: Annotated[str | None, typer.Option(
-        "--where", help="A filter over the columns (SI units), e.g. \"k_t > 0.1 and "
-        "mass < 1\"; see docs/catalog.md for the columns.")] = None,
+    kind: option(str | None, "--kind", "motor or gear (default both).") = None,
+    makers: option(str | None, "--makers", "Comma-separated makers: maxon, faulhaber, "
+                   "allied_motion, tmotor, 'Harmonic Drive', Beckhoff, ... (default all).") = None,
+    where: option(str | None, "--where", "A filter over the columns (SI units), e.g. \"k_t > 0.1 "
+                  "and mass < 1\"; see docs/catalog.md for the columns.") = None,
     ws: ws_option("Also list this workspace's motors and gears.") = None,
     as_json: json_flag("Print JSON (every column).") = False,
 ) -> None:

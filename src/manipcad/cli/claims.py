@@ -13,33 +13,26 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated
 
-import typer
 from rich import box
 from rich.markup import escape
 
 from manipcad.cli.app import console, guarded
-from manipcad.cli.options import Scheduler, Workers, dt_option, progress_flag, ws_option
-from manipcad.cli.study import study_app, study_folder
+from manipcad.cli.options import Scheduler, Workers, dt_option, option, progress_flag
+from manipcad.cli.study import StudyOut, StudyWs, study_app, study_folder
 from manipcad.cli.tables import Table
 
 
 @study_app.command("claims")
 @guarded
 def claims(
-    out: Annotated[str, typer.Option(
-        "--out", "-o", help="Output folder (created); with --ws the study's NAME in the "
-        "workspace.")],
-    ws: ws_option("Workspace: the study folder is stored and indexed there "
-        "(studies/NAME).") = None,
-    arm: Annotated[str, typer.Option(
-        "--arm", help="light (the catalog Fig. 2 arm), industrial (+3 kg arm, 2 kg payload, "
-        "CSF-20 on the turn), heavy (+5 kg arm, 5 kg payload, extra reach reduction) or a "
-        "robot file of a cylindrical arm: exactly the joints turn (revolute), lift, reach "
-        "(prismatic), in this order, each with a drive.")] = "light",
-    grid: Annotated[str, typer.Option("--grid", help="quick (4 × 4 cells) or full (7 × 7).")]
-    = "quick",
+    out: StudyOut,
+    ws: StudyWs = None,
+    arm: option(str, "--arm", "light (the catalog Fig. 2 arm), industrial (+3 kg arm, 2 kg "
+                "payload, CSF-20 on the turn), heavy (+5 kg arm, 5 kg payload, extra reach "
+                "reduction) or a robot file of a cylindrical arm: exactly the joints turn "
+                "(revolute), lift, reach (prismatic), in this order, each with a drive.") = "light",
+    grid: option(str, "--grid", "quick (4 × 4 cells) or full (7 × 7).") = "quick",
     workers: Workers = None,
     scheduler: Scheduler = None,
     dt: dt_option() = 1e-4,

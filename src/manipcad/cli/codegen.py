@@ -22,13 +22,11 @@ import json
 import re
 import warnings
 from pathlib import Path
-from typing import Annotated
 
-import typer
 from rich import box
 
 from manipcad.cli.app import app, console, guarded
-from manipcad.cli.options import RobotArgument, json_flag
+from manipcad.cli.options import RobotArgument, json_flag, option
 from manipcad.cli.tables import Table
 from manipcad.codegen import c_identifier, generate
 from manipcad.control.files import load_regulators
@@ -41,18 +39,14 @@ from manipcad.model.load import load_robot
 @guarded
 def codegen(
     robot: RobotArgument,
-    out: Annotated[str | None, typer.Option(
-        "--out", help="Folder to write the code into (created if missing).")] = None,
-    lang: Annotated[str, typer.Option("--lang", help="numba or c.")] = "numba",
-    stats: Annotated[bool, typer.Option(
-        "--stats", help="Print the operation counts of the generated code.")] = False,
+    out: option(str | None, "--out", "Folder to write the code into (created if missing).") = None,
+    lang: option(str, "--lang", "numba or c.") = "numba",
+    stats: option(bool, "--stats", "Print the operation counts of the generated code.") = False,
     as_json: json_flag("Print the counts as JSON.") = False,
-    prefix: Annotated[str | None, typer.Option(
-        "--prefix", help="C identifier prefix of the file and function names "
-                         "(default: the robot's name).")] = None,
-    regulators: Annotated[str | None, typer.Option(
-        "--regulators", help="Regulator file (manipcad synthesize --out): also write each "
-                             "regulator's update as C (needs --lang c).")] = None,
+    prefix: option(str | None, "--prefix", "C identifier prefix of the file and function names "
+                   "(default: the robot's name).") = None,
+    regulators: option(str | None, "--regulators", "Regulator file (manipcad synthesize --out): "
+                       "also write each regulator's update as C (needs --lang c).") = None,
 ) -> None:
     """Customized inverse dynamics, mass matrix, moment components and forward dynamics."""
 

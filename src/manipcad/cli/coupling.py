@@ -17,14 +17,12 @@ from __future__ import annotations
 import json
 import math
 import warnings
-from typing import Annotated
 
-import typer
 from rich import box
 
 from manipcad.analysis.coupling import coupling_analysis
 from manipcad.cli.app import app, console, guarded
-from manipcad.cli.options import RobotArgument, dt_option, json_flag
+from manipcad.cli.options import RobotArgument, dt_option, json_flag, option
 from manipcad.cli.tables import Table, styled
 from manipcad.errors import ManipcadWarning
 from manipcad.model.load import load_robot
@@ -40,13 +38,12 @@ def _pct(x: float) -> str:
 @guarded
 def coupling(
     robot: RobotArgument,
-    trajectory: Annotated[str, typer.Option(
-        "--trajectory", "-t", help="Trajectory YAML file (docs/trajectories.md).")],
+    trajectory: option(str, "--trajectory -t", "Trajectory YAML file (docs/trajectories.md)."),
     dt: dt_option("Sampling step, s.") = 1e-3,
-    threshold: Annotated[float, typer.Option(
-        "--threshold", help="Classification threshold, a fraction (0.05 = 5 %).")] = 0.05,
-    rotor: Annotated[bool, typer.Option(
-        "--rotor", help="Count the rotor inertia J·i_r² as the joint's own inertia.")] = False,
+    threshold: option(float, "--threshold", "Classification threshold, a fraction (0.05 = "
+                      "5 %).") = 0.05,
+    rotor: option(bool, "--rotor", "Count the rotor inertia J·i_r² as the joint's own "
+                  "inertia.") = False,
     as_json: json_flag() = False,
 ) -> None:
     """Coupling, velocity and gravity constituents next to each joint's own inertia."""

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
-from typing import Annotated
 
 import numpy as np
-import typer
 
 import manipcad
 from manipcad.cli.app import app, console, guarded
+from manipcad.cli.options import option
 from manipcad.cli.study import print_fig3
 from manipcad.cli.tables import Table
 from manipcad.cli.warmup import finish_warm, start_warm
@@ -20,9 +19,8 @@ from manipcad.sim.warm import needs
 @app.command()
 @guarded
 def demo(
-    out: Annotated[Path, typer.Option(
-        "--out", "-o", help="Folder for the Fig. 3 study's figure, JSON and report.")]
-        = Path("manipcad-demo"),
+    out: option(Path, "--out -o", "Folder for the Fig. 3 study's figure, "
+                "JSON and report.") = Path("manipcad-demo"),
 ) -> None:
     """A dynamics tour of the built-in robots, then the paper's Fig. 3 study."""
     # deferred: start-up cost: keeps manipcad.study out of the CLI's start

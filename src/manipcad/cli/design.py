@@ -32,6 +32,7 @@ from manipcad.cli.options import (
     Scheduler,
     Workers,
     dt_option,
+    option,
     progress_flag,
     strict_flag,
     ws_option,
@@ -66,46 +67,36 @@ def parse_range(text: str | None) -> tuple[float, float]:
 def design(
     requirements: Annotated[str, typer.Argument(
         help="Requirements YAML file (accuracy needed; docs/expert-rules.md).")],
-    robot: Annotated[str, typer.Option(
-        "--robot", help="Catalog robot name or robot file (drives on every joint).")],
-    trajectory: Annotated[list[str], typer.Option(
-        "--trajectory", "-t", help="Trajectory YAML file; repeat for several.")],
-    out: Annotated[str, typer.Option("--out", "-o", help="The design folder (created; a "
-                                     "rerun reuses its cache of runs).")],
-    payload_range: Annotated[str | None, typer.Option(
-        "--payload-range", help="Gripped mass at the tool point, LO,HI kg (added to the "
-        "robot file's); the design is verified at both ends and the middle.")] = None,
-    uncertainty: Annotated[float, typer.Option(
-        "--uncertainty", help="Link and drive parameter uncertainty, ± %.")] = 0.0,
-    samples: Annotated[int, typer.Option(
-        "--samples", help="Uncertainty samples: nominal, the heavy-weak and light-strong "
-        "corners, all up, all down, then random (docs/design.md).")] = 5,
-    seed: Annotated[int, typer.Option("--seed", help="Random seed of the random "
-                                      "samples.")] = 0,
-    makers: Annotated[str | None, typer.Option(
-        "--makers", help="Catalogue makers the drive selection may use, comma-separated.")]
-    = None,
-    counterbalance: Annotated[str, typer.Option(
-        "--counterbalance", help="auto: apply the counterweights that pay; none: report "
-        "them only.")] = "none",
-    period: Annotated[float, typer.Option(
-        "--period", help="The regulators' control period, s (a multiple of --dt).")] = 1e-3,
+    robot: option(str, "--robot", "Catalog robot name or robot file (drives on every joint)."),
+    trajectory: option(list[str], "--trajectory -t", "Trajectory YAML file; repeat for several."),
+    out: option(str, "--out -o", "The design folder (created; a rerun reuses its cache of runs)."),
+    payload_range: option(str | None, "--payload-range", "Gripped mass at the tool point, LO,HI kg "
+                          "(added to the robot file's); the design is verified at both ends and "
+                          "the middle.") = None,
+    uncertainty: option(float, "--uncertainty", "Link and drive parameter uncertainty, ± %.") = 0.0,
+    samples: option(int, "--samples", "Uncertainty samples: nominal, the heavy-weak and "
+                    "light-strong corners, all up, all down, then random (docs/design.md).") = 5,
+    seed: option(int, "--seed", "Random seed of the random samples.") = 0,
+    makers: option(str | None, "--makers", "Catalogue makers the drive selection may use, "
+                   "comma-separated.") = None,
+    counterbalance: option(str, "--counterbalance", "auto: apply the counterweights that pay; "
+                           "none: report them only.") = "none",
+    period: option(float, "--period", "The regulators' control period, s (a multiple of "
+                   "--dt).") = 1e-3,
     dt: dt_option("Integration step (RK4), s.") = 1e-4,
-    max_methods: Annotated[int, typer.Option(
-        "--max-methods", help="How many of the rules' methods are verified.")] = 4,
-    max_iterations: Annotated[int, typer.Option(
-        "--max-iterations", help="Rounds of the decision (tighter synthesis, next drive "
-        "up) before giving up.")] = 3,
+    max_methods: option(int, "--max-methods", "How many of the rules' methods are verified.") = 4,
+    max_iterations: option(int, "--max-iterations", "Rounds of the decision (tighter synthesis, "
+                           "next drive up) before giving up.") = 3,
     strict: strict_flag() = False,
     workers: Workers = None,
     scheduler: Scheduler = None,
     progress: progress_flag("the runs") = True,
-    store_runs: Annotated[str, typer.Option(
-        "--store-runs", help="Runs stored as result folders in DESIGN/runs: final (the "
-        "chosen design's), all (every run of the sweep; large), none.")] = "final",
-    compare_selection: Annotated[bool, typer.Option(
-        "--compare-selection/--no-compare-selection", help="For each counterweight "
-        "proposed, the drive the catalogue selection picks without and with it.")] = True,
+    store_runs: option(str, "--store-runs", "Runs stored as result folders in DESIGN/runs: final "
+                       "(the chosen design's), all (every run of the sweep; large), "
+                       "none.") = "final",
+    compare_selection: option(bool, "--compare-selection/--no-compare-selection", "For each "
+                              "counterweight proposed, the drive the catalogue selection picks "
+                              "without and with it.") = True,
     ws: ws_option("Workspace: the robot and trajectories may be its item names, and the "
         "design is stored there as studies/OUT (without the run cache).") = None,
 ) -> None:

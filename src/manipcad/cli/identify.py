@@ -28,13 +28,11 @@ import json
 import math
 import warnings
 from pathlib import Path
-from typing import Annotated
 
-import typer
 from rich import box
 
 from manipcad.cli.app import app, console, err_console, guarded
-from manipcad.cli.options import RobotArgument, json_flag, ws_option
+from manipcad.cli.options import RobotArgument, json_flag, option, ws_option
 from manipcad.cli.tables import Table, styled
 from manipcad.dynamics.identification import (
     FRICTION,
@@ -85,34 +83,27 @@ def parse_joints(text: str | None, robot, option: str = "--joints") -> list[int]
 @guarded
 def identify(
     robot: RobotArgument,
-    data: Annotated[str, typer.Option("--data", help="CSV file of samples: q and tau or "
-                                      "current, optionally qd, qdd and t (SI units), or a "
-                                      "stored result's timeseries.csv, or a stored result "
-                                      "folder; see docs/identification.md.")],
-    method: Annotated[str, typer.Option(
-        "--method", help="stops (gravity at the stops found in the samples), motion "
-        "(inertial, velocity and gravity terms) or auto.")] = "auto",
-    signal: Annotated[str, typer.Option(
-        "--signal", help="What was measured: torque (tau columns), current (current "
-        "columns, A) or auto (torque when the file has it).")] = "auto",
-    com: Annotated[str | None, typer.Option(
-        "--com", help="Payload centre of mass x,y,z in the frame of --link, m "
-        "(default 0,0,0; with --estimate-com the first guess).")] = None,
-    link: Annotated[str | None, typer.Option(
-        "--link", help="Link the payload is on: a link name (its own URDF frame), or a "
-        "joint name or number 1..n (that joint's body frame); default the last.")] = None,
-    estimate_com: Annotated[bool, typer.Option(
-        "--estimate-com", help="Estimate the centre of mass with the mass.")] = False,
-    friction: Annotated[str, typer.Option(
-        "--friction", help="At stops: estimate (held friction per drive and approach "
-        "direction, fitted with the mass), symmetric, model (the drive model's band) or "
-        "none.")] = "estimate",
-    joints: Annotated[str | None, typer.Option(
-        "--joints", help="Drives to use: names or numbers 1..n, comma-separated "
-        "(default every drive the payload acts on).")] = None,
-    drives: Annotated[bool, typer.Option(
-        "--drives/--no-drives", help="The torques include the drive terms (rotor inertia, "
-        "friction) of the robot's drives.")] = True,
+    data: option(str, "--data", "CSV file of samples: q and tau or current, optionally qd, qdd and "
+                 "t (SI units), or a stored result's timeseries.csv, or a stored result folder; "
+                 "see docs/identification.md."),
+    method: option(str, "--method", "stops (gravity at the stops found in the samples), motion "
+                   "(inertial, velocity and gravity terms) or auto.") = "auto",
+    signal: option(str, "--signal", "What was measured: torque (tau columns), current (current "
+                   "columns, A) or auto (torque when the file has it).") = "auto",
+    com: option(str | None, "--com", "Payload centre of mass x,y,z in the frame of --link, m "
+                "(default 0,0,0; with --estimate-com the first guess).") = None,
+    link: option(str | None, "--link", "Link the payload is on: a link name (its own URDF frame), "
+                 "or a joint name or number 1..n (that joint's body frame); default the "
+                 "last.") = None,
+    estimate_com: option(bool, "--estimate-com", "Estimate the centre of mass with the "
+                         "mass.") = False,
+    friction: option(str, "--friction", "At stops: estimate (held friction per drive and approach "
+                     "direction, fitted with the mass), symmetric, model (the drive model's band) "
+                     "or none.") = "estimate",
+    joints: option(str | None, "--joints", "Drives to use: names or numbers 1..n, comma-separated "
+                   "(default every drive the payload acts on).") = None,
+    drives: option(bool, "--drives/--no-drives", "The torques include the drive terms (rotor "
+                   "inertia, friction) of the robot's drives.") = True,
     as_json: json_flag() = False,
     ws: ws_option("Workspace: the inputs may be its item names.") = None,
 ) -> None:

@@ -15,6 +15,17 @@ from typing import Annotated
 
 import typer
 
+
+def option(kind, names: str, help: str):
+    """A command's option: its type ``kind`` (e.g. ``str | None``), its ``names``
+    separated by spaces (``"--trajectory -t"``) and its help, one line in a signature.
+
+    Example:
+        >>> def size(dt: option(float, "--dt", "Sampling step, s.") = 1e-3): ...
+    """
+    return Annotated[kind, typer.Option(*names.split(), help=help)]
+
+
 #: ``--workers N``: the local Dask cluster's worker processes
 Workers = Annotated[int | None, typer.Option(
     "--workers", help="Worker processes of a local Dask cluster (default one per core; "

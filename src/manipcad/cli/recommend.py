@@ -31,7 +31,7 @@ from rich import box
 from rich.markup import escape
 
 from manipcad.cli.app import app, console, guarded
-from manipcad.cli.options import json_flag
+from manipcad.cli.options import json_flag, option
 from manipcad.cli.tables import Table, styled
 from manipcad.errors import InputError, ManipcadWarning
 from manipcad.expert import Requirements
@@ -48,18 +48,17 @@ def _json_default(v):
 @guarded
 def recommend(
     requirements: Annotated[str, typer.Argument(help="Requirements YAML file.")],
-    robot: Annotated[str | None, typer.Option(
-        "--robot", help="Catalog robot name or robot file, to derive missing fields.")] = None,
-    trajectory: Annotated[str | None, typer.Option(
-        "--trajectory", "-t", help="Trajectory YAML file, to derive missing fields.")] = None,
-    joint: Annotated[str | None, typer.Option(
-        "--joint", "-j", help="The joint whose drive is designed (name or number 1..n, as "
-        "every command).")] = None,
-    verify: Annotated[bool, typer.Option(
-        "--verify", help="Synthesize and simulate the top candidates; re-rank by error.")] = False,
-    top: Annotated[int, typer.Option("--top", help="Candidates --verify simulates.")] = 3,
-    rules: Annotated[str | None, typer.Option(
-        "--rules", help="Another rule file (default: the package's rules.yaml).")] = None,
+    robot: option(str | None, "--robot", "Catalog robot name or robot file, to derive missing "
+                  "fields.") = None,
+    trajectory: option(str | None, "--trajectory -t", "Trajectory YAML file, to derive missing "
+                       "fields.") = None,
+    joint: option(str | None, "--joint -j", "The joint whose drive is designed (name or number "
+                  "1..n, as every command).") = None,
+    verify: option(bool, "--verify", "Synthesize and simulate the top candidates; "
+                   "re-rank by error.") = False,
+    top: option(int, "--top", "Candidates --verify simulates.") = 3,
+    rules: option(str | None, "--rules", "Another rule file (default: the package's "
+                  "rules.yaml).") = None,
     as_json: json_flag() = False,
 ) -> None:
     """Recommend synthesis methods for a drive's requirements, least complexity first."""

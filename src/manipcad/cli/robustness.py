@@ -14,9 +14,7 @@ DIR/cache: more samples compute only the new ones). See
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
 
-import typer
 from rich import box
 from rich.markup import escape
 
@@ -25,6 +23,7 @@ from manipcad.cli.options import (
     Scheduler,
     Workers,
     dt_option,
+    option,
     payload_option,
     progress_flag,
     t_end_option,
@@ -36,24 +35,19 @@ from manipcad.cli.tables import Table
 @study_app.command("robustness")
 @guarded
 def robustness(
-    out: Annotated[str, typer.Option("--out", "-o", help="Output folder (created).")],
-    arm: Annotated[str, typer.Option(
-        "--arm", help="light, industrial, heavy (the claims study's arms) or a robot file "
-        "of a cylindrical arm: exactly the joints turn (revolute), lift, reach (prismatic), in "
-        "this order, each with a drive.")] = "light",
-    samples: Annotated[int, typer.Option("--samples", help="Perturbed arms (plus the "
-                                         "nominal one).")] = 20,
-    uncertainty: Annotated[float, typer.Option(
-        "--uncertainty", help="Largest parameter error, % (each factor uniform in "
-        "[1 - x, 1 + x]).")] = 10.0,
-    methods: Annotated[str | None, typer.Option(
-        "--methods", help="Comma-separated methods (default none_sce, ace_tf, ace_de, lqr, "
-        "lqr_gs).")] = None,
-    speed_scale: Annotated[float, typer.Option(
-        "--speed-scale", help="Speed scale of laws (2) (time-scaled down where the sizing "
-        "fails).")] = 1.0,
+    out: option(str, "--out -o", "Output folder (created)."),
+    arm: option(str, "--arm", "light, industrial, heavy (the claims study's arms) or a robot file "
+                "of a cylindrical arm: exactly the joints turn (revolute), lift, reach "
+                "(prismatic), in this order, each with a drive.") = "light",
+    samples: option(int, "--samples", "Perturbed arms (plus the nominal one).") = 20,
+    uncertainty: option(float, "--uncertainty", "Largest parameter error, % (each factor uniform "
+                        "in [1 - x, 1 + x]).") = 10.0,
+    methods: option(str | None, "--methods", "Comma-separated methods (default none_sce, ace_tf, "
+                    "ace_de, lqr, lqr_gs).") = None,
+    speed_scale: option(float, "--speed-scale", "Speed scale of laws (2) (time-scaled down where "
+                        "the sizing fails).") = 1.0,
     payload: payload_option("Nominal payload at the gripper, kg (default: the arm's).") = None,
-    seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+    seed: option(int, "--seed", "Random seed.") = 0,
     t_end: t_end_option("Length of each run, s (default the laws' duration).") = None,
     dt: dt_option() = 1e-4,
     workers: Workers = None,

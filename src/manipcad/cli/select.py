@@ -28,7 +28,7 @@ from rich import box
 from rich.markup import escape
 
 from manipcad.cli.app import app, console, err_console, guarded
-from manipcad.cli.options import dt_option, force_flag, json_flag, payload_option, ws_option
+from manipcad.cli.options import dt_option, force_flag, json_flag, option, payload_option, ws_option
 from manipcad.cli.tables import Table, styled
 from manipcad.cli.warmup import ensure_warm
 from manipcad.errors import InputError, ManipcadWarning
@@ -62,40 +62,32 @@ def select(
     robot: Annotated[str, typer.Argument(
         help="The arm: a robot file (URDF + payload, DH or tree form; its drives, if any, "
         "are replaced), a .urdf file or a workspace robot's name.")],
-    trajectory: Annotated[list[str], typer.Option(
-        "--trajectory", "-t", help="A trajectory file (docs/trajectories.md) or workspace "
-        "trajectory; repeat for several.")],
-    out: Annotated[Path, typer.Option(
-        "--out", "-o", help="The robot file to write, with the chosen drives (tree form).")],
+    trajectory: option(list[str], "--trajectory -t", "A trajectory file (docs/trajectories.md) or "
+                       "workspace trajectory; repeat for several."),
+    out: option(Path, "--out -o", "The robot file to write, with the chosen drives (tree form)."),
     payload: payload_option("Payload mass, kg, at the robot's tool point (added to any "
         "payload the robot file gives).") = None,
-    payload_range: Annotated[str | None, typer.Option(
-        "--payload-range", help="LO,HI: payload masses, kg; both ends are checked.")] = None,
-    objective: Annotated[str, typer.Option(
-        "--objective", help="What to minimize: mass (motor + gear, kg), rotor_inertia "
-        "(J·i_r² at the joint) or power (mean electrical power, W).")] = "mass",
-    margin: Annotated[float, typer.Option(
-        "--margin", help="Every rating at least M × what the motion needs; 1.0 is exactly "
-        "size's limits.")] = 1.1,
-    makers: Annotated[str | None, typer.Option(
-        "--makers", help="Comma-separated motor makers to keep (e.g. maxon,faulhaber).")]
-    = None,
-    gear_types: Annotated[str | None, typer.Option(
-        "--gear-types", help="Comma-separated gear types to keep (planetary, harmonic, "
-        "spur, ..., direct for no gear).")] = None,
-    joints: Annotated[str | None, typer.Option(
-        "--joints", help="Comma-separated joints to select for (names or numbers 1..n); "
-        "default all. The others keep the robot file's drives.")] = None,
-    mount: Annotated[list[str] | None, typer.Option(
-        "--mount", help="JOINT=before|base: where that joint's drive mass sits (default "
-        "before: on the link before the joint); repeat.")] = None,
+    payload_range: option(str | None, "--payload-range", "LO,HI: payload masses, kg; both ends are "
+                          "checked.") = None,
+    objective: option(str, "--objective", "What to minimize: mass (motor + gear, kg), "
+                      "rotor_inertia (J·i_r² at the joint) or power (mean electrical "
+                      "power, W).") = "mass",
+    margin: option(float, "--margin", "Every rating at least M × what the motion needs; 1.0 is "
+                   "exactly size's limits.") = 1.1,
+    makers: option(str | None, "--makers", "Comma-separated motor makers to keep (e.g. "
+                   "maxon,faulhaber).") = None,
+    gear_types: option(str | None, "--gear-types", "Comma-separated gear types to keep (planetary, "
+                       "harmonic, spur, ..., direct for no gear).") = None,
+    joints: option(str | None, "--joints", "Comma-separated joints to select for (names or numbers "
+                   "1..n); default all. The others keep the robot file's drives.") = None,
+    mount: option(list[str] | None, "--mount", "JOINT=before|base: where that joint's drive mass "
+                  "sits (default before: on the link before the joint); repeat.") = None,
     dt: dt_option("Sampling step, s.") = 1e-3,
-    allow_unknown: Annotated[bool, typer.Option(
-        "--allow-unknown", help="Accept a candidate with a check that cannot be made "
-        "(a rating or the gear efficiency unknown).")] = False,
-    count_all: Annotated[bool, typer.Option(
-        "--count-all", help="Evaluate every candidate, so that the feasible counts are "
-        "complete (else the search stops after the winner and five alternatives).")] = False,
+    allow_unknown: option(bool, "--allow-unknown", "Accept a candidate with a check that cannot be "
+                          "made (a rating or the gear efficiency unknown).") = False,
+    count_all: option(bool, "--count-all", "Evaluate every candidate, so that the feasible counts "
+                      "are complete (else the search stops after the winner and five "
+                      "alternatives).") = False,
     as_json: json_flag("Print the report as JSON.") = False,
     force: force_flag("Replace an existing --out file.")
     = False,

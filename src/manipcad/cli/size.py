@@ -23,7 +23,6 @@ import json
 import math
 import warnings
 from pathlib import Path
-from typing import Annotated
 
 import numpy as np
 import typer
@@ -35,6 +34,7 @@ from manipcad.cli.options import (
     RobotArgument,
     dt_option,
     json_flag,
+    option,
     payload_option,
     strict_flag,
     t_end_option,
@@ -64,34 +64,31 @@ def _fmt(x: float, unit: str = "", fmt: str = ".4g") -> str:
 @guarded
 def size(
     robot: RobotArgument,
-    trajectory: Annotated[str, typer.Option(
-        "--trajectory", "-t", help="Trajectory YAML file (see docs/trajectories.md) or a "
-        "workspace trajectory's name.")],
+    trajectory: option(str, "--trajectory -t", "Trajectory YAML file (see docs/trajectories.md) or "
+                       "a workspace trajectory's name."),
     as_json: json_flag()
     = False,
-    plot: Annotated[Path | None, typer.Option(
-        "--plot", help="Write the torque-speed plot to this image file (.png, .pdf, .svg).")]
-    = None,
+    plot: option(Path | None, "--plot", "Write the torque-speed plot to this image file (.png, "
+                 ".pdf, .svg).") = None,
     dt: dt_option("Sampling step, s.") = 1e-3,
     payload: payload_option("Payload mass, kg: a point mass at the robot's tool point (a "
         "payload with a centre of mass on a named link goes in the robot file).") = None,
     t_end: t_end_option("End of the run, s (default the trajectory's duration).") = None,
-    allow_unknown: Annotated[bool, typer.Option(
-        "--allow-unknown", help="Exit 0 even when a check cannot be made (a rating or the "
-        "motor's electrical data unknown); failed checks still exit 1.")] = False,
+    allow_unknown: option(bool, "--allow-unknown", "Exit 0 even when a check cannot be made (a "
+                          "rating or the motor's electrical data unknown); failed checks still "
+                          "exit 1.") = False,
     strict: strict_flag("Take assumed values as unknown: a gear efficiency the data sheet "
         "does not print (the library's stated strain-wave assumption, docs/catalog.md) and "
         "any other value a part marks assumed; the checks resting on them are then unknown "
         "(or fail when they fail even through a lossless gear).") = False,
     ws: ws_option("Workspace: the inputs may be its item names.") = None,
-    ratio_sweep: Annotated[str | None, typer.Option(
-        "--ratio-sweep", help="Sweep the gear ratio |i_r| of the --sweep-joint joints over "
-        "LO:HI:N (N values spaced evenly in log): feasible range and best ratio.")] = None,
-    sweep_joint: Annotated[list[str] | None, typer.Option(
-        "--sweep-joint", help="A joint to sweep (name or number 1..n); repeat. Default: every "
-        "joint with a drive.")] = None,
-    sweep_plot: Annotated[Path | None, typer.Option(
-        "--sweep-plot", help="Write the sweep's figure to this image file.")] = None,
+    ratio_sweep: option(str | None, "--ratio-sweep", "Sweep the gear ratio |i_r| of the "
+                        "--sweep-joint joints over LO:HI:N (N values spaced evenly in log): "
+                        "feasible range and best ratio.") = None,
+    sweep_joint: option(list[str] | None, "--sweep-joint", "A joint to sweep (name or number "
+                        "1..n); repeat. Default: every joint with a drive.") = None,
+    sweep_plot: option(Path | None, "--sweep-plot", "Write the sweep's figure to this "
+                       "image file.") = None,
 ) -> None:
     """Size the drives: torques, currents, voltages, powers; motor and gear checks.
 

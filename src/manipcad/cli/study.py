@@ -16,14 +16,13 @@ import math
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated
 
 import typer
 from rich import box
 from rich.markup import escape
 
 from manipcad.cli.app import app, console, guarded
-from manipcad.cli.options import dt_option, t_end_option, ws_option
+from manipcad.cli.options import dt_option, option, t_end_option, ws_option
 from manipcad.cli.tables import Table
 
 study_app = typer.Typer(help="Reproduce the paper's experiments (Fig. 3, pickup).",
@@ -39,22 +38,23 @@ def _g(x, unit: str = "") -> str:
         return "-"
     return f"{x:.4g} {unit}".rstrip()
 
+#: a study's output folder, or with --ws its name in the workspace
+StudyOut = option(str, "--out -o",
+                  "Output folder (created); with --ws the study's NAME in the workspace.")
+#: the workspace a study is stored and indexed in
+StudyWs = ws_option("Workspace: the study folder is stored and indexed there (studies/NAME).")
+
 
 @study_app.command("fig3")
 @guarded
 def fig3(
-    out: Annotated[str, typer.Option(
-        "--out", "-o", help="Output directory (created); with --ws the study's NAME in the "
-        "workspace.")],
-    ws: ws_option("Workspace: the study folder is stored and indexed there "
-        "(studies/NAME).") = None,
+    out: StudyOut,
+    ws: StudyWs = None,
     dt: dt_option() = 1e-4,
     t_end: t_end_option("Length of the laws (2) runs, s (default 1.6).") = None,
-    methods: Annotated[str | None, typer.Option(
-        "--methods", help="Comma-separated subset of: none, none_sce, ace_tf, ace_de, lqr, "
-                          "lqr_gs, vss, asvs (default all).")] = None,
-    progress: Annotated[bool, typer.Option(
-        "--progress/--no-progress", help="Show a progress bar on stderr.")] = True,
+    methods: option(str | None, "--methods", "Comma-separated subset of: none, none_sce, ace_tf, "
+                    "ace_de, lqr, lqr_gs, vss, asvs (default all).") = None,
+    progress: option(bool, "--progress/--no-progress", "Show a progress bar on stderr.") = True,
 ) -> None:
     """Fig. 3 study: errors of the turning drive of the Fig. 2 arm under laws (2), every
     synthesis method; writes fig3.png, fig3.json and report.html into --out."""
@@ -132,26 +132,21 @@ def print_fig3(res, where: Path | None = None) -> None:
 @study_app.command("pickup")
 @guarded
 def pickup(
-    out: Annotated[str, typer.Option(
-        "--out", "-o", help="Output directory (created or replaced whole).")],
-    robot: Annotated[str | None, typer.Option(
-        "--robot", help="Catalog name or robot file (default: cylindrical, the Fig. 2 arm).")
-    ] = None,
-    mass: Annotated[float, typer.Option("--mass", help="Payload gripped, kg (> 0).")] = 0.1,
-    t_pick: Annotated[float, typer.Option("--t-pick", help="When it is gripped, s.")] = 0.6,
-    t_end: Annotated[float, typer.Option("--t-end", help="Length of the run, s.")] = 1.6,
+    out: option(str, "--out -o", "Output directory (created or replaced whole)."),
+    robot: option(str | None, "--robot", "Catalog name or robot file (default: cylindrical, the "
+                  "Fig. 2 arm).") = None,
+    mass: option(float, "--mass", "Payload gripped, kg (> 0).") = 0.1,
+    t_pick: option(float, "--t-pick", "When it is gripped, s.") = 0.6,
+    t_end: option(float, "--t-end", "Length of the run, s.") = 1.6,
     dt: dt_option() = 1e-4,
-    noise: Annotated[float, typer.Option(
-        "--noise", help="Std of the current noise the estimator reads, A.")] = 0.02,
-    forgetting: Annotated[float | None, typer.Option(
-        "--forgetting", help="The estimator's forgetting factor λ in (0, 1] (default 0.99: "
-        "a memory of 100 periods).")] = None,
-    methods: Annotated[str | None, typer.Option(
-        "--methods", help="Comma-separated subset of ace_tf, ace_de, asvs, lqr_gs.")] = None,
-    integrator: Annotated[str, typer.Option(
-        "--integrator", help="rk4, adaptive, adaptive-exact, adaptive-bs32 or "
-        "adaptive-exact-bs32 (error-controlled, see manipcad simulate --help; the "
-        "pickup time then a multiple of the period).")] = "rk4",
+    noise: option(float, "--noise", "Std of the current noise the estimator reads, A.") = 0.02,
+    forgetting: option(float | None, "--forgetting", "The estimator's forgetting factor λ in (0, "
+                       "1] (default 0.99: a memory of 100 periods).") = None,
+    methods: option(str | None, "--methods", "Comma-separated subset of ace_tf, ace_de, asvs, "
+                    "lqr_gs.") = None,
+    integrator: option(str, "--integrator", "rk4, adaptive, adaptive-exact, adaptive-bs32 or "
+                       "adaptive-exact-bs32 (error-controlled, see manipcad simulate --help; the "
+                       "pickup time then a multiple of the period).") = "rk4",
 ) -> None:
     """Pickup study: an unknown payload gripped mid-trajectory, identified online; each
     adaptive method with the true mass, the online estimate and no payload knowledge;

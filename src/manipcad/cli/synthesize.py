@@ -34,7 +34,7 @@ import yaml
 from rich import box
 
 from manipcad.cli.app import app, console, err_console, guarded
-from manipcad.cli.options import dt_option, force_flag, json_flag, ws_option
+from manipcad.cli.options import dt_option, force_flag, json_flag, option, ws_option
 from manipcad.cli.tables import Table
 from manipcad.control import METHODS, realization_complexity
 from manipcad.control import synthesize as run_synthesis
@@ -85,43 +85,32 @@ def method_table() -> Table:
 def synthesize(
     robot: Annotated[str | None, typer.Argument(
         help="A catalog robot name or a robot file.")] = None,
-    method: Annotated[str | None, typer.Option(
-        "--method", "-m", help="Synthesis method (see --list).")] = None,
-    joint: Annotated[list[str] | None, typer.Option(
-        "--joint", "-j", help="Joint name or number 1..n; repeat for several.")] = None,
-    all_joints: Annotated[bool, typer.Option("--all", help="Every joint with a drive.")]
-    = False,
-    spec: Annotated[list[str] | None, typer.Option(
-        "--spec", help="Spec entry KEY=VALUE, e.g. bandwidth=40 (rad/s), damping=1, "
-        "max_error=1e-3 (rad); repeat.")] = None,
-    option: Annotated[list[str] | None, typer.Option(
-        "--option", help="Method option KEY=VALUE, e.g. order=2, feedforward=false, "
-        "grid=[8,1]; repeat.")] = None,
-    period: Annotated[float | None, typer.Option(
-        "--period", help="Control period, s (default 1e-4).")] = None,
-    load_range: Annotated[str | None, typer.Option(
-        "--load-range", help="H_ii range LO,HI of the joint, kg·m² (default: over the "
-        "joint limits).")] = None,
-    realization: Annotated[str | None, typer.Option(
-        "--realization", help="ace_tf: observable (quasi-stationary) or controllable "
-        "(filter first).")] = None,
-    trajectory: Annotated[Path | None, typer.Option(
-        "--trajectory", "-t", help="The reference a --spec max_error=... is asked on.")]
-    = None,
-    rounds: Annotated[int, typer.Option(
-        "--rounds", help="With --spec max_error and -t: the most coupled simulations of the "
-        "verify-and-tighten loop (0: design on the nominal model only).")] = 6,
+    method: option(str | None, "--method -m", "Synthesis method (see --list).") = None,
+    joint: option(list[str] | None, "--joint -j", "Joint name or number 1..n; repeat for "
+                  "several.") = None,
+    all_joints: option(bool, "--all", "Every joint with a drive.") = False,
+    spec: option(list[str] | None, "--spec", "Spec entry KEY=VALUE, e.g. bandwidth=40 (rad/s), "
+                 "damping=1, max_error=1e-3 (rad); repeat.") = None,
+    option: option(list[str] | None, "--option", "Method option KEY=VALUE, e.g. order=2, "
+                   "feedforward=false, grid=[8,1]; repeat.") = None,
+    period: option(float | None, "--period", "Control period, s (default 1e-4).") = None,
+    load_range: option(str | None, "--load-range", "H_ii range LO,HI of the joint, kg·m² (default: "
+                       "over the joint limits).") = None,
+    realization: option(str | None, "--realization", "ace_tf: observable (quasi-stationary) or "
+                        "controllable (filter first).") = None,
+    trajectory: option(Path | None, "--trajectory -t", "The reference a --spec max_error=... is "
+                       "asked on.") = None,
+    rounds: option(int, "--rounds", "With --spec max_error and -t: the most coupled simulations of "
+                   "the verify-and-tighten loop (0: design on the nominal model only).") = 6,
     dt: dt_option("Integration step of those simulations, s.") = 1e-4,
-    out: Annotated[str | None, typer.Option(
-        "--out", "-o", help="Regulator file to write (YAML); with --ws the regulator's NAME "
-        "in the workspace.")] = None,
+    out: option(str | None, "--out -o", "Regulator file to write (YAML); with --ws the regulator's "
+                "NAME in the workspace.") = None,
     ws: ws_option("Workspace: the robot may be its item name, and the regulator file is "
         "stored and indexed there (regulators/NAME).") = None,
     force: force_flag("Replace an existing file.") = False,
     as_json: json_flag("Print the file as JSON.") = False,
-    list_methods: Annotated[bool, typer.Option(
-        "--list", help="List the methods with their signals, complexity and section.")]
-    = False,
+    list_methods: option(bool, "--list", "List the methods with their signals, complexity and "
+                         "section.") = False,
 ) -> None:
     """Synthesize regulators (paper section 3 and baselines) and save them to a file."""
 

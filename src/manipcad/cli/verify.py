@@ -24,14 +24,13 @@ import math
 import warnings
 from dataclasses import asdict
 from pathlib import Path
-from typing import Annotated
 
 import typer
 from rich import box
 from rich.markup import escape
 
 from manipcad.cli.app import app, console, err_console, guarded
-from manipcad.cli.options import RobotArgument, dt_option, json_flag, payload_option
+from manipcad.cli.options import RobotArgument, dt_option, json_flag, option, payload_option
 from manipcad.cli.simulate import VERDICT_STYLE, checks_table
 from manipcad.cli.tables import Table, styled
 from manipcad.control import load_regulators
@@ -75,21 +74,18 @@ def _accuracy(accuracy: float | None, spec: list[str] | None,
 @guarded
 def verify(
     robot: RobotArgument,
-    trajectory: Annotated[Path, typer.Option("--trajectory", "-t", help="Trajectory file.")],
-    regulator: Annotated[list[Path], typer.Option(
-        "--regulator", "-r", help="Regulator file (from manipcad synthesize); repeat.")],
+    trajectory: option(Path, "--trajectory -t", "Trajectory file."),
+    regulator: option(list[Path], "--regulator -r", "Regulator file (from manipcad synthesize); "
+                      "repeat."),
     dt: dt_option() = 1e-4,
-    factor: Annotated[float, typer.Option(
-        "--factor", help="A promise is exceeded when the error is over it this many times.")]
-    = 2.0,
-    accuracy: Annotated[float | None, typer.Option(
-        "--accuracy", help="The accuracy asked, rad (m), every joint (default: what each "
-        "regulator was synthesized for).")] = None,
-    spec: Annotated[list[str] | None, typer.Option(
-        "--spec", help="max_error=RAD: the accuracy asked, as synthesize takes it.")] = None,
-    requirements: Annotated[Path | None, typer.Option(
-        "--requirements", help="A requirements file: its accuracy is the accuracy asked.")]
-    = None,
+    factor: option(float, "--factor", "A promise is exceeded when the error is over it this many "
+                   "times.") = 2.0,
+    accuracy: option(float | None, "--accuracy", "The accuracy asked, rad (m), every joint "
+                     "(default: what each regulator was synthesized for).") = None,
+    spec: option(list[str] | None, "--spec", "max_error=RAD: the accuracy asked, as synthesize "
+                 "takes it.") = None,
+    requirements: option(Path | None, "--requirements", "A requirements file: its accuracy is the "
+                         "accuracy asked.") = None,
     payload: payload_option("Payload mass at the robot's tool point, kg.") = None,
     as_json: json_flag("Print JSON.") = False,
 ) -> None:

@@ -29,7 +29,7 @@ import typer
 from rich import box
 
 from manipcad.cli.app import app, console, guarded
-from manipcad.cli.options import force_flag
+from manipcad.cli.options import force_flag, option
 from manipcad.cli.tables import Table
 from manipcad.errors import InputError
 from manipcad.fileio import atomic_write, json_safe, writable_target
@@ -39,9 +39,9 @@ ws_app = typer.Typer(help="The workspace: add, list, compare and re-run robots, 
                      no_args_is_help=True)
 app.add_typer(ws_app, name="ws")
 
-WsOpt = Annotated[Path | None, typer.Option(
-    "--ws", help="Workspace folder (default: $MANIPCAD_WORKSPACE, else ./manipcad-ws).")]
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")]
+WsOpt = option(Path | None, "--ws", "Workspace folder (default: $MANIPCAD_WORKSPACE, else "
+               "./manipcad-ws).")
+JsonOpt = option(bool, "--json", "Print JSON instead of a table.")
 
 
 def _complete_names(ctx: typer.Context, incomplete: str) -> list[str]:
@@ -96,15 +96,12 @@ def add(source: Annotated[Path, typer.Argument(
             help="A robot (.yaml, .urdf, MJCF .xml), motor, gear, trajectory or regulator "
                  "file, a result or study folder, or a bundle from 'ws export' (the folder "
                  "it wrote, TO/NAME).")],
-        kind: Annotated[str | None, typer.Option(
-            "--kind", help="robot, motor, gear, trajectory, regulator, result or study "
-                           "(default: recognized from the content).")] = None,
-        name: Annotated[str | None, typer.Option(
-            "--name", help="The item's name (default: the file name).")] = None,
+        kind: option(str | None, "--kind", "robot, motor, gear, trajectory, regulator, result or "
+                     "study (default: recognized from the content).") = None,
+        name: option(str | None, "--name", "The item's name (default: the file name).") = None,
         force: force_flag("Replace an item of the same kind and name.") = False,
-        robot: Annotated[str | None, typer.Option(
-            "--robot", help="Check a regulator or Cartesian trajectory against this robot "
-                            "(workspace name, catalog name or file).")] = None,
+        robot: option(str | None, "--robot", "Check a regulator or Cartesian trajectory against "
+                      "this robot (workspace name, catalog name or file).") = None,
         ws: WsOpt = None, as_json: JsonOpt = False) -> None:
     """Add a file or folder (copied, validated, indexed)."""
     w = _open(ws)
@@ -164,13 +161,11 @@ def _list_table(items, title: str) -> Table:
 def list_items(kind: Annotated[str | None, typer.Argument(
                    help="Only this kind (robot, motor, gear, trajectory, regulator, result, "
                         "study).")] = None,
-               where: Annotated[str | None, typer.Option(
-                   "--where", help="Filter results by metrics, e.g. \"max_error<1e-3 and "
-                   "status=ok\" or \"rms_error[elbow]<=2e-4\" (largest over joints unless a "
-                   "[joint] is given).")] = None,
-               catalog: Annotated[bool, typer.Option(
-                   "--catalog", help="Also list the built-in catalog's robots, motors and "
-                   "gears (read-only), with their origin.")] = False,
+               where: option(str | None, "--where", "Filter results by metrics, e.g. "
+                             "\"max_error<1e-3 and status=ok\" or \"rms_error[elbow]<=2e-4\" "
+                             "(largest over joints unless a [joint] is given).") = None,
+               catalog: option(bool, "--catalog", "Also list the built-in catalog's robots, motors "
+                               "and gears (read-only), with their origin.") = False,
                ws: WsOpt = None, as_json: JsonOpt = False) -> None:
     """List the items, with results' key metrics (largest over the joints)."""
     w = _open(ws)
@@ -186,9 +181,8 @@ def list_items(kind: Annotated[str | None, typer.Argument(
 def show(name: Annotated[str, typer.Argument(help="NAME or KIND/NAME.",
                                                         autocompletion=_complete_names)],
          ws: WsOpt = None, as_json: JsonOpt = False,
-         csv: Annotated[bool, typer.Option(
-             "--csv", help="A result's time series as CSV on stdout (units in the header).")]
-         = False) -> None:
+         csv: option(bool, "--csv", "A result's time series as CSV on stdout "
+                     "(units in the header).") = False) -> None:
     """Show an item: file, hash, provenance, metrics and what depends on it."""
     w = _open(ws)
     item = w.get(name)
@@ -241,8 +235,7 @@ def show(name: Annotated[str, typer.Argument(help="NAME or KIND/NAME.",
 @guarded
 def rm(name: Annotated[str, typer.Argument(help="NAME or KIND/NAME.",
                                                         autocompletion=_complete_names)],
-       cascade: Annotated[bool, typer.Option(
-           "--cascade", help="Also remove the results that depend on it.")] = False,
+       cascade: option(bool, "--cascade", "Also remove the results that depend on it.") = False,
        ws: WsOpt = None) -> None:
     """Remove an item (refused while stored results depend on it, unless --cascade)."""
     for it in _open(ws).rm(name, cascade=cascade):
@@ -253,9 +246,8 @@ def rm(name: Annotated[str, typer.Argument(help="NAME or KIND/NAME.",
 @guarded
 def compare(names: Annotated[list[str], typer.Argument(help="Result names.",
                                                              autocompletion=_complete_names)],
-            plot: Annotated[Path | None, typer.Option(
-                "--plot", help="Write the overlaid error, torque and current figure (PNG, "
-                               "SVG or PDF by the suffix).")] = None,
+            plot: option(Path | None, "--plot", "Write the overlaid error, torque and current "
+                         "figure (PNG, SVG or PDF by the suffix).") = None,
             ws: WsOpt = None, as_json: JsonOpt = False) -> None:
     """Compare results: a metrics table (largest over joints) and overlaid plots."""
     # deferred: start-up cost: keeps manipcad.workspace.runs out of the CLI's start
@@ -345,7 +337,7 @@ def check(ws: WsOpt = None, as_json: JsonOpt = False) -> None:
 @guarded
 def export(name: Annotated[str, typer.Argument(help="NAME or KIND/NAME.",
                                                         autocompletion=_complete_names)],
-           to: Annotated[Path, typer.Option("--to", help="Folder to write the bundle in.")],
+           to: option(Path, "--to", "Folder to write the bundle in."),
            ws: WsOpt = None) -> None:
     """Write a self-contained bundle (the item, its inputs, CSV for results) that
     another workspace takes with 'ws add'."""

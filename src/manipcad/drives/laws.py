@@ -29,20 +29,8 @@ import numba
 import numpy as np
 
 from manipcad._lazy import ct
+from manipcad.drives import params as P
 from manipcad.drives.linear import drive_gain, mechanical_time_constant
-from manipcad.drives.params import (
-    P_J,
-    P_KM,
-    P_KU,
-    P_KV,
-    P_KW,
-    P_L,
-    P_MFN,
-    P_MFP,
-    P_R,
-    P_RATIO,
-    check_electrics,
-)
 from manipcad.errors import ModelError
 from manipcad.model.robot import Drive
 
@@ -82,15 +70,15 @@ def law3_coefficients(H_star: float, h_star: float, H_star_dot: float, h_star_do
         >>> law3_coefficients(0.0, 0.0, 0.0, 0.0, 1e-4, p)  # unloaded, frictionless: U_k = U
         (0.0, 0.0, 10.0, 0.01, 1.0)
     """
-    J = p[P_J]
-    r = p[P_RATIO]
-    kv = p[P_KV]
-    R = p[P_R]
-    L = p[P_L]
-    kmku = p[P_KM] * p[P_KU]
+    J = p[P.P_J]
+    r = p[P.P_RATIO]
+    kv = p[P.P_KV]
+    R = p[P.P_R]
+    L = p[P.P_L]
+    kmku = p[P.P_KM] * p[P.P_KU]
     rho = (J + H_star) / J_n
     c_qdd = L * (H_star_dot + h_star + kv) * r / kmku
-    c_qd = (p[P_KW] * (1.0 - rho) / p[P_KU] + (R * (h_star + kv) + L * h_star_dot) / kmku) * r
+    c_qd = (p[P.P_KW] * (1.0 - rho) / p[P.P_KU] + (R * (h_star + kv) + L * h_star_dot) / kmku) * r
     return c_qdd, c_qd, R / kmku, L / kmku, rho
 
 
@@ -173,7 +161,7 @@ def nominal_tf(drive: Drive, J_n: float | None = None, *, order: int = 3) -> ct.
         >>> nominal_tf(d, order=2).poles().size
         2
     """
-    check_electrics(drive, need_L=order == 3)
+    P.check_electrics(drive, need_L=order == 3)
     Jn = _nominal_inertia(drive, J_n)
     r, R, km, kw, ku = drive.ratio, drive.R, drive.k_m, drive.k_w, drive.k_u
     if order == 3:
@@ -201,10 +189,10 @@ def nominal_params(p: np.ndarray, J_n: float) -> np.ndarray:
         A new packed vector.
     """
     pn = np.array(p, dtype=float, copy=True)
-    pn[P_J] = J_n
-    pn[P_KV] = 0.0
-    pn[P_MFP] = 0.0
-    pn[P_MFN] = 0.0
+    pn[P.P_J] = J_n
+    pn[P.P_KV] = 0.0
+    pn[P.P_MFP] = 0.0
+    pn[P.P_MFN] = 0.0
     return pn
 
 
@@ -233,8 +221,8 @@ def ace1_parameters(H_star: float, h_star: float, p: np.ndarray) -> tuple[float,
     Returns:
         (T_m s, k_p rad/(V·s)).
     """
-    den = (h_star + p[P_KV]) * p[P_R] + p[P_KM] * p[P_KW]
-    return (H_star + p[P_J]) * p[P_R] / den, p[P_KM] / den
+    den = (h_star + p[P.P_KV]) * p[P.P_R] + p[P.P_KM] * p[P.P_KW]
+    return (H_star + p[P.P_J]) * p[P.P_R] / den, p[P.P_KM] / den
 
 
 @numba.njit(cache=True)
@@ -294,7 +282,7 @@ def ace1_output(U: float, x: float, T_m: float, k_p: float, T_1: float,
         >>> round(ace1_output(1.0, 1.0, 0.02, 10.0, 0.01, p), 12)   # steady: 1/(k_p k_w)
         1.0
     """
-    return (T_m * (U - x) / T_1 + x) / (k_p * p[P_KW])
+    return (T_m * (U - x) / T_1 + x) / (k_p * p[P.P_KW])
 
 
 @numba.njit(cache=True)
@@ -344,7 +332,7 @@ def ace1_obs_output(U: float, v: float, T_m: float, k_p: float, T_1: float,
     Returns:
         U_k, V.
     """
-    return (T_m / T_1 * U + v) / (k_p * p[P_KW])
+    return (T_m / T_1 * U + v) / (k_p * p[P.P_KW])
 
 
 def default_T1(drive: Drive, J_n: float | None = None) -> float:
@@ -359,7 +347,7 @@ def default_T1(drive: Drive, J_n: float | None = None) -> float:
         >>> round(default_T1(Drive(J=1e-4, R=1, L=1e-3, k_m=.1, k_w=.1)), 12)
         0.01
     """
-    check_electrics(drive, need_L=False)
+    P.check_electrics(drive, need_L=False)
     return drive.R * _nominal_inertia(drive, J_n) / (drive.k_m * drive.k_w)
 
 
@@ -420,7 +408,7 @@ def ace1_target_tf(drive: Drive, *, T_1: float | None = None, J_n: float | None 
     s = ct.tf("s")
     g = k / (drive.ratio * s * (T1 * s + 1))
     if order == 3:
-        check_electrics(drive, need_L=True)
+        P.check_electrics(drive, need_L=True)
         g = g / (drive.L / drive.R * s + 1)
     elif order != 2:
         raise ModelError(f"order must be 2 or 3, got {order}")
@@ -449,7 +437,8 @@ def asvs_a(H_star: float, h_star: float, p: np.ndarray) -> float:
         >>> round(asvs_a(1e-4, 0.0, pack_drive(Drive(J=1e-4, R=1, L=0, k_m=.1, k_w=.1))), 9)
         50.0
     """
-    return (p[P_KM] * p[P_KW] + p[P_R] * (p[P_KV] + h_star)) / (p[P_R] * (p[P_J] + H_star))
+    return ((p[P.P_KM] * p[P.P_KW] + p[P.P_R] * (p[P.P_KV] + h_star))
+            / (p[P.P_R] * (p[P.P_J] + H_star)))
 
 
 @numba.njit(cache=True)
@@ -458,13 +447,13 @@ def asvs_beta(H_star: float, p: np.ndarray) -> float:
 
     The 2nd-order drive is ``q̈ = β·U - a·q̇ - γ·m_f`` (see :func:`asvs_gamma`).
     """
-    return p[P_KM] * p[P_KU] / (p[P_R] * p[P_RATIO] * (p[P_J] + H_star))
+    return p[P.P_KM] * p[P.P_KU] / (p[P.P_R] * p[P.P_RATIO] * (p[P.P_J] + H_star))
 
 
 @numba.njit(cache=True)
 def asvs_gamma(H_star: float, p: np.ndarray) -> float:
     """γ = 1 / [i_r·(J + H*)]: joint acceleration per motor-side N·m, rad/(s²·N·m)."""
-    return 1.0 / (p[P_RATIO] * (p[P_J] + H_star))
+    return 1.0 / (p[P.P_RATIO] * (p[P.P_J] + H_star))
 
 
 @numba.njit(cache=True)
@@ -482,8 +471,8 @@ def asvs_gains(H_star: float, p: np.ndarray) -> tuple[float, float]:
     Returns:
         (k_s_min V/(N·m), k_g_min V·s²/rad).
     """
-    kmku = p[P_KM] * p[P_KU]
-    return p[P_R] / kmku, p[P_R] * abs(p[P_RATIO]) * (p[P_J] + H_star) / kmku
+    kmku = p[P.P_KM] * p[P.P_KU]
+    return p[P.P_R] / kmku, p[P.P_R] * abs(p[P.P_RATIO]) * (p[P.P_J] + H_star) / kmku
 
 
 @numba.njit(cache=True)
@@ -506,7 +495,7 @@ def asvs_voltage(e: float, S: float, m_f: float, d: float, k_e: float, k_s: floa
     """
     g = k_e * abs(e) + k_s * abs(m_f) + k_g * abs(d)
     s = 1.0 if S > 0.0 else (-1.0 if S < 0.0 else 0.0)
-    return g * s if p[P_RATIO] > 0.0 else -g * s
+    return g * s if p[P.P_RATIO] > 0.0 else -g * s
 
 
 @numba.njit(cache=True)

@@ -57,6 +57,27 @@ class InputError(ManipcadError):
         super().__init__(f"{where}: {reason}")
 
 
+def require_choice(source: str, field: str, value, choices, what: str = "") -> None:
+    """Refuse a value that is not one of ``choices`` with one :class:`InputError`.
+
+    Args:
+        source, field: as in :class:`InputError`.
+        value: the value given.
+        choices: the names allowed (strings), in the order the message lists them.
+        what: what the value is, in words (default: ``field``).
+
+    Example:
+        >>> require_choice("f", "profile", "cubic", ("lin", "cubic"))
+        >>> require_choice("f", "profile", "sine", ("lin", "cubic"))
+        Traceback (most recent call last):
+        ...
+        manipcad.errors.InputError: f: profile: unknown profile 'sine'; expected one of lin, cubic
+    """
+    if value not in choices:
+        raise InputError(source, field, f"unknown {what or field} {value!r}; expected one of "
+                         f"{', '.join(choices)}")
+
+
 class ManipcadWarning(UserWarning):
     """Input that is usable but questionable, e.g. an inertia tensor that is positive
     semi-definite but breaks the triangle inequality (:class:`InertiaWarning`)."""

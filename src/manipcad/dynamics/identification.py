@@ -59,7 +59,7 @@ from pathlib import Path
 import numpy as np
 
 from manipcad.dynamics.api import inverse_dynamics
-from manipcad.errors import InputError, ManipcadError, ManipcadWarning
+from manipcad.errors import InputError, ManipcadError, ManipcadWarning, require_choice
 from manipcad.fileio import read_text
 from manipcad.model.robot import COL_FCN, COL_FCP, PRISMATIC, REVOLUTE, Robot
 
@@ -536,12 +536,8 @@ def identify_payload(robot: Robot, q, qd=None, qdd=None, tau=None, *, t=None, cu
     """
     if not isinstance(robot, Robot):
         raise InputError(SOURCE, "robot", f"expected a manipcad Robot, got {type(robot).__name__}")
-    if method not in METHODS:
-        raise InputError(SOURCE, "method", f"unknown method {method!r}; expected one of "
-                         f"{', '.join(METHODS)}")
-    if friction not in FRICTION:
-        raise InputError(SOURCE, "friction", f"unknown friction handling {friction!r}; "
-                         f"expected one of {', '.join(FRICTION)}")
+    require_choice(SOURCE, "method", method, METHODS)
+    require_choice(SOURCE, "friction", friction, FRICTION, "friction handling")
     n = robot.n
     Q = _states("q", q, n)
     N = Q.shape[0]

@@ -72,7 +72,7 @@ from typing import Any
 import numpy as np
 
 from manipcad.catalog import compatible_pairs, drive_fields, gears, motors
-from manipcad.errors import InputError, ManipcadError
+from manipcad.errors import InputError, ManipcadError, require_choice
 from manipcad.fileio import atomic_write_text, dump_yaml, json_safe
 from manipcad.model.robot import (
     DRIVE_MOUNTS,
@@ -1001,9 +1001,7 @@ def select_drives(robot: Robot, trajectories: Sequence[Trajectory], *,
         >>> sel.joints[0].joint, sel.joints[0].chosen.feasible
         ('turn', True)
     """
-    if objective not in OBJECTIVES:
-        raise InputError("objective", "", f"unknown objective {objective!r}; expected one of "
-                         f"{', '.join(OBJECTIVES)}")
+    require_choice("objective", "", objective, OBJECTIVES, "objective")
     try:
         margin = float(margin)
     except (TypeError, ValueError):

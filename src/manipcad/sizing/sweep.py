@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from manipcad.errors import InputError, ModelError
+from manipcad.errors import InputError, ModelError, require_choice
 from manipcad.model.robot import Drive, Robot
 from manipcad.sizing.limits import LIMITS, margin, motor_limits
 from manipcad.sizing.motion import sample_motion
@@ -301,9 +301,7 @@ def ratio_sweep(robot: Robot, trajectory: Trajectory, joint: int | str, ratios: 
         >>> bool(sw.ratio_min <= sw.best_ratio <= sw.ratio_max)
         True
     """
-    if criterion not in CRITERIA:
-        raise InputError("criterion", "", f"unknown criterion {criterion!r}; expected one of "
-                         f"{', '.join(CRITERIA)}")
+    require_choice("criterion", "", criterion, CRITERIA, "criterion")
     j = robot.joint_index(joint)
     name = robot.joint_names[j]
     drive = robot.drives[j]

@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from manipcad.errors import InputError
+from manipcad.errors import InputError, require_choice
 from manipcad.kinematics.forward import frames, resolve_point
 from manipcad.kinematics.inverse import KinematicsError, inverse_kinematics
 from manipcad.kinematics.jacobian import _jacobian_from_frames, jacobian_dot
@@ -162,12 +162,8 @@ class CartesianTrajectory(Trajectory):
         n = self.robot.n
         self._duration = positive(duration, "duration", source)
         self.q0 = vector(q0, "q0", source, n)
-        if profile not in PROFILES:
-            raise InputError(source, "profile", f"unknown profile {profile!r}; expected one "
-                             f"of {', '.join(PROFILES)}")
-        if orientation not in ORIENTATIONS:
-            raise InputError(source, "orientation", f"unknown orientation {orientation!r}; "
-                             f"expected one of {', '.join(ORIENTATIONS)}")
+        require_choice(source, "profile", profile, PROFILES)
+        require_choice(source, "orientation", orientation, ORIENTATIONS)
         self.profile, self.orientation = profile, orientation
         self._m = 3 if orientation == "free" else 6
         if n < self._m:

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from manipcad.errors import InputError
+from manipcad.errors import InputError, require_choice
 from manipcad.trajectories.base import Trajectory, floats, vector
 from manipcad.trajectories.quintic import quintic_profile
 from manipcad.trajectories.trapezoidal import trapezoidal
@@ -199,9 +199,7 @@ def waypoints(points: Sequence[Sequence[float]], *, move_time: Sequence[float] |
     if np.any(W < 0):
         k = int(np.flatnonzero(W < 0)[0])
         raise InputError(src, f"dwell[{k}]", f"must be >= 0 s, got {W[k]}")
-    if profile not in PROFILES:
-        raise InputError(src, "profile", f"unknown profile {profile!r}; expected one of "
-                         f"{', '.join(PROFILES)}")
+    require_choice(src, "profile", profile, PROFILES)
     A = vector(dither, "dither", src, P.shape[1], allow_scalar=True)
     if np.any(A < 0):
         k = int(np.flatnonzero(A < 0)[0])

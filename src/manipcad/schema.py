@@ -112,16 +112,33 @@ def opt_float(v: Any) -> float | None:
     return None if v is None else to_float(v)
 
 
-def _friction(v: Any) -> tuple[float, float] | None:
-    """M_f: one number (both directions) or a [positive, negative] pair, N·m."""
+def number_or_pair(v: Any, what: str,
+                   single: Callable[[float], tuple[float, float]] = lambda x: (x, x),
+                   ) -> tuple[float, float] | None:
+    """A field given as one number or a pair of numbers, as a pair (None stays None).
+
+    Args:
+        v: the field's value.
+        what: what the field may be, for the error ("one number or a [positive,
+            negative] pair").
+        single: the pair one number stands for (default: the number twice).
+
+    Example:
+        >>> number_or_pair(2, "a stiffness or a [stiffness, damping] pair", lambda k: (k, 0.0))
+        (2.0, 0.0)
+    """
     if v is None:
         return None
     if isinstance(v, list | tuple):
         if len(v) != 2:
-            raise ValueError(f"expected one number or a [positive, negative] pair, got {v!r}")
+            raise ValueError(f"expected {what}, got {v!r}")
         return to_float(v[0]), to_float(v[1])
-    x = to_float(v)
-    return x, x
+    return single(to_float(v))
+
+
+def _friction(v: Any) -> tuple[float, float] | None:
+    """M_f: one number (both directions) or a [positive, negative] pair, N·m."""
+    return number_or_pair(v, "one number or a [positive, negative] pair")
 
 
 Num = Annotated[float, BeforeValidator(to_float)]

@@ -75,9 +75,8 @@ def mechanical_time_constant(drive: Drive, H_ii: float = 0.0, h_i: float = 0.0) 
     """T_m = (H* + J)·R / [(h* + k_v)·R + k_m·k_w], s.
 
     Args:
-        drive: the drive.
-        H_ii: joint-side load inertia, kg·m².
-        h_i: joint-side velocity coefficient, N·m·s/rad.
+        drive, H_ii, h_i: the drive and its frozen joint-side load, as in
+            :func:`referred_load`.
 
     Returns:
         T_m, s.
@@ -133,9 +132,8 @@ def inductance_ratio(drive: Drive, H_ii: float = 0.0, h_i: float = 0.0) -> float
     """The paper's check ``(H*+J)·R >> (h*+k_v)·L`` as the ratio of its sides.
 
     Args:
-        drive: the drive.
-        H_ii: joint-side load inertia, kg·m².
-        h_i: joint-side velocity coefficient, N·m·s/rad.
+        drive, H_ii, h_i: the drive and its frozen joint-side load, as in
+            :func:`referred_load`.
 
     Returns:
         (H*+J)·R / ((h*+k_v)·L), dimensionless (inf when h* + k_v = 0). A value

@@ -112,8 +112,7 @@ def load_urdf(path: str | Path, lock: dict[str, float] | None = None) -> Robot:
             docstring for what is checked).
 
     Warns:
-        ManipcadWarning: for an inertia that is positive semi-definite but breaks
-            the triangle inequality (loaded as given).
+        ManipcadWarning: as :func:`~manipcad.model.yaml_robot.load_yaml_robot`.
 
     Example:
         >>> from manipcad.model.urdf import load_urdf

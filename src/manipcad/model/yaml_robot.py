@@ -87,7 +87,15 @@ from manipcad.model.robot import (
     triangle_breach,
     triangle_message,
 )
-from manipcad.schema import CONSTANTS, Friction, Num, OptNum, evaluate, problem
+from manipcad.schema import (
+    CONSTANTS,
+    Friction,
+    Num,
+    OptNum,
+    evaluate,
+    number_or_pair,
+    problem,
+)
 from manipcad.schema import to_float as _to_float
 
 # --------------------------------------------------------------------------- numbers
@@ -171,13 +179,7 @@ class LinkSpec(_Spec):
 
 def _elasticity(v: Any) -> tuple[float, float] | None:
     """elasticity: a stiffness k_s (N·m/rad) or a [k_s, d_s] pair (N·m/rad, N·m·s/rad)."""
-    if v is None:
-        return None
-    if isinstance(v, list | tuple):
-        if len(v) != 2:
-            raise ValueError(f"expected a stiffness or a [stiffness, damping] pair, got {v!r}")
-        return _to_float(v[0]), _to_float(v[1])
-    return _to_float(v), 0.0
+    return number_or_pair(v, "a stiffness or a [stiffness, damping] pair", lambda k: (k, 0.0))
 
 
 Elasticity = Annotated[tuple[float, float] | None, BeforeValidator(_elasticity)]

@@ -17,7 +17,8 @@ Equations and conventions: docs/sizing.md.
 Example:
     >>> import manipcad
     >>> from manipcad import sizing
-    >>> move = manipcad.trajectories.cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], 1.6)
+    >>> from manipcad.trajectories import cosine
+    >>> move = cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], 1.6)
     >>> sizing.required_drive(manipcad.load_robot("cylindrical"), move).peak_motor_torque.shape
     (3,)
 """

@@ -166,7 +166,8 @@ def ratio_sweep_figure(sweeps):
     Example:
         >>> import manipcad
         >>> from manipcad.sizing import ratio_sweep
-        >>> move = manipcad.trajectories.cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], 1.6)
+        >>> from manipcad.trajectories import cosine
+        >>> move = cosine([0.5, 0.0, 0.25], [4.0, 0.0, 16.0], 1.6)
         >>> sw = ratio_sweep(manipcad.load_robot("cylindrical"), move, "turn",
         ...                  ratios=[20.0, 50.0, 100.0, 200.0])
         >>> len(ratio_sweep_figure(sw).axes)

@@ -9,8 +9,9 @@ functions they call. numba compiles a callee when it types its caller's call and
 it from the cache if it is there, so the work splits into :data:`STEPS`:
 
 - phase 1, the callees, with the argument types the cores pass them: the regulators'
-  updates and the payload estimator (``control``), the moment components, drives, payload
-  swap and exact currents (``plant``), the stick-slip events' steps (``events``), the
+  updates and the payload estimator (``control``), the moment components, drives and
+  payload swap (``plant``), the error-controlled core's exact currents (``currents``),
+  the stick-slip events' steps (``events``), the
   batched inverse dynamics and mass matrix the run checks use (``inverse dynamics``);
 - phase 2, the cores themselves (``rk4``, ``adaptive``) and the batched forward dynamics.
 
@@ -25,7 +26,9 @@ the same steps out the same way (``tests/conftest.py``).
 Example:
     >>> from manipcad.sim.warm import needs
     >>> needs("adaptive-exact")
-    ('events', 'control', 'plant', 'inverse dynamics', 'adaptive')
+    ('events', 'control', 'plant', 'currents', 'inverse dynamics', 'adaptive')
+    >>> needs("rk4")
+    ('events', 'control', 'plant', 'inverse dynamics', 'rk4')
 """
 
 from __future__ import annotations
@@ -129,8 +132,8 @@ def _control() -> None:
 
 def _plant() -> None:
     """The plant's side of the cores (the moment components, the drives, the payload swap,
-    the scratch, the articulated-body method's rotations, the error-controlled core's
-    exact currents) with the argument types of the warm-up run's own."""
+    the scratch, the articulated-body method's rotations) with the argument types of the
+    warm-up run's own."""
     plant, _, _, _, work = core_arguments("rk4")[:5]
     n, nx = plant.rtable.shape[0], work.x.shape[0]
     q, qd, _, xd, dxd, tau, _, H, _, _, comp = loop.scratch(n, nx)
@@ -144,8 +147,14 @@ def _plant() -> None:
     _compile(loop._pick_up, plant)
     _compile(_rot_sym, *[0.0] * 15)  # the articulated-body method's (inlined) rotations
     _compile(_rot_gen, *[0.0] * 18)
+
+
+def _currents() -> None:
+    """The error-controlled core's exact armature currents and their error, with the
+    core's argument types."""
     args = core_arguments("adaptive")
     plant, work, tab, rtol, atol = args[0], args[4], args[13], args[14], args[15]
+    n, nx = plant.rtable.shape[0], work.x.shape[0]
     S, x = tab.c.shape[0], work.x
     ph = np.zeros((S, n, 5))
     Ks = np.zeros((S, nx))
@@ -206,7 +215,8 @@ def _forward_dynamics() -> None:
 STEPS: dict[str, tuple[str, Callable[[], None]]] = {
     "events": ("stick-slip events", _events),
     "control": ("regulators and payload estimator", _control),
-    "plant": ("drives, moment components, exact currents", _plant),
+    "plant": ("drives, moment components", _plant),
+    "currents": ("exact armature currents", _currents),
     "inverse dynamics": ("inverse dynamics, mass matrix, run checks", _inverse_dynamics),
     "rk4": ("RK4 simulator core", _rk4),
     "adaptive": ("error-controlled simulator core (every adaptive integrator)", _adaptive),
@@ -215,10 +225,10 @@ STEPS: dict[str, tuple[str, Callable[[], None]]] = {
 
 #: the steps in phases: every step of a phase is done before the next phase starts (the
 #: cores load the callees phase 1 cached). Worker w of W starts each phase at step
-#: w·len/W: on two workers the events (about as much compile as the other three of
-#: phase 1) on one, the rest on the other; then the two cores
+#: w·len/W, then takes what nobody has taken: on two workers the events (about as much
+#: compile as the rest of phase 1) on one, the rest on the other; then the two cores
 PHASES = (
-    ("events", "control", "plant", "inverse dynamics"),
+    ("events", "control", "plant", "currents", "inverse dynamics"),
     ("rk4", "adaptive", "forward dynamics"),
 )
 assert sorted(sum(PHASES, ())) == sorted(STEPS)
@@ -233,7 +243,8 @@ def needs(integrator: str = "rk4") -> tuple[str, ...]:
     the inverse dynamics its run checks use), in :data:`STEPS` order (an unknown
     integrator: the RK4's; :func:`manipcad.simulate` then names the known ones)."""
     core = CORES.get(integrator, "rk4")
-    return tuple(s for s in STEPS if s in PHASES[0] or s == core)
+    return tuple(s for s in STEPS if (s in PHASES[0] and (s != "currents" or core != "rk4"))
+                 or s == core)
 
 
 def cache_dir() -> Path | None:

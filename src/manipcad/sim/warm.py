@@ -37,7 +37,9 @@ import importlib
 import os
 import subprocess
 import sys
+import tempfile
 import time
+import typing
 import warnings
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -359,17 +361,20 @@ class Compile:
         self.workers = workers_available() if workers is None else max(1, int(workers))
         if cache_dir() is None:
             self.workers = 1
-        self._procs: list[subprocess.Popen] = []
+        self._procs: list[tuple[subprocess.Popen, typing.IO[bytes]]] = []
 
     def start(self) -> Compile:
         """Start the helper processes (worker 1 .. workers − 1); nothing when warm."""
         if not self.steps or self._procs:
             return self
         for w in range(1, self.workers):
-            self._procs.append(subprocess.Popen(
+            # stderr to a file, not a pipe: a helper that wrote more than a pipe holds
+            # would block while this process waits for its step
+            err = tempfile.TemporaryFile()
+            self._procs.append((subprocess.Popen(
                 [sys.executable, "-m", "manipcad.sim.warm", str(w), str(self.workers),
                  *self.steps], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                stderr=subprocess.PIPE, env=os.environ.copy()))
+                stderr=err, env=os.environ.copy()), err))
         return self
 
     def finish(self, report: Callable[[str], None] = lambda what: None) -> list[str]:
@@ -383,10 +388,12 @@ class Compile:
         except BaseException:  # interrupted (Ctrl-C): the helpers stop too
             self.cancel()
             raise
-        for p in self._procs:
-            _, err = p.communicate()
+        for p, err in self._procs:
+            p.wait()
+            err.seek(0)
+            tail = err.read().decode(errors="replace").strip().splitlines()[-1:] or ["?"]
+            err.close()
             if p.returncode and not failures:
-                tail = err.decode(errors="replace").strip().splitlines()[-1:] or ["?"]
                 failures.append(f"compile helper exited {p.returncode}: {tail[0]}")
         self._procs = []
         return failures
@@ -395,10 +402,11 @@ class Compile:
     def cancel(self) -> None:
         """Stop the helpers that still run (what they cached stays: numba writes each
         cache file whole, and a step's mark only when it is done)."""
-        for p in self._procs:
+        for p, err in self._procs:
             if p.poll() is None:
                 p.terminate()
             p.wait()
+            err.close()
         self._procs = []
 
 

@@ -299,7 +299,7 @@ def share(worker: int, workers: int, steps: Iterable[str] | None = None,
     failures: list[str] = []
     folder = cache_dir()
     try:
-        import fcntl
+        import fcntl  # deferred: optional dependency: POSIX file locks (absent on Windows)
     except ImportError:  # no POSIX file locks: one process does it all
         folder = None
     if folder is None:

@@ -29,7 +29,7 @@ from manipcad.drives.transmission import elastic_motor_modal, elastic_motor_rhs
 @numba.njit(cache=True)
 def drive_rates(table: np.ndarray, off: np.ndarray, xd: np.ndarray, U: np.ndarray,
                 q: np.ndarray, qd: np.ndarray, tau: np.ndarray, dxd: np.ndarray,
-                gm: np.ndarray | None = None, held: np.ndarray | None = None) -> None:
+                gm: np.ndarray | None = None) -> None:
     """Joint torques and drive-state derivatives of all drives.
 
     Args:
@@ -41,12 +41,11 @@ def drive_rates(table: np.ndarray, off: np.ndarray, xd: np.ndarray, U: np.ndarra
         qd: (n,) joint velocities, rad/s (m/s).
         tau: (n,) output joint torques from the drives, N·m (N).
         dxd: output, shape of xd: drive-state derivatives.
-        gm: (n, 2) the elastic gears' modes (the hybrid plant of
-            :mod:`manipcad.sim.events`): contact and motor shaft, the ``c`` and ``s`` of
-            :func:`manipcad.drives.transmission.elastic_motor_modal` (nan: from the
-            state); None: both from the state.
-        held: (n,) output with ``gm``: the torque a stuck motor shaft's friction holds,
-            N·m (written for the joints whose shaft is stuck, ``gm[j, 1] == 0``).
+        gm: (n, 3 or more) the elastic gears' modes (the hybrid plant of
+            :mod:`manipcad.sim.events`) in columns 0 and 1: contact and motor shaft, the
+            ``c`` and ``s`` of :func:`manipcad.drives.transmission.elastic_motor_modal`
+            (nan: from the state); column 2 receives the torque a stuck shaft's friction
+            holds, N·m (where ``gm[j, 1] == 0``); None: both modes from the state.
 
     Example:
         >>> import numpy as np
@@ -78,7 +77,7 @@ def drive_rates(table: np.ndarray, off: np.ndarray, xd: np.ndarray, U: np.ndarra
                 tau[j], T = elastic_motor_modal(xd[o:off[j + 1]], U[j], q[j], qd[j], p,
                                                 dxd[o:off[j + 1]], gm[j, 0], gm[j, 1])
                 if gm[j, 1] == 0.0:
-                    held[j] = T
+                    gm[j, 2] = T
         elif kind != 0:  # KIND_RIGID_STATIC: no state
             _, t = rigid_drive_rate(0.0, U[j], qd[j], p)
             tau[j] = t

@@ -89,15 +89,16 @@ FK_POS, FK_NEG, FS_POS, FS_NEG, F_ETA = range(5)
 #: (``joint_limits="hard-stop"``): ``lims`` (n, 2) the stops' positions (rad, m; ±inf: none)
 #: and ``lim`` (n,) where each joint is: 0 away from its stops, +1 / -1 held at its upper /
 #: lower stop (then ``mode`` is 0); elastic gears (:func:`gear_part`): ``gear`` (any gear taking
-#: part), ``gm`` (n, 2) each gear's contact mode (+1 / -1 the teeth in contact on that
-#: flank, 0 in the gap) and its motor shaft's mode (+1 / -1 sliding that way, 0 stuck), nan
-#: where the gear or its shaft does not take part; ``gs`` (n, 2) the shaft's static
-#: friction against positive and negative motor motion, N·m (motor side); ``gh`` (n,) the
-#: torque a stuck shaft holds (of the last right-hand side), N·m; ``e0``, ``e1`` (4n,):
-#: the joints' mode events, their distances to the nearest stop, then the gears' contact
-#: and shafts' events
+#: part), ``gm`` (n, 5) per joint (one array: every array of the structure is passed at
+#: every call): its gear's contact mode (+1 / -1 the teeth in contact on that flank, 0 in
+#: the gap) and its motor shaft's mode (+1 / -1 sliding that way, 0 stuck), nan where the
+#: gear or its shaft does not take part; the torque a stuck shaft holds (of the last
+#: right-hand side), N·m; the shaft's static friction against positive and negative motor
+#: motion, N·m (motor side); ``e0``, ``e1`` (4n, or 2n without ``gear``): the joints'
+#: mode events, their distances to the nearest stop, then the gears' contact and shafts'
+#: events
 Events = namedtuple("Events", "on fric mode marg dirn e0 e1 xe Ke tf b rhs frj gv A M cw "
-                              "ctmp count log il lim lims gear gm gs gh")
+                              "ctmp count log il lim lims gear gm")
 
 #: mode switches kept in :attr:`Events.log` (the rest are counted only)
 LOG = 100000
@@ -113,7 +114,7 @@ def events_part(fric: np.ndarray, qd0: np.ndarray, nx: int, stops=None,
     joint speeds ``qd0`` (rad/s, m/s) set the modes (a lossy joint at rest starts
     stuck), ``nx`` the state's length; ``stops`` (n, 2): the joints' hard stops (lower,
     upper; rad or m, ±inf: none), or None; ``gears``: the elastic gears' initial modes and
-    static friction (:func:`gear_part`), or None.
+    static friction (n, 5) (:func:`gear_part`), or None.
 
     Example:
         >>> import numpy as np
@@ -129,21 +130,29 @@ def events_part(fric: np.ndarray, qd0: np.ndarray, nx: int, stops=None,
     mode = np.where(lossy, np.sign(np.asarray(qd0, dtype=float)), 0.0)
     lims = (np.tile([-math.inf, math.inf], (n, 1)) if stops is None
             else np.array(stops, dtype=float).reshape(n, 2))
-    gm, gs = (np.full((n, 2), math.nan), np.zeros((n, 2))) if gears is None else gears
-    gear = bool(np.isfinite(gm).any())
+    gm = no_gears(n) if gears is None else gears
+    gear = bool(np.isfinite(gm[:, :2]).any())
     on = bool(lossy.any()) or bool(np.isfinite(lims).any()) or gear
+    ne = 4 * n if gear else 2 * n   # the gears' events only where a gear takes part
     return Events(on, fric, mode.astype(float), np.full(n, math.inf),
-                  np.zeros(n), np.zeros(4 * n), np.zeros(4 * n), np.zeros(nx),
+                  np.zeros(n), np.zeros(ne), np.zeros(ne), np.zeros(nx),
                   np.zeros((1, nx)),
                   np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.ones(n),
                   np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, CRBA_WORK)),
                   np.zeros((8, 3)), np.zeros(2, dtype=np.int64),
                   np.empty((LOG if on else 0, 3)), np.zeros(8), np.zeros(n), lims,
-                  gear, np.array(gm, dtype=float), np.array(gs, dtype=float), np.zeros(n))
+                  gear, np.array(gm, dtype=float))
+
+
+def no_gears(n: int) -> np.ndarray:
+    """The :attr:`Events.gm` of n joints none of which has a gear taking part."""
+    gm = np.zeros((n, 5))
+    gm[:, :2] = math.nan
+    return gm
 
 
 def gear_part(dtable: np.ndarray, off: np.ndarray, x0: np.ndarray, static) -> tuple:
-    """The elastic gears' part of :func:`events_part`: (gm, gs), each (n, 2).
+    """The elastic gears' part of :func:`events_part`: :attr:`Events.gm` (n, 5).
 
     A gear with backlash (b > 0) takes part with its contact (its initial mode from the
     state, :func:`manipcad.drives.transmission.contact_of`); its motor shaft when it has
@@ -162,13 +171,11 @@ def gear_part(dtable: np.ndarray, off: np.ndarray, x0: np.ndarray, static) -> tu
         >>> from manipcad.model.robot import Drive
         >>> t = pack_drives([Drive(J=1e-4, ratio=-10, R=1, L=1e-3, k_m=.1, k_w=.1,
         ...                        M_f=(0.02, 0.03))], [Transmission(1e3, 0.0, 1e-3)])
-        >>> gm, gs = gear_part(t, state_offsets(t), np.zeros(5), [(0.04, 0.03)])
-        >>> gm.tolist(), gs.tolist()
-        ([[0.0, 0.0]], [[0.03, 0.04]])
+        >>> gear_part(t, state_offsets(t), np.zeros(5), [(0.04, 0.03)]).tolist()
+        [[0.0, 0.0, 0.0, 0.03, 0.04]]
     """
     n = dtable.shape[0]
-    gm = np.full((n, 2), math.nan)
-    gs = np.zeros((n, 2))
+    gm = no_gears(n)
     static = np.asarray(static, dtype=float).reshape(n, 2)
     for j in range(n):
         p = dtable[j]
@@ -182,8 +189,8 @@ def gear_part(dtable: np.ndarray, off: np.ndarray, x0: np.ndarray, static) -> tu
             gm[j, 1] = float(np.sign(x0[o + 1]))
             sp = max(static[j, 0], p[P_MFP])
             sn = max(static[j, 1], p[P_MFN])
-            gs[j] = (sp, sn) if r > 0.0 else (sn, sp)
-    return gm, gs
+            gm[j, 3:] = (sp, sn) if r > 0.0 else (sn, sp)
+    return gm
 
 
 def friction_table(dtable: np.ndarray, rtable: np.ndarray, efficiency, kinds,
@@ -471,9 +478,9 @@ def release_worst(plant, t):
 
 @nb.njit(cache=True)
 def event_values(plant, x, n, e):
-    """The event functions at state x into ``e`` (4n,): e[j] d·q̇_j of a slipping lossy
-    joint (rad/s, m/s), the margin of a held one (N·m, N; of the last right-hand side,
-    which must be x's), 0 for the others; e[n + j] a joint's distance to its nearest hard
+    """The event functions at state x into ``e`` (4n; 2n without gears taking part):
+    e[j] d·q̇_j of a slipping lossy joint (rad/s, m/s), the margin of a held one (N·m, N;
+    of the last right-hand side, which must be x's), 0 for the others; e[n + j] a joint's distance to its nearest hard
     stop (rad, m) while away from its stops, 0 for the others; e[2n + j] its gear's
     contact event (:func:`_contact_value`, rad or m) and e[3n + j] its motor shaft's: s·ω_m
     sliding (rad/s), the margin stuck (N·m; of the last right-hand side), 0 where the
@@ -491,19 +498,26 @@ def event_values(plant, x, n, e):
         else:
             e[n + j] = 0.0
     if ev.gear:
-        gm = ev.gm
-        for j in range(n):
-            o = 2 * n + plant.off[j]
-            c = gm[j, 0]
-            if c == c:
-                p = plant.dtable[j]
-                r = p[P_RATIO]
-                e[2 * n + j] = _contact_value(p, x[o] / r - x[j], x[o + 1] / r - x[n + j], c)
-            s = gm[j, 1]
-            if s == 0.0:
-                e[3 * n + j] = _shaft_margin(ev.gs, ev.gh, j)[0]
-            elif s == s:
-                e[3 * n + j] = s * x[o + 1]
+        _gear_values(plant, x, n, e)
+
+
+@nb.njit(cache=True)
+def _gear_values(plant, x, n, e):
+    """The gears' part of :func:`event_values` (its own function: the rigid drives' runs
+    never enter it)."""
+    gm = plant.ev.gm
+    for j in range(n):
+        o = 2 * n + plant.off[j]
+        c = gm[j, 0]
+        if c == c:
+            p = plant.dtable[j]
+            r = p[P_RATIO]
+            e[2 * n + j] = _contact_value(p, x[o] / r - x[j], x[o + 1] / r - x[n + j], c)
+        s = gm[j, 1]
+        if s == 0.0:
+            e[3 * n + j] = _shaft_margin(gm, j)[0]
+        elif s == s:
+            e[3 * n + j] = s * x[o + 1]
 
 
 @nb.njit(cache=True)
@@ -526,11 +540,11 @@ def _contact_value(p, d, dd, c):
 
 
 @nb.njit(cache=True, inline="always")
-def _shaft_margin(gs, gh, j):
+def _shaft_margin(gm, j):
     """(margin N·m, break-away direction) of joint j's stuck motor shaft: its static
-    friction ``gs[j]`` against the torque ``gh[j]`` it holds (:class:`Events`)."""
-    up = gs[j, 0] - gh[j]
-    dn = gh[j] + gs[j, 1]
+    friction against the torque it holds (``gm`` of :class:`Events`)."""
+    up = gm[j, 3] - gm[j, 2]
+    dn = gm[j, 2] + gm[j, 4]
     return min(up, dn), (1.0 if up < dn else -1.0)
 
 
@@ -551,7 +565,7 @@ def _gear_switch(plant, x, n, j, t, which):
         _log(ev, t, j, 10.0 + ev.gm[j, 0])
     else:
         if ev.gm[j, 1] == 0.0:
-            ev.gm[j, 1] = _shaft_margin(ev.gs, ev.gh, j)[1]
+            ev.gm[j, 1] = _shaft_margin(ev.gm, j)[1]
         else:
             ev.gm[j, 1] = 0.0
             x[o + 1] = 0.0
@@ -568,7 +582,7 @@ def release_shafts(plant, t):
         return any_
     for j in range(ev.gm.shape[0]):
         if ev.gm[j, 1] == 0.0:
-            m, d = _shaft_margin(ev.gs, ev.gh, j)
+            m, d = _shaft_margin(ev.gm, j)
             if m < 0.0:
                 ev.gm[j, 1] = d
                 _log(ev, t, j, 20.0 + d)
@@ -618,14 +632,24 @@ def release_edge(plant, x, n, e0, e1, t):
               and e1[n + j] < 0.0):
             _contact(plant, x, n, j, t)
             any_ = True
-    if ev.gear:
-        for j in range(n):
-            if ev.gm[j, 0] == ev.gm[j, 0] and e0[2 * n + j] <= 0.0 and e1[2 * n + j] < 0.0:
-                _gear_switch(plant, x, n, j, t, 0)
-                any_ = True
-            if ev.gm[j, 1] == 0.0 and e0[3 * n + j] <= 0.0 and e1[3 * n + j] < 0.0:
-                _gear_switch(plant, x, n, j, t, 1)
-                any_ = True
+    if ev.gear and _gear_edges(plant, x, n, e0, e1, t):
+        any_ = True
+    return any_
+
+
+@nb.njit(cache=True)
+def _gear_edges(plant, x, n, e0, e1, t):
+    """The gears' part of :func:`release_edge`: a contact event (or a stuck shaft's
+    margin) at 0 at the step's start and below at its end switches at the start."""
+    ev = plant.ev
+    any_ = False
+    for j in range(n):
+        if ev.gm[j, 0] == ev.gm[j, 0] and e0[2 * n + j] <= 0.0 and e1[2 * n + j] < 0.0:
+            _gear_switch(plant, x, n, j, t, 0)
+            any_ = True
+        if ev.gm[j, 1] == 0.0 and e0[3 * n + j] <= 0.0 and e1[3 * n + j] < 0.0:
+            _gear_switch(plant, x, n, j, t, 1)
+            any_ = True
     return any_
 
 
@@ -649,10 +673,16 @@ def switch(plant, x, n, e0, e1, t):
         if e0[n + j] > 0.0 and e1[n + j] <= 0.0 and ev.lim[j] == 0.0:
             _contact(plant, x, n, j, t)
     if ev.gear:
-        for j in range(n):
-            for w in range(2):
-                if e0[(2 + w) * n + j] > 0.0 and e1[(2 + w) * n + j] <= 0.0:
-                    _gear_switch(plant, x, n, j, t, w)
+        _gear_switches(plant, x, n, e0, e1, t)
+
+
+@nb.njit(cache=True)
+def _gear_switches(plant, x, n, e0, e1, t):
+    """The gears' part of :func:`switch`: those whose contact or shaft event crossed."""
+    for j in range(n):
+        for w in range(2):
+            if e0[(2 + w) * n + j] > 0.0 and e1[(2 + w) * n + j] <= 0.0:
+                _gear_switch(plant, x, n, j, t, w)
 
 
 @nb.njit(cache=True)

@@ -126,11 +126,7 @@ def _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st):
         tau[j] = U[j]
     if plant.use_drives:
         if plant.generic_drives:
-            for j in range(xd.shape[0]):
-                xd[j] = xs[m + j]
-            drive_rates(dtable, off, xd, U, q, qd, tau, dxd, plant.ev.gm, plant.ev.gh)
-            for j in range(xd.shape[0]):
-                K4[st, m + j] = dxd[j]
+            _generic(xs, U, plant, q, qd, xd, dxd, tau, K4, st, m)
         else:
             for j in range(n):
                 kind = int(dtable[j, P_KIND])
@@ -143,6 +139,18 @@ def _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st):
                     tau[j] = tj
     for j in range(n):
         tau[j] = tau[j] + dist[j]
+
+
+@nb.njit(cache=True)
+def _generic(xs, U, plant, q, qd, xd, dxd, tau, K4, st, m):
+    """The generic drives' part of :func:`_torques` (elastic gears, in their modes
+    ``plant.ev.gm``): a call of its own, so that the rigid drives' inlined right-hand side
+    never reads the events' structure."""
+    for j in range(xd.shape[0]):
+        xd[j] = xs[m + j]
+    drive_rates(plant.dtable, plant.off, xd, U, q, qd, tau, dxd, plant.ev.gm)
+    for j in range(xd.shape[0]):
+        K4[st, m + j] = dxd[j]
 
 
 @nb.njit(cache=True, inline="always")
@@ -436,7 +444,7 @@ def settle(plant, x, U, dist, n, sc, K, t):
     elastic gear that cannot be held (:func:`manipcad.sim.events.release_shafts`)."""
     for _ in range(2 * n + 1):
         hybrid_at(x, U, dist, n, plant, sc, K, 0)
-        shafts = release_shafts(plant, t)
+        shafts = plant.ev.gear and release_shafts(plant, t)
         if not release_worst(plant, t) and not shafts:
             return
 
@@ -451,12 +459,13 @@ def _rk4_sub(plant, x, U, dist, n, sc, K, h, xs, xn, e1):
         rk4_stage(x, K, st, h, xs)
         hybrid_at(xs, U, dist, n, plant, sc, K, st)
     rk4_update(x, K, h, xn)
-    again = ev.gear and shaft_stuck(ev.gm, n)
+    again = True
     for j in range(n):
         if ev.mode[j] == 0.0 and ev.marg[j] < math.inf:
-            again = True
+            hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, 0)
+            again = False
             break
-    if again:
+    if again and ev.gear and shaft_stuck(ev.gm, n):
         hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, 0)
     event_values(plant, xn, n, e1)
 

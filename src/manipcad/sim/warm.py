@@ -142,8 +142,7 @@ def _plant() -> None:
     cq, cqd, zero, rwork, cwork, tmp, Hii, hv, qg = comp
     _compile(components_one, plant.ctable, plant.g, cq, cqd, zero, rwork, cwork, tmp, H,
              Hii, hv, qg)
-    _compile(drive_rates, plant.dtable, plant.off, xd, work.U, q, qd, tau, dxd, plant.ev.gm,
-             plant.ev.gh)
+    _compile(drive_rates, plant.dtable, plant.off, xd, work.U, q, qd, tau, dxd, plant.ev.gm)
     _compile(rigid_drive_rate, 0.0, 0.0, 0.0, plant.dtable[0])
     _compile(static_current, 0.0, 0.0, plant.dtable[0])
     _compile(loop._pick_up, plant)

@@ -480,8 +480,9 @@ def release_worst(plant, t):
 def event_values(plant, x, n, e):
     """The event functions at state x into ``e`` (4n; 2n without gears taking part):
     e[j] d·q̇_j of a slipping lossy joint (rad/s, m/s), the margin of a held one (N·m, N;
-    of the last right-hand side, which must be x's), 0 for the others; e[n + j] a joint's distance to its nearest hard
-    stop (rad, m) while away from its stops, 0 for the others; e[2n + j] its gear's
+    of the last right-hand side, which must be x's), 0 for the others; e[n + j] a joint's
+    distance to its nearest hard stop (rad, m) while away from its stops, 0 for the
+    others; e[2n + j] its gear's
     contact event (:func:`_contact_value`, rad or m) and e[3n + j] its motor shaft's: s·ω_m
     sliding (rad/s), the margin stuck (N·m; of the last right-hand side), 0 where the
     gear or shaft does not take part."""

@@ -53,11 +53,15 @@ def finish_warm(job: warm.Compile) -> None:
     err_console.print(f"compiling kernels (once; later runs start at once) on {job.workers} "
                       f"process{'es' if job.workers > 1 else ''} ...", highlight=False)
     t0 = time.perf_counter()
-    with err_console.status("compiling") as status:
-        failures = job.finish(lambda what: status.update(f"compiling: {what}"))
-    for line in failures:
+    for line in _finish(job):
         err_console.print(f"[yellow]warmup step failed:[/] {line}", highlight=False)
     err_console.print(f"kernels ready in {time.perf_counter() - t0:.1f} s", highlight=False)
+
+
+def _finish(job: warm.Compile) -> list[str]:
+    """``job.finish`` with the step in progress on a status line (stderr); its failures."""
+    with err_console.status("compiling") as status:
+        return job.finish(lambda what: status.update(f"compiling: {what}"))
 
 
 def ensure_warm(*steps: str) -> None:
@@ -86,13 +90,12 @@ def warmup(
         return
     if force and d is not None:
         for name in STEPS:
-            (d / f"{warm.MARKER}-{name.replace(' ', '-')}").unlink(missing_ok=True)
+            warm.marker(name).unlink(missing_ok=True)
     job = warm.Compile()
     console.print(f"compiling kernels (once) on {job.workers} process"
                   f"{'es' if job.workers > 1 else ''} ...", highlight=False)
     t0 = time.perf_counter()
-    with err_console.status("compiling") as status:
-        failures = job.finish(lambda what: status.update(f"compiling: {what}"))
+    failures = _finish(job)
     for line in failures:
         err_console.print(f"[red]failed:[/] {line}", highlight=False)
     console.print(f"{len(STEPS) - len(failures)} of {len(STEPS)} steps done in "

@@ -255,14 +255,16 @@ def cache_dir() -> Path | None:
     return Path(d) if d else None
 
 
-def _marker(step: str) -> Path | None:
+def marker(step: str) -> Path | None:
+    """The file that says ``step`` is compiled (in :func:`cache_dir`), or None without a
+    kernel cache folder; its lock file is this path with ``.lock`` added."""
     d = cache_dir()
     return None if d is None else d / f"{MARKER}-{step.replace(' ', '-')}"
 
 
 def is_warm(steps: Iterable[str] | None = None) -> bool:
     """True when these steps (default all) were compiled for this source version already."""
-    markers = [_marker(s) for s in (tuple(STEPS) if steps is None else steps)]
+    markers = [marker(s) for s in (tuple(STEPS) if steps is None else steps)]
     return all(m is not None and m.is_file() for m in markers)
 
 
@@ -274,10 +276,10 @@ def _run_step(name: str, failures: list[str], report: Callable[[str], None]) -> 
     except Exception as exc:  # noqa: BLE001 - reported, and the rest still runs
         failures.append(f"{what}: {type(exc).__name__}: {exc}")
         return
-    marker = _marker(name)
-    if marker is not None:
+    done = marker(name)
+    if done is not None:
         try:
-            marker.write_text(time.strftime("%Y-%m-%dT%H:%M:%S\n"))
+            done.write_text(time.strftime("%Y-%m-%dT%H:%M:%S\n"))
         except OSError:
             pass
 
@@ -312,7 +314,7 @@ def share(worker: int, workers: int, steps: Iterable[str] | None = None,
     def step(name: str, wait: bool) -> None:
         if name in tried:
             return
-        with open(folder / f"{MARKER}-{name.replace(' ', '-')}.lock", "w") as lock:
+        with open(f"{marker(name)}.lock", "w") as lock:
             try:
                 fcntl.flock(lock, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
             except BlockingIOError:

@@ -186,7 +186,7 @@ def test_yaml_joint_velocity_and_effort_limits(tmp_path):
 
 
 # ------------------------------------------------------------------------ run checks
-from manipcad.sim.checks import CHECKS, RunChecks, reversals, run_checks  # noqa: E402
+from manipcad.sim.checks import CHECKS, Check, RunChecks, reversals, run_checks  # noqa: E402
 from manipcad.sim.simulate import SimulationResult  # noqa: E402
 
 RATED = Drive(J=1e-4, ratio=100.0, R=1.0, L=1e-3, k_m=0.1, k_w=0.1, k_u=2.0, u_max=24.0,
@@ -298,6 +298,22 @@ def test_run_checks_round_trip_and_summary():
     assert "tracking" not in c["q1"]                     # no accuracy asked: not checked
     with pytest.raises(manipcad.errors.ManipcadError, match="accuracy"):
         run_checks(res, arm, accuracy={"nope": 1e-3})
+
+
+def test_unknown_summary_groups_checks_by_joints():
+    """A robot without drive ratings: the unknown checks are named once per joint set,
+    with why they cannot be made (no rating: the value is known, its limit is not)."""
+    def check(value, limit):
+        return Check(value, limit, "A", "unknown" if not np.isfinite(limit * value)
+                     else "pass")
+    rows = {j: {"current_rms": check(1.0, np.nan), "speed": check(2.0, np.nan),
+                "saturation": check(0.0, 0.02)} for j in ("a", "b")}
+    rows["a"]["tracking"] = check(np.nan, 1e-3)
+    summary = RunChecks(rows).summary()
+    assert summary == ("UNKNOWN: no check fails; 5 cannot be made (current_rms, speed on "
+                       "every joint; tracking on a: no rating / no value)")
+    rows["b"]["speed"] = check(2.0, 3.0)
+    assert "current_rms on every joint; speed, tracking on a" in RunChecks(rows).summary()
 
 
 # ------------------------------------------------- the undersized elbow, end to end

@@ -20,7 +20,8 @@ from numba.core import config
 
 
 def configure() -> None:
-    """Set NUMBA_CACHE_DIR to ~/.cache/manipcad/numba-<hash of the kernel sources>."""
+    """Set NUMBA_CACHE_DIR to ~/.cache/manipcad/numba-<hash of the package's folder>-<hash
+    of the kernel sources>."""
     if "NUMBA_CACHE_DIR" in os.environ:
         return
     root = Path(__file__).parent
@@ -31,10 +32,15 @@ def configure() -> None:
             digest.update(path.relative_to(root).as_posix().encode())
             digest.update(text)
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "manipcad"
-    here = base / f"numba-{digest.hexdigest()[:16]}"
+    # numba keys its cache files by the path of their source too: another copy of the
+    # package (a second venv, a checkout) gets its own folders, or the warm-up's marks
+    # (manipcad.sim.warm) would claim kernels this copy cannot load
+    copy = hashlib.sha1(str(root.resolve()).encode()).hexdigest()[:8]
+    here = base / f"numba-{copy}-{digest.hexdigest()[:16]}"
     try:
         here.mkdir(parents=True, exist_ok=True)
-        for old in base.glob("numba-*"):
+        # this copy's older versions, and folders named before the copy was in the name
+        for old in [*base.glob(f"numba-{copy}-*"), *base.glob("numba-" + "?" * 16)]:
             # stale versions go after a day (another process may still be using a fresh one)
             if old != here and time.time() - old.stat().st_mtime > 86400:
                 shutil.rmtree(old, ignore_errors=True)

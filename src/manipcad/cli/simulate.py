@@ -306,7 +306,7 @@ def simulate(
     style = VERDICT_STYLE[checks.verdict]
     console.print(f"[{style}]{escape(checks.summary())}[/]", soft_wrap=True)
     console.print(f"simulated {t_end:g} s ({int(round(t_end / dt))} steps of {dt:g} s) in "
-                  f"{done.wall:.3g} s wall (the first run compiles); wrote {out}/ (inputs/, "
+                  f"{done.wall:.3g} s wall; wrote {out}/ (inputs/, "
                   + ("timeseries.csv, " if csv else "")
                   + "timeseries.npz with "
                   + ("every step" if every == 1 else f"one sample every {every} steps")

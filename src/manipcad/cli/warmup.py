@@ -10,8 +10,9 @@ simulation: its integrator's core and the callees), which compiles the cold ones
 one-line "compiling kernels (once)" message and does nothing when they are warm.
 
 A step is warm when its marker file ``warm-<step>`` exists in the kernel cache folder
-(``$NUMBA_CACHE_DIR``, by default ``~/.cache/manipcad/numba-<hash>``): a change of any
-kernel source gives a new folder, hence a cold cache again.
+(``$NUMBA_CACHE_DIR``, by default ``~/.cache/manipcad/numba-<copy>-<hash>``: the hash of
+the package's folder, then of its kernel sources): a change of any kernel source, or
+another copy of the package, gives a new folder, hence a cold cache again.
 """
 
 from __future__ import annotations

@@ -212,7 +212,7 @@ class RunChecks:
         if unknown:
             s = "" if len(unknown) == 1 else "s"
             return (f"UNKNOWN: no check fails; {len(unknown)} cannot be made "
-                    f"({', '.join(f'{j}: {k}' for j, k, _ in unknown)})")
+                    f"({_grouped(unknown, list(self.checks))})")
         return f"PASS: every check of {len(self.checks)} joints passes"
 
     def to_dict(self) -> dict[str, dict[str, dict]]:
@@ -229,6 +229,23 @@ class RunChecks:
         """One row per check, for tables: joint, check, value, limit, unit, verdict."""
         return [{"joint": j, "check": k, **c.to_dict()} for j, cs in self.checks.items()
                 for k, c in cs.items()]
+
+
+def _grouped(rows: Sequence[tuple[str, str, Check]], joints: Sequence[str]) -> str:
+    """Checks that cannot be made, grouped by the joints they concern: ``"current_rms,
+    speed on every joint; tracking on elbow (no rating)"``; a check whose value is known
+    lacks its limit (a rating), one whose value is unknown lacks the run's data."""
+    by_check: dict[str, list[str]] = {}
+    for j, k, _ in rows:
+        by_check.setdefault(k, []).append(j)
+    groups: dict[tuple[str, ...], list[str]] = {}
+    for k, js in by_check.items():
+        groups.setdefault(tuple(js), []).append(k)
+    why = {"no rating" if math.isfinite(c.value) else "no value" for _, _, c in rows}
+    parts = [", ".join(ks) + " on " + ("every joint" if len(js) == len(joints) > 1
+                                        else ", ".join(js))
+             for js, ks in groups.items()]
+    return "; ".join(parts) + f": {' / '.join(sorted(why))}"
 
 
 def _fmt(x: float) -> str:

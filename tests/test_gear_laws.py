@@ -1,7 +1,7 @@
 """The regulators' models of the gear's losses, and regulator files made before them.
 
 The simulated plant passes the load through a gear of efficiency η with the factor
-f = 1/η (motoring or holding) or η (braking) (``manipcad.drives.gear.gear_factor``).
+f = 1/η (motoring or holding) or η (braking) (``manipcad.dynamics.gear.gear_factor``).
 Checked here: every law whose structure has a load model (ace_de, ace_tf, asvs, lqr_gs,
 computed_torque, computed_torque_full) stores the drive's η and applies f to that model,
 against closed forms written out here; η = 1 gives the law without losses; a file made

@@ -19,7 +19,7 @@ current through the shaft equation (no accelerometer).
 
 Gear losses: the gear of efficiency η passes the load P = H_ii·q̈ + h_i·q̇ + c_i − Ḣ_ii·q̇
 + Q_i to the motor as f·P/i_r, f = 1/η while the motor drives or holds the load and η
-while the load drives it back (:func:`manipcad.drives.gear.gear_factor`, the plant's and
+while the load drives it back (:func:`manipcad.dynamics.gear.gear_factor`, the plant's and
 the sizing's formula). The law's load terms H*, h*, their rates and the load torque in
 m_f are multiplied by the same f, so the drive is made nominal in either power flow;
 f is chosen from the sign of P·q̇ with q̈ from the current (tried with 1/η, taken again
@@ -62,9 +62,9 @@ from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_I, S_QD, S_QI
 from manipcad.drives.dc import clip, dry_friction
-from manipcad.drives.gear import gear_factor
 from manipcad.drives.laws import law3_voltage, nominal_tf
 from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO, P_WEPS
+from manipcad.dynamics.gear import gear_factor
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Drive, Robot
 

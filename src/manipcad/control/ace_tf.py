@@ -17,7 +17,7 @@ load changes fast) T_m is undefined; the denominator is floored at
 
 Gear losses: through a gear of efficiency η the motor feels the load f·H*, f·h*, with
 f = 1/η while the motor drives or holds the load and η while the load drives it back
-(:func:`manipcad.drives.gear.gear_factor`, the plant's formula). The controllable
+(:func:`manipcad.dynamics.gear.gear_factor`, the plant's formula). The controllable
 realization takes T_m and k_p at f·H*, f·h*, the power flow judged from the ACE's load
 model along the reference, P = H_ii·q̈* + h_i·q̇, against the measured q̇ (the ACE reads
 no current to know q̈, and models no load torque). The observable realization does not
@@ -58,7 +58,6 @@ from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method
 from manipcad.control.regulator import Regulator
 from manipcad.control.signals import S_HII, S_QD, S_QDDREF
 from manipcad.drives.dc import clip
-from manipcad.drives.gear import gear_factor
 from manipcad.drives.laws import (
     ace1_filter_step,
     ace1_obs_output,
@@ -69,6 +68,7 @@ from manipcad.drives.laws import (
     ace1_tf,
 )
 from manipcad.drives.params import P_KM, P_KV, P_KW, P_R, P_RATIO
+from manipcad.dynamics.gear import gear_factor
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
 

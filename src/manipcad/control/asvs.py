@@ -15,7 +15,7 @@ and (5) asks ``k_s >= R/(k_m·k_u)``, ``k_g >= R·|i_r|·(J+H*)/(k_m·k_u)``.
   dry friction, velocity torque and gravity. Gear losses: the load the motor feels
   through a gear of efficiency η is f·H*, and f times the load torque in m_f, with
   f = 1/η while the motor drives or holds the load and η while the load drives it back
-  (:func:`manipcad.drives.gear.gear_factor`, the plant's formula), the power flow judged
+  (:func:`manipcad.dynamics.gear.gear_factor`, the plant's formula), the power flow judged
   from the law's load model along the reference, P = H_ii·q̈* (+ c_i + Q_i), against the
   measured q̇ (the law reads no current to know q̈).
 - ``vss``: the same law with a, c, k_g fixed for the WORST-CASE (largest) load,
@@ -42,9 +42,9 @@ from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_Q, S_QD, S_QDDREF, S_QDREF, S_QI, S_QREF
 from manipcad.drives.dc import clip, dry_friction
-from manipcad.drives.gear import gear_factor
 from manipcad.drives.laws import asvs_a, asvs_beta, asvs_c_stationary, asvs_gains, asvs_voltage
 from manipcad.drives.params import P_RATIO, pack_drive
+from manipcad.dynamics.gear import gear_factor
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
 

@@ -7,7 +7,7 @@ current ``i* = τ/(k_m·i_r)``; ``U = (R·i* + k_w·i_r·q̇)/k_u``
 is not measured (decentralized) and the current's lag T_e = L/R is not compensated.
 
 Gear losses: f = 1/η while the motor drives or holds the load (P·q̇ >= 0), η while the
-load drives it back (:func:`manipcad.drives.gear.gear_factor`, the plant's and the
+load drives it back (:func:`manipcad.dynamics.gear.gear_factor`, the plant's and the
 sizing's formula, with the measured q̇); η is the gear efficiency the design assumed
 (``gains.gear_efficiency``; 1: no losses, the law as without them).
 """
@@ -30,8 +30,8 @@ from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_Q, S_QD, S_QDDREF, S_QDREF, S_QI, S_QREF
 from manipcad.drives.dc import clip, dry_friction, static_input
-from manipcad.drives.gear import gear_factor
 from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO
+from manipcad.dynamics.gear import gear_factor
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
 
@@ -56,7 +56,7 @@ def joint_torque_to_input(tau, qd, p):
 def drive_torque(load, v, qd, eta, friction, p):
     """The joint-referred torque the motor must give, N·m (N): the load the gear passes
     (``load``, N·m or N) times the gear factor f (1/η motoring or holding, η braking;
-    :func:`manipcad.drives.gear.gear_factor` at the speed q̇), plus the rotor's inertia
+    :func:`manipcad.dynamics.gear.gear_factor` at the speed q̇), plus the rotor's inertia
     J·i_r²·v, its viscous friction k_v·i_r²·q̇ and (``friction`` != 0) the dry friction
     |i_r|·M_f·sgn q̇.
 

@@ -20,7 +20,7 @@ Per period T (sample s, time s·T):
    (:func:`manipcad.drives.dc.rigid_joint_torque`; ν: an optional simulated current
    noise, A); through a gear of efficiency η < 1 (window mean below) the part that
    reaches the gear's input passes only η of it (1/η braking), as the simulated plant
-   and the sizing take it (:func:`manipcad.drives.gear.gear_factor`);
+   and the sizing take it (:func:`manipcad.dynamics.gear.gear_factor`);
 2. the mean acceleration over the two periods about the previous sample,
    q̈_{s−1} = (q̇_s − q̇_{s−2})/(2T) (no accelerometer; exact for that mean), and the
    joint torques averaged over the same window by the trapezoid rule,
@@ -47,9 +47,9 @@ import numpy as np
 
 from manipcad.control.signals import S_I, S_Q, S_QD
 from manipcad.drives.dc import dry_friction, rigid_joint_torque
-from manipcad.drives.gear import gear_factor
 from manipcad.drives.params import P_J, P_KV, P_RATIO, pack_drives
 from manipcad.dynamics.counts import Counted, _counted, _plain, _Tally
+from manipcad.dynamics.gear import gear_factor
 from manipcad.dynamics.identification import link_frame
 from manipcad.dynamics.rls import OnlinePayloadEstimator, payload_rls_step, rls_operation_counts
 from manipcad.dynamics.rnea import RNEA_WORK
@@ -135,7 +135,7 @@ def _through_gear(tau, qdd, qd, eta, p):
     """The drive torque τ (N·m, N; i_r·k_m·i) as the lossless drive model the estimate
     fits would need it: the gear passes only g·T of the torque T that reaches its input
     (τ less the rotor's inertia and the motor's friction, D), g = 1/f with the plant's and
-    the sizing's factor f (:func:`manipcad.drives.gear.gear_factor`); so D + g·T."""
+    the sizing's factor f (:func:`manipcad.dynamics.gear.gear_factor`); so D + g·T."""
     r = p[P_RATIO]
     D = p[P_J] * r * r * qdd + p[P_KV] * r * r * qd + r * dry_friction(r * qd, p)
     T = tau - D

@@ -70,7 +70,6 @@ from manipcad.control.signals import (
 )
 from manipcad.control.systems import nonlinear_system, static_gain
 from manipcad.drives.dc import clip, static_input
-from manipcad.drives.gear import gear_factor
 from manipcad.drives.linear import linearize
 from manipcad.drives.params import (
     P_J,
@@ -80,6 +79,7 @@ from manipcad.drives.params import (
     Transmission,
     as_transmission,
 )
+from manipcad.dynamics.gear import gear_factor
 from manipcad.errors import InputError, ManipcadError, ModelError
 from manipcad.fileio import file_number
 from manipcad.model.robot import Drive, Robot
@@ -152,7 +152,7 @@ def lqr_update(p, s, sig, j, Ts):
 
     With a gear efficiency η (lqr_gs with its feed-forward at the current load) the gear
     factor f = 1/η or η of the load the model has the gear pass (:func:`lqr_load`, power
-    flow against the measured q̇; :func:`manipcad.drives.gear.gear_factor`) multiplies that
+    flow against the measured q̇; :func:`manipcad.dynamics.gear.gear_factor`) multiplies that
     load in U_ff and the load the gains are looked up at: (f·H_ii, f·Ḣ_ii), the inertia
     and velocity coefficient the motor feels through the gear.
     """

@@ -18,7 +18,7 @@ H_d·q̈ = τ + τ_dist − c − f (H_d = H + diag(J·i_r²)); then, when a joi
 or a gear has losses, with the mass matrix H_d:
 
 * the gear passes g·T to the joint, T = τ_m − J·i_r²·q̈ − k_v·i_r²·q̇ − F the
-  torque at its input, g = 1/f with f of :func:`manipcad.drives.gear.gear_factor`
+  torque at its input, g = 1/f with f of :func:`manipcad.dynamics.gear.gear_factor`
   (the sizing's formula): row j becomes (H q̈ + c − τ_dist)_j = g_j·T_j, i.e. H_d's
   diagonal gains (g_j − 1)·J·i_r² and the right side
   (g_j − 1)·(τ_m − k_v·i_r²·q̇ − F);
@@ -27,7 +27,7 @@ or a gear has losses, with the mass matrix H_d:
 * the stuck joints' rows and columns are taken out (q̈_S = 0) and the free joints'
   system solved by Cholesky; each stuck joint's holding torque P = (H q̈ + c −
   τ_dist)_s is checked against the loads its drive can hold at rest
-  (:func:`manipcad.drives.gear.holding_band`): the margin
+  (:func:`manipcad.dynamics.gear.holding_band`): the margin
   ``min(P − lo, hi − P)`` (N·m or N) goes to ``marg[s]`` and the way it would
   break away to ``dirn[s]``.
 
@@ -53,7 +53,6 @@ from collections import namedtuple
 import numba as nb
 import numpy as np
 
-from manipcad.drives.gear import gear_factor, holding_band
 from manipcad.drives.params import (
     KIND_ELASTIC,
     KIND_ELASTIC_STATIC,
@@ -69,6 +68,7 @@ from manipcad.drives.transmission import contact_of, gear_torque
 from manipcad.dynamics.aba import aba_one
 from manipcad.dynamics.crba import CRBA_WORK, crba_one
 from manipcad.dynamics.forward_crba import cholesky_solve
+from manipcad.dynamics.gear import gear_factor, holding_band
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR
 from manipcad.sim.borrow import address
 

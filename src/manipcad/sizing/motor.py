@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from manipcad.drives.gear import gear_factors
+from manipcad.dynamics.gear import gear_factors
 from manipcad.model.robot import Drive
 
 
@@ -104,7 +104,7 @@ def joint_torque(drive: Drive, ratio, tau_rigid: np.ndarray, qd: np.ndarray,
 def efficiency_factor(drive: Drive, tau_rigid: np.ndarray, qd: np.ndarray) -> np.ndarray:
     """The factor f on the load torque (module docstring): 1/η while the motor
     drives the load or holds it (P_rigid·q̇ >= 0), η while the load drives it back;
-    :func:`manipcad.drives.gear.gear_factor`, the simulated plant's formula, of each
+    :func:`manipcad.dynamics.gear.gear_factor`, the simulated plant's formula, of each
     sample (``tau_rigid`` and ``qd`` broadcast against each other).
 
     Example:
@@ -119,7 +119,7 @@ def efficiency_factor(drive: Drive, tau_rigid: np.ndarray, qd: np.ndarray) -> np
     eta, load, speed = np.broadcast_arrays(eta, np.asarray(tau_rigid, dtype=float),
                                            np.asarray(qd, dtype=float))
     out = np.empty(load.shape)
-    # the simulated plant's own formula (manipcad.drives.gear), element by element
+    # the simulated plant's own formula (manipcad.dynamics.gear), element by element
     gear_factors(np.ascontiguousarray(eta).reshape(-1), np.ascontiguousarray(load).reshape(-1),
                  np.ascontiguousarray(speed).reshape(-1), out.reshape(-1))
     return out

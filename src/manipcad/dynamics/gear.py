@@ -1,7 +1,11 @@
 """Gear losses: the efficiency η of a gear, motoring and braking, written once.
 
-The sizing (:mod:`manipcad.sizing.motor`) and the simulated plant
-(:mod:`manipcad.sim.events`) both call :func:`gear_factor`. With the load torque
+The sizing (:mod:`manipcad.sizing.motor`), the simulated plant
+(:mod:`manipcad.sim.events`), the regulators that model the gear, and the payload
+identification (:mod:`manipcad.dynamics.identification`) all call :func:`gear_factor`.
+It lives in ``dynamics/`` beside the other drive terms referred to the joint (rotor
+inertia J·i_r², viscous and dry friction, :mod:`manipcad.dynamics.rnea`), so that every
+layer that needs the law, the identification included, imports it from here. With the load torque
 P (N·m, or N for a prismatic joint: the torque the gear's output passes to the
 joint) and the joint speed q̇, the motor side has to supply
 
@@ -39,7 +43,7 @@ def gear_factor(eta: float, load: float, speed: float) -> float:
         f, -.
 
     Example:
-        >>> from manipcad.drives.gear import gear_factor
+        >>> from manipcad.dynamics.gear import gear_factor
         >>> gear_factor(0.8, 10.0, 1.0), gear_factor(0.8, 10.0, -1.0)
         (1.25, 0.8)
     """
@@ -55,7 +59,7 @@ def gear_factors(eta: np.ndarray, load: np.ndarray, speed: np.ndarray,
 
     Example:
         >>> import numpy as np
-        >>> from manipcad.drives.gear import gear_factors
+        >>> from manipcad.dynamics.gear import gear_factors
         >>> out = np.empty(2)
         >>> gear_factors(np.array([0.5, 0.5]), np.array([1.0, 1.0]), np.array([0.0, -2.0]), out)
         >>> out.tolist()
@@ -85,7 +89,7 @@ def holding_band(eta: float, torque: float, f_pos: float, f_neg: float) -> tuple
         (lowest, highest), N·m (N).
 
     Example:
-        >>> from manipcad.drives.gear import holding_band
+        >>> from manipcad.dynamics.gear import holding_band
         >>> holding_band(1.0, 5.0, 1.0, 2.0)
         (4.0, 7.0)
         >>> holding_band(0.5, 5.0, 1.0, 2.0)

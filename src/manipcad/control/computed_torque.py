@@ -29,8 +29,8 @@ from manipcad.control.design import (
 from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_Q, S_QD, S_QDDREF, S_QDREF, S_QI, S_QREF
-from manipcad.drives.dc import clip, dry_friction, static_input
-from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO
+from manipcad.drives.dc import clip, required_joint_torque, rigid_current_for, static_input
+from manipcad.drives.params import P_RATIO
 from manipcad.dynamics.gear import gear_factor
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import Robot
@@ -46,10 +46,9 @@ FIELDS = {"kp_per_s2": CT_KP, "kd_per_s": CT_KD, "u_limit_V": CT_ULIM,
 def joint_torque_to_input(tau, qd, p):
     """Amplifier input that makes a rigid drive give the joint torque τ at speed q̇, V.
 
-    i* = τ/(k_m·i_r) (the joint torque of a rigid gear is i_r·k_m·i), L neglected.
+    i* = τ/(k_m·i_r) (:func:`manipcad.drives.dc.rigid_current_for`), L neglected.
     """
-    r = p[P_RATIO]
-    return static_input(tau / (p[P_KM] * r), r * qd, p)
+    return static_input(rigid_current_for(tau, p), p[P_RATIO] * qd, p)
 
 
 @nb.njit(cache=True)
@@ -58,18 +57,14 @@ def drive_torque(load, v, qd, eta, friction, p):
     (``load``, N·m or N) times the gear factor f (1/η motoring or holding, η braking;
     :func:`manipcad.dynamics.gear.gear_factor` at the speed q̇), plus the rotor's inertia
     J·i_r²·v, its viscous friction k_v·i_r²·q̇ and (``friction`` != 0) the dry friction
-    |i_r|·M_f·sgn q̇.
+    |i_r|·M_f·sgn q̇ (:func:`manipcad.drives.dc.required_joint_torque`).
 
     Args:
         load: P, N·m (N); v: the commanded acceleration, rad/s² (m/s²); qd: q̇, rad/s
         (m/s); eta: gear efficiency η in (0, 1], -; friction: 1/0; p: the packed drive.
     """
-    r = p[P_RATIO]
     f = gear_factor(eta, load, qd) if eta != 1.0 else 1.0
-    tau = f * load + p[P_J] * r * r * v + p[P_KV] * r * r * qd
-    if friction != 0.0:
-        tau += r * dry_friction(r * qd, p)
-    return tau
+    return required_joint_torque(f, load, v, qd, friction, p)
 
 
 @nb.njit(cache=True)

@@ -69,16 +69,9 @@ from manipcad.control.signals import (
     S_WM,
 )
 from manipcad.control.systems import nonlinear_system, static_gain
-from manipcad.drives.dc import clip, static_input
+from manipcad.drives.dc import clip, required_joint_torque, rigid_current_for, static_input
 from manipcad.drives.linear import linearize
-from manipcad.drives.params import (
-    P_J,
-    P_KM,
-    P_KV,
-    P_RATIO,
-    Transmission,
-    as_transmission,
-)
+from manipcad.drives.params import P_RATIO, Transmission, as_transmission
 from manipcad.dynamics.gear import gear_factor
 from manipcad.errors import InputError, ManipcadError, ModelError
 from manipcad.fileio import file_number
@@ -137,13 +130,12 @@ def lqr_feedforward(p, Di, H, f, sig, j):
     i* = (f·(H_ii·q̈* + τ_w) + J·i_r²·q̈* + k_v·i_r²·q̇*)/(k_m·i_r) and, L neglected,
     U_ff = D_i·i* + (R·i* + k_w·i_r·q̇*)/k_u; τ_w = c_i + Q_i (velocity torque and
     gravity) when compensated; f the gear factor (1/η motoring or holding, η braking;
-    1 without losses).
+    1 without losses); :func:`manipcad.drives.dc.required_joint_torque` and
+    :func:`~manipcad.drives.dc.rigid_current_for`, as the computed torque's.
     """
-    r = p[P_RATIO]
-    tau = (f * lqr_load(p, H, sig, j) + p[P_J] * r * r * sig[j, S_QDDREF]
-           + p[P_KV] * r * r * sig[j, S_QDREF])
-    i_star = tau / (p[P_KM] * r)
-    return Di * i_star + static_input(i_star, r * sig[j, S_QDREF], p)
+    i_star = rigid_current_for(required_joint_torque(
+        f, lqr_load(p, H, sig, j), sig[j, S_QDDREF], sig[j, S_QDREF], 0.0, p), p)
+    return Di * i_star + static_input(i_star, p[P_RATIO] * sig[j, S_QDREF], p)
 
 
 @nb.njit(cache=True)
@@ -180,10 +172,7 @@ def lqr_update(p, s, sig, j, Ts):
         r = p[P_RATIO]
         th = sig[j, S_QREF]
         if p[LQ_KS] > 0.0 and p[LQ_FF] != 0.0:
-            tau = Hff * sig[j, S_QDDREF]
-            if p[LQ_W] != 0.0:
-                tau += sig[j, S_CI] + sig[j, S_QI]
-            th += tau / p[LQ_KS]
+            th += lqr_load(p, Hff, sig, j) / p[LQ_KS]
         U += (gain(p, 3, H, h) * (r * th - sig[j, S_THM])
               + gain(p, 4, H, h) * (r * sig[j, S_QDREF] - sig[j, S_WM]))
     if p[LQ_FF] != 0.0:

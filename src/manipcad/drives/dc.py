@@ -354,6 +354,59 @@ def rigid_joint_torque(i: float, p: np.ndarray) -> float:
 
 
 @numba.njit(cache=True)
+def rigid_current_for(tau: float, p: np.ndarray) -> float:
+    """The armature current at which a rigid-gear drive gives the joint torque ``tau``
+    (N·m, N for a prismatic joint; ``p`` the packed drive): τ/(k_m·i_r), A, the inverse
+    of :func:`rigid_joint_torque`.
+
+    Example (there and back):
+        >>> from manipcad.drives import dc, params
+        >>> from manipcad.model.robot import Drive
+        >>> p = params.pack_drive(Drive(ratio=50, R=1, L=1e-3, k_m=.1, k_w=.1))
+        >>> dc.rigid_current_for(10.0, p), dc.rigid_joint_torque(2.0, p)
+        (2.0, 10.0)
+    """
+    return tau / (p[P_KM] * p[P_RATIO])
+
+
+@numba.njit(cache=True)
+def required_joint_torque(f: float, load: float, qdd: float, qd: float, friction: float,
+                          p: np.ndarray) -> float:
+    """The joint torque a rigid-gear drive must give (:func:`rigid_joint_torque`, i_r·k_m·i)
+    to move its joint at q̈, q̇ against the load its gear passes, N·m (N).
+
+    ``τ = f·P + J·i_r²·q̈ + k_v·i_r²·q̇`` (+ ``|i_r|·M_f·sgn q̇``, as
+    :func:`dry_friction` of ω_m = i_r·q̇, when ``friction`` != 0): the joint equation
+    of the module docstring solved for the drive's torque, the load P times the gear
+    factor f (:func:`manipcad.drives.gear.gear_factor`; 1 without losses).
+
+    Args:
+        f: gear factor on the load, -.
+        load: the load torque P the gear passes to the joint, N·m (N).
+        qdd: joint acceleration, rad/s² (m/s²).
+        qd: joint velocity, rad/s (m/s).
+        friction: 1 to include the motor's dry friction, 0 to leave it out.
+        p: packed drive parameters.
+
+    Returns:
+        τ, N·m (N).
+
+    Example:
+        >>> from manipcad.drives.dc import required_joint_torque
+        >>> from manipcad.drives.params import pack_drive
+        >>> from manipcad.model.robot import Drive
+        >>> p = pack_drive(Drive(J=1e-4, k_v=1e-3, ratio=10, R=1, L=1e-3, k_m=.1, k_w=.1))
+        >>> round(required_joint_torque(1.25, 2.0, 3.0, 0.5, 0.0, p), 12)  # 2.5 + 0.03 + 0.05
+        2.58
+    """
+    r = p[P_RATIO]
+    tau = f * load + p[P_J] * r * r * qdd + p[P_KV] * r * r * qd
+    if friction != 0.0:
+        tau += r * dry_friction(r * qd, p)
+    return tau
+
+
+@numba.njit(cache=True)
 def rigid_drive_rate(i: float, U: float, qd: float, p: np.ndarray) -> tuple[float, float]:
     """One rigid drive inside the coupled simulator: (di/dt, joint torque).
 

@@ -53,7 +53,8 @@ Derivation criteria (stated, so that they can be argued with):
   and unbalanced gravity are all < ε is ``inertial`` here (the turning drive of
   Fig. 2 under laws (2): h_1 = 2·m·r·ṙ·q̇_1);
 - *inductance*: T_m/T_e > :data:`INDUCTANCE_RATIO` → ``negligible``, with
-  T_e = L/R and T_m = (H*+J)·R/[(h*+k_v)·R + k_m·k_w] at the smallest H_ii along
+  T_e = L/R and T_m = (H*+J)·R/[(h*+k_v)·R + k_m·k_w] (the drive model's own,
+  :func:`manipcad.drives.linear.mechanical_time_constant`) at the smallest H_ii along
   the trajectory (H* = 0, the rotor alone, without a trajectory) and h* = 0 —
   the smallest T_m, so the check is the strictest one;
 - *parameter variation*: the quasi-stationary hypothesis of (1) holds when the
@@ -82,6 +83,7 @@ from pydantic import (
     field_validator,
 )
 
+from manipcad.drives.linear import electrical_time_constant, mechanical_time_constant
 from manipcad.dynamics import inverse_dynamics, mass_matrix
 from manipcad.errors import InputError, ManipcadError
 from manipcad.fileio import read_yaml, validation_error
@@ -269,14 +271,6 @@ def _driven(robot, joints: list[int]) -> list[int]:
     return [j for j in joints if j < len(drives) and drives[j] is not None]
 
 
-def _tm_factor(d) -> float:
-    """T_m/(H* + J) = R/((k_v)·R + k_m·k_w) with h* = 0, s/(kg·m²)."""
-    den = d.k_v * d.R + d.k_m * d.k_w
-    if not (math.isfinite(den) and den > 0 and math.isfinite(d.R)):
-        raise ManipcadError(f"drive {d.name!r}: R, k_m, k_w are needed for T_m")
-    return d.R / den
-
-
 def derive_gripper_speed(robot, trajectory) -> Derivation:
     """Peak gripper speed along the trajectory, m/s (from the Jacobian)."""
 
@@ -349,8 +343,8 @@ def derive_inductance(robot, trajectory, joints: list[int]) -> Derivation:
         if d.L == 0:
             ratio = math.inf
         else:
-            Hs = H_min.get(j, 0.0) / d.ratio**2
-            ratio = (Hs + d.J) * _tm_factor(d) / (d.L / d.R)
+            ratio = (mechanical_time_constant(d, H_min.get(j, 0.0))
+                     / electrical_time_constant(d))
         notes.append(f"{robot.joint_names[j]}: T_m/T_e = {ratio:.3g}")
         worst = min(worst, ratio)
     value = "negligible" if worst > INDUCTANCE_RATIO else "significant"
@@ -374,9 +368,8 @@ def derive_parameter_variation(robot, trajectory, joints: list[int]) -> Derivati
         d = robot.drives[j]
         Hj = H[:, j, j]
         Hdot = np.gradient(Hj, t)
-        Hm = Hj / d.ratio**2 + d.J                       # H* + J, kg·m² (motor side)
-        Tm = Hm * _tm_factor(d)                          # s
-        nu = float(np.max(np.abs(Hdot) / d.ratio**2 * Tm / Hm))
+        Tm = np.array([mechanical_time_constant(d, h) for h in Hj])      # s, h* = 0
+        nu = float(np.max(np.abs(Hdot) * Tm / (Hj + d.J * d.ratio**2)))
         notes.append(f"{robot.joint_names[j]}: ν = {nu:.3g} (max |Ḣ_ii| = "
                      f"{np.abs(Hdot).max():.3g}, T_m in [{Tm.min():.3g}, {Tm.max():.3g}] s)")
         worst = max(worst, nu)

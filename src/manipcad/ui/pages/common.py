@@ -80,6 +80,28 @@ def robot():
     return logic.load_robot_ref(ws(), state()["robot"])[0]
 
 
+def trajectory(form: str, arm=None):
+    """The tab's picked trajectory loaded for ``arm`` (default: the tab's robot) through
+    the workspace API; one clear error naming ``form`` when none is picked.
+
+    Args:
+        form: the form's name in an error (``"sweep form"``).
+        arm: the robot the trajectory is for; None: :func:`robot`.
+
+    Returns:
+        ``(arm, trajectory)``.
+
+    Raises:
+        InputError: no trajectory picked (``form: trajectory: pick or make ...``).
+    """
+    name = state()["trajectory"]
+    if not name:
+        raise InputError(form, "trajectory", "pick or make a trajectory first "
+                         "(Trajectories page)")
+    arm = robot() if arm is None else arm
+    return arm, logic.load_trajectory_ref(ws(), name, arm)
+
+
 def error_text(exc: Exception) -> str:
     """The one line shown for a failed action: the API's message (file: field: reason),
     files named without install or workspace paths (:func:`~manipcad.ui.logic.short_paths`)."""

@@ -8,7 +8,7 @@ from nicegui import run, ui
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import logic
-from manipcad.ui.pages.common import numbers, robot, ws
+from manipcad.ui.pages.common import numbers, trajectory, ws
 
 
 def select_form(S, show, clear) -> None:
@@ -39,16 +39,13 @@ def select_form(S, show, clear) -> None:
         clear()
         out.clear()
         try:
-            if not S["trajectory"]:
-                raise InputError("select form", "trajectory", "pick or make a trajectory "
-                                 "first (Trajectories page)")
+            arm, traj = trajectory("select form")
             lohi = numbers(pay.value, "payload range", "select form")
             if len(lohi) != 2:
                 raise InputError("select form", "payload range", f"expected LO, HI in kg, "
                                  f"got {pay.value!r}")
             margin = numbers(mar.value, "margin", "select form")[0]
-            arm, w = robot(), ws()
-            traj = logic.load_trajectory_ref(w, S["trajectory"], arm)
+            w = ws()
             with out:
                 ui.spinner()
             sel = await run.io_bound(

@@ -11,7 +11,15 @@ from nicegui import ui
 from manipcad.errors import InputError, ManipcadError
 from manipcad.sizing import required_drive
 from manipcad.ui import logic
-from manipcad.ui.pages.common import connected, error_label, frame, numbers, robot, ws
+from manipcad.ui.pages.common import (
+    connected,
+    error_label,
+    frame,
+    numbers,
+    robot,
+    trajectory,
+    ws,
+)
 from manipcad.ui.pages.drive_select import select_form
 
 
@@ -141,11 +149,7 @@ async def page() -> None:
             clear()
             out.clear()
             try:
-                if not S["trajectory"]:
-                    raise InputError("drives", "trajectory", "pick or make a trajectory "
-                                     "first (Trajectories page)")
-                arm = robot()
-                traj = logic.load_trajectory_ref(ws(), S["trajectory"], arm)
+                arm, traj = trajectory("drives")
                 req = required_drive(arm, traj)
                 png = logic.torque_speed_png(req)
                 figs = logic.required_series_figures(req)
@@ -188,11 +192,7 @@ async def page() -> None:
             clear()
             sweep_out.clear()
             try:
-                if not S["trajectory"]:
-                    raise InputError("sweep form", "trajectory", "pick or make a "
-                                     "trajectory first (Trajectories page)")
-                arm = robot()
-                traj = logic.load_trajectory_ref(ws(), S["trajectory"], arm)
+                arm, traj = trajectory("sweep form")
                 jv = str(sj.value).strip()
                 joint = int(jv) - 1 if jv.isdigit() else jv
                 if isinstance(joint, int) and not 0 <= joint < arm.n:

@@ -378,7 +378,7 @@ def required_joint_torque(f: float, load: float, qdd: float, qd: float, friction
     ``τ = f·P + J·i_r²·q̈ + k_v·i_r²·q̇`` (+ ``|i_r|·M_f·sgn q̇``, as
     :func:`dry_friction` of ω_m = i_r·q̇, when ``friction`` != 0): the joint equation
     of the module docstring solved for the drive's torque, the load P times the gear
-    factor f (:func:`manipcad.drives.gear.gear_factor`; 1 without losses).
+    factor f (:func:`manipcad.dynamics.gear.gear_factor`; 1 without losses).
 
     Args:
         f: gear factor on the load, -.

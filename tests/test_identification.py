@@ -46,6 +46,18 @@ MASSES = (0.7, 3.0)
 # ------------------------------------------------------------------ robots and references
 
 
+def through_lossy_gears(loaded: Robot, q, qd, qdd) -> np.ndarray:
+    """The drives' torques at the joints (N·m or N) of ``loaded`` along (q, q̇, q̈): the rigid
+    load P through each gear of efficiency η (f = 1/η when P·q̇ >= 0, motoring; η when the
+    load drives the motor back), plus the drive terms before the gear (rotor inertia,
+    viscous and dry friction)."""
+    P = manipcad.inverse_dynamics(loaded, q, qd, qdd, drives=False)
+    drive = manipcad.inverse_dynamics(loaded, q, qd, qdd) - P
+    eta = np.array([1.0 if d is None or not np.isfinite(d.efficiency) else d.efficiency
+                    for d in loaded.drives])
+    return drive + np.where(P * qd >= 0, 1 / eta, eta) * P
+
+
 def ur5_path() -> Path:
     try:  # example-robot-data 6 ships data only, under the cmeel prefix
         d = Path(distribution("example-robot-data").locate_file(
@@ -238,8 +250,8 @@ def test_regressor_is_the_payload_difference():
             diff = (manipcad.inverse_dynamics(robot.with_payload(1.0, com), q, qd, qdd)
                     - manipcad.inverse_dynamics(robot, q, qd, qdd))
             assert np.abs(g - diff).max() <= 1e-10 * max(1.0, np.abs(diff).max())
-            # affine in the mass: 2.7 kg adds exactly 2.7 g
-            tau = manipcad.inverse_dynamics(robot.with_payload(2.7, com), q, qd, qdd)
+            # affine in the mass: 2.7 kg adds exactly 2.7 g (of the load the gear passes)
+            tau = through_lossy_gears(robot.with_payload(2.7, com), q, qd, qdd)
             assert identify_payload(robot, q, qd, qdd, tau, com=com).mass == pytest.approx(
                 2.7, rel=1e-10)
 
@@ -414,3 +426,60 @@ def test_cli_bad_arguments(tmp_path, puma):
         assert res.exit_code == 2, (args, res.output)
         assert message in res.output, res.output
         assert "Traceback" not in res.output
+
+
+# ------------------------------------------------------------------ gear losses
+
+
+def test_lossy_gears_at_stops_and_in_motion_closed_form():
+    """The Fig. 2 arm's gears lose power (η 0.75 / 0.81 / 0.95). The drive's torque at the
+    joint, written out here: moving, τ = f·P + J·i_r²·q̈ + k_v·i_r²·q̇ + F·sign(q̇) with the
+    rigid load P and f = 1/η when P·q̇ >= 0 (motoring), η otherwise (braking); at rest after
+    an approach from direction d, the torque it came to rest with: τ = f_d·P + d·F (the
+    lift: P/η + F after going up, η·P − F after coming down). Both methods recover the mass
+    exactly, and so does every drive alone; a model without the losses is far off at stops
+    (the midpoint of the lift's two sides is (1/η + η)/2·P, not P)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        arm = manipcad.load_robot("cylindrical")
+    from manipcad.model.robot import COL_FCP
+    from manipcad.trajectories import waypoints
+
+    eta = np.array([d.efficiency for d in arm.drives])
+    assert np.all(eta < 1)
+    lift = [0.30, 0.45, 0.35, 0.50, 0.32, 0.48, 0.38, 0.52, 0.33, 0.47, 0.40]
+    rng = np.random.default_rng(3)
+    pts = np.column_stack([rng.uniform(-1, 1, len(lift)), lift,
+                           rng.uniform(0.1, 0.4, len(lift))])
+    traj = waypoints(pts, move_time=0.5, dwell=0.4)
+    t = np.arange(0.0, traj.duration, 2e-3)
+    q, qd, qdd = traj.sample(t)
+    com = (0.0, 0.0, 0.05)
+    P = manipcad.inverse_dynamics(arm.with_payload(1.0, com), q, qd, qdd, drives=False)
+    F = np.asarray(arm.table)[:, COL_FCP]  # symmetric dry friction here, joint side, N·m or N
+    tau = through_lossy_gears(arm.with_payload(1.0, com), q, qd, qdd)
+    # at rest: the torque the drive came to rest with, after its last motion's direction
+    moving = np.abs(qd) > 1e-9
+    last = np.zeros_like(qd)
+    for k in range(1, len(t)):
+        last[k] = np.where(moving[k], np.sign(qd[k]), last[k - 1])
+    f_d = np.where(P * last >= 0, 1 / eta, eta)
+    tau = np.where(moving, tau, f_d * P + last * F)
+
+    for method in ("stops", "motion"):
+        kw = dict(method=method, com=com, t=t)
+        est = identify_payload(arm, q, qd, None if method == "stops" else qdd, tau, **kw)
+        assert est.mass == pytest.approx(1.0, rel=1e-9), method
+        used = np.isfinite(est.per_joint_mass)
+        np.testing.assert_allclose(est.per_joint_mass[used], 1.0, rtol=1e-9)
+        if method == "stops":
+            assert est.joint_names == ("lift",) and len(est.stops) == len(lift) - 1
+            assert est.held_friction[0] == pytest.approx({1: F[1], -1: -F[1]}, rel=1e-9)
+            model = identify_payload(arm, q, qd, None, tau, friction="model", **kw)
+            assert model.mass == pytest.approx(1.0, rel=1e-9)
+    # the same data read with lossless gears: the lift's two sides do not average to P
+    lossless = arm.replace(drives=tuple(d.replace(efficiency=1.0) for d in arm.drives))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ManipcadWarning)
+        wrong = identify_payload(lossless, q, qd, None, tau, method="stops", com=com, t=t)
+    assert wrong.mass > 1.2

@@ -19,6 +19,13 @@ the body origin):
   carries only that 1 kg. It equals ``ID(robot.with_payload(1, com)) - tau_0``
   exactly, without the cancellation of that difference.
 
+Through a gear of efficiency η < 1 (``drives=True``) the measured torque is the drive
+terms plus f·P, the load P the gear passes times the factor f of
+:func:`manipcad.dynamics.gear.gear_factor` (1/η motoring, η braking): each equation is
+taken back through it, y = (tau − drive terms)/f − P_0 — in motion at each sample's
+power flow, at a stop at its approach's (the held friction, the motor's, divided by f
+too; docs/identification.md, "Through a gear with losses").
+
 Methods (``method=``; docs/identification.md has the derivations):
 
 - ``"motion"``: every sample and drive gives y = tau - tau_0 = m_r·g + e.
@@ -59,9 +66,18 @@ from pathlib import Path
 import numpy as np
 
 from manipcad.dynamics.api import inverse_dynamics
+from manipcad.dynamics.gear import gear_factors
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning, require_choice
 from manipcad.fileio import read_text
-from manipcad.model.robot import COL_FCN, COL_FCP, PRISMATIC, REVOLUTE, Robot
+from manipcad.model.robot import (
+    COL_BV,
+    COL_FCN,
+    COL_FCP,
+    COL_JR,
+    PRISMATIC,
+    REVOLUTE,
+    Robot,
+)
 
 SOURCE = "identify_payload"
 #: a drive whose regressor RMS is below this (N·m/kg or N/kg) gives no excitation
@@ -569,7 +585,7 @@ def identify_payload(robot: Robot, q, qd=None, qdd=None, tau=None, *, t=None, cu
 
     if method == "stops":
         eq = _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes,
-                             R_l @ c_link + p_l, body)
+                             R_l @ c_link + p_l, body, drives)
         if eq.nuisance is None and friction in ("estimate", "symmetric"):
             friction = "none"  # no times: the approach directions are unknown
     else:
@@ -679,10 +695,18 @@ class _Equations:
     drive j at stops (or None): y_j = m·g_j + A_j·θ_j + e_j. They are eliminated by
     projecting y_j and g_j on the orthogonal complement of A_j's columns, which
     costs ``lost[j]`` = rank(A_j) equations.
+
+    At stops with a lossy gear, ``gear`` = (held, P0, judge, eta): the held torques
+    (rows × n, N·m or N), the unloaded robot's load P0, the torque at the gear's input
+    less the model's friction of each approach direction (rows × n × 3, for d = −1, 0,
+    +1: the sign of the power flow) and η (n,); then each row is divided by its gear
+    factor f (:func:`_stop_factors`), y = held/f − P0, and A_j's rows by f too (the held
+    friction is the motor's, before the gear). :meth:`redirect` redoes both when the
+    approach directions change.
     """
 
     def __init__(self, Q, QD, QDD, Y, mask, lost, nuisance=None, stops=(), ordered=False,
-                 directions=None, avg=None):
+                 directions=None, avg=None, gear=None, factor=None):
         self.Q, self.QD, self.QDD, self.Y0 = Q, QD, QDD, Y
         # (rows × samples) the mean each equation takes of the samples' dynamics (a
         # dithered stop averages its window), or None: one sample per equation
@@ -693,7 +717,24 @@ class _Equations:
         self.nuisance = nuisance
         self.directions = directions  # (E, n) approach direction per stop, or None
         self.stops = stops
+        self.gear = gear
+        self.factor = factor  # (E, n) gear factor each row was divided by, or None
         self.Y = self._project(Y)
+
+    def redirect(self, dirs: np.ndarray, nuisance_of) -> None:
+        """New approach directions ``dirs`` (E, n): the gear factors, y and the
+        held-friction unknowns (``nuisance_of(dirs, g, factor)`` per drive) again."""
+        Y, factor = self.Y0, self.factor
+        if self.gear is not None:
+            held, P0, judge, eta = self.gear
+            factor = _stop_factors(judge, dirs, eta)
+            Y = held / factor - P0
+        nuisance = [nuisance_of(dirs[:, j], self.G_raw[:, j], None if factor is None else
+                                factor[:, j]) if self.nuisance[j] is not None else None
+                    for j in range(dirs.shape[1])]
+        lost = np.array([np.linalg.matrix_rank(A) if A is not None else 0 for A in nuisance])
+        self.__init__(self.Q, self.QD, self.QDD, Y, self.mask, lost, nuisance, self.stops,
+                      directions=dirs, avg=self.avg, gear=self.gear, factor=factor)
 
     def _project(self, X: np.ndarray) -> np.ndarray:
         if self.nuisance is None:
@@ -713,31 +754,38 @@ class _Equations:
         return self._project(self.G_raw)
 
     def held(self, j: int, m: float) -> dict:
-        """The fitted held friction of drive j per approach direction, N·m or N (from the
-        nuisance fit of y - m·g with the last :meth:`regressor`)."""
+        """The fitted held friction of drive j per approach direction, N·m or N, referred
+        to the joint on the motor's side of the gear (from the nuisance fit of y - m·g with
+        the last :meth:`regressor`)."""
         if self.nuisance is None or self.nuisance[j] is None:
             return {}
         A = self.nuisance[j]
         fitted = A @ (np.linalg.pinv(A) @ (self.Y0[:, j] - m * self.G_raw[:, j]))
+        if self.factor is not None:
+            fitted = fitted * self.factor[:, j]
         return {int(d): float(np.mean(fitted[self.directions[:, j] == d]))
                 for d in np.unique(self.directions[:, j])}
 
 
-def _friction_unknowns(d: np.ndarray, g: np.ndarray, friction: str) -> np.ndarray | None:
+def _friction_unknowns(d: np.ndarray, g: np.ndarray, friction: str,
+                       factor: np.ndarray | None = None) -> np.ndarray | None:
     """A_j for one drive at stops: one held-friction level per approach direction
     ("estimate"; if that leaves g no excitation — a regressor constant within each
     direction, such as a vertical axis's weight — one level ±f for both), or one
     symmetric level ±f ("symmetric"); plus a level of its own for the stops of
-    direction 0 (a joint that had not moved)."""
+    direction 0 (a joint that had not moved). ``factor``: each row's gear factor, which
+    the row was divided by; the held friction is the motor's, on the input side of the
+    gear, so its columns are divided by it too."""
+    scale = 1.0 if factor is None else 1.0 / factor[:, None]
     if friction == "estimate":
-        A = np.stack([(d == c).astype(float) for c in np.unique(d)], axis=1)
+        A = np.stack([(d == c).astype(float) for c in np.unique(d)], axis=1) * scale
         left = g - A @ (np.linalg.pinv(A) @ g)
         if np.linalg.norm(left) > 1e-3 * np.linalg.norm(g):
             return A
     cols = [d.astype(float)] if np.any(d != 0) else []
     if np.any(d == 0):
         cols.append((d == 0).astype(float))
-    return np.stack(cols, axis=1) if cols else None
+    return np.stack(cols, axis=1) * scale if cols else None
 
 
 def _reassign_directions(eq: _Equations, robot: Robot, c_body, body: int, sel) -> int:
@@ -745,7 +793,8 @@ def _reassign_directions(eq: _Equations, robot: Robot, c_body, body: int, sel) -
     drive's two levels, the edges of its friction band. Starting from the approach
     directions found in the motion, alternately fit m_r and the levels, and give each
     stop the level nearer to its y - m_r·g, until no assignment changes (at most
-    ``REASSIGN_ROUNDS``). Changes ``eq`` in place; returns the number of changes."""
+    ``REASSIGN_ROUNDS``). A lossy gear's factor follows the direction (the approach
+    decides the power flow). Changes ``eq`` in place; returns the number of changes."""
     start = eq.directions.copy()
     for _ in range(REASSIGN_ROUNDS):
         G = eq.regressor(robot, c_body, body)
@@ -756,23 +805,69 @@ def _reassign_directions(eq: _Equations, robot: Robot, c_body, body: int, sel) -
             if not (np.any(d > 0) and np.any(d < 0)) or eq.nuisance[j].shape[1] != \
                     np.unique(d).size:
                 continue  # one direction only, or a symmetric level: nothing to choose
-            r = eq.Y0[:, j] - m * eq.G_raw[:, j]
-            hi, lo = float(np.mean(r[d > 0])), float(np.mean(r[d < 0]))
+            # the held friction each stop would have after either approach: through a
+            # lossy gear the approach also decides the factor on the load
+            if eq.gear is None:
+                up = down = eq.Y0[:, j] - m * eq.G_raw[:, j]
+            else:
+                held, P0, judge, eta = eq.gear
+                load = P0[:, j] + m * eq.G_raw[:, j]
+                up, down = (held[:, j] - _stop_factors(judge, np.full_like(dirs, c), eta)[:, j]
+                            * load for c in (1, -1))
+            hi, lo = float(np.mean(up[d > 0])), float(np.mean(down[d < 0]))
             if hi <= lo:
                 continue  # levels not ordered like a friction band: keep the motion's
             nz = d != 0
-            d[nz] = np.where(np.abs(r[nz] - hi) < np.abs(r[nz] - lo), 1, -1)
+            d[nz] = np.where(np.abs(up[nz] - hi) < np.abs(down[nz] - lo), 1, -1)
         if np.array_equal(dirs, eq.directions):
             break
-        nuisance = [_friction_unknowns(dirs[:, j], eq.G_raw[:, j], "estimate")
-                    if eq.nuisance[j] is not None else None for j in range(dirs.shape[1])]
-        lost = np.array([np.linalg.matrix_rank(A) if A is not None else 0 for A in nuisance])
-        eq.__init__(eq.Q, eq.QD, eq.QDD, eq.Y0, eq.mask, lost, nuisance, eq.stops,
-                    directions=dirs, avg=eq.avg)
+        eq.redirect(dirs, lambda d, g, f: _friction_unknowns(d, g, "estimate", f))
     return int(np.sum(eq.directions != start))
 
 
-def _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes, c_body, body):
+def _efficiencies(robot: Robot) -> np.ndarray:
+    """Each drive's gear efficiency η, (n,): 1 without a drive or where it is unknown
+    (nan; as the sizing takes it)."""
+    eta = np.array([1.0 if d is None else float(d.efficiency) for d in robot.drives])
+    return np.where(np.isfinite(eta), eta, 1.0)
+
+
+def _stop_factors(judge: np.ndarray, dirs: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """The gear factor f (:func:`manipcad.dynamics.gear.gear_factor`) of each stop and
+    drive, (E, n), from its approach direction d: the torque a drive holds at rest is the
+    one it came to rest with, sliding in direction d, so the power flowed as it did then
+    — motoring (f = 1/η) when the load at the gear's input pushed along d, braking
+    (f = η) when it pushed against it. ``judge`` (E, n, 3): that load (the held torque less
+    the model's friction of direction d, N·m or N) for d = −1, 0, +1. A stop of direction 0
+    (no approach seen, or dithered: factors applied per sample) has f = 1."""
+    E, n = dirs.shape
+    load = np.take_along_axis(judge, (dirs + 1)[:, :, None], axis=2)[:, :, 0]
+    out = np.empty(E * n)
+    gear_factors(np.ascontiguousarray(np.broadcast_to(eta, (E, n))).reshape(-1),
+                 np.ascontiguousarray(load).reshape(-1),
+                 np.ascontiguousarray(dirs, dtype=float).reshape(-1), out)
+    return np.where(dirs == 0, 1.0, out.reshape(E, n))
+
+
+def _through_gear(robot: Robot, TAU, QD, QDD, eta, dry: bool) -> np.ndarray:
+    """The load the gear passes to the joint, (N, n), N·m or N, of measured drive torques
+    at the joint: T = τ − J·i_r²·q̈ − k_v·i_r²·q̇ (− the model's dry friction with ``dry``)
+    reaches the gear's input, and the gear passes T/f with f of
+    :func:`manipcad.dynamics.gear.gear_factor` at the torque less the model's dry friction
+    and the speed q̇ (the simulated plant's law). Without ``dry`` the dry friction stays in
+    the result, divided by f like the rest (the stops' held-friction levels take it)."""
+    tab = np.asarray(robot.table)
+    T = TAU - tab[:, COL_JR] * QDD - tab[:, COL_BV] * QD
+    F = np.where(QD > 0, tab[:, COL_FCP], np.where(QD < 0, -tab[:, COL_FCN], 0.0))
+    f = np.empty(T.size)
+    gear_factors(np.ascontiguousarray(np.broadcast_to(eta, T.shape)).reshape(-1),
+                 np.ascontiguousarray(T - F).reshape(-1),
+                 np.ascontiguousarray(QD, dtype=float).reshape(-1), f)
+    return ((T - F) if dry else T) / f.reshape(T.shape)
+
+
+def _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes, c_body, body,
+                    drives=True):
     n = robot.n
     if T is None:  # each sample is one stop of unknown approach
         if QD is not None and QD.any():
@@ -801,22 +896,30 @@ def _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes,
         notes.append(f"{len(stops)} stops found" + (f", {dithered} of them dithered (the "
                                                     "sliding friction averaged over whole "
                                                     "cycles)" if dithered else ""))
+    eta = _efficiencies(robot) if drives else np.ones(n)
+    lossy = bool(np.any(eta < 1.0))
     Z = np.zeros_like(Qs)
     QD_s = QDD_s = Z
     avg = None
     if any(s.dither for s in stops):
         # a dithered stop's equation is the mean over its window of the whole dynamics
-        # (q̈ from q̇): its inertial and velocity torques do not vanish sample by sample
+        # (q̈ from q̇): its inertial and velocity torques do not vanish sample by sample;
+        # the drive's torque is taken through the gear sample by sample (its factor
+        # switches with the sliding direction), the rotor's inertia and viscous friction
+        # before it
         V = np.gradient(Q, T, axis=0) if QD is None else QD
         rows, cols, parts = [], [], []
         at = 0
         for k, st in enumerate(stops):
             if st.dither:
                 a, b = st.used[0], st.used[1] + 1
-                parts.append((Q[a:b], V[a:b], np.gradient(V[a:b], T[a:b], axis=0)))
+                A_ = np.gradient(V[a:b], T[a:b], axis=0)
+                held = (_through_gear(robot, TAU[a:b], V[a:b], A_, eta, dry=False) if drives
+                        else TAU[a:b])
+                parts.append((Q[a:b], V[a:b], A_, held))
                 m = b - a
             else:
-                parts.append((Qs[k:k + 1], Z[k:k + 1], Z[k:k + 1]))
+                parts.append((Qs[k:k + 1], Z[k:k + 1], Z[k:k + 1], Ts[k:k + 1]))
                 m = 1
             rows += [k] * m
             cols += list(range(at, at + m))
@@ -824,20 +927,32 @@ def _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes,
         avg = np.zeros((len(stops), at))
         avg[rows, cols] = 1.0
         avg /= avg.sum(axis=1, keepdims=True)
-        Qs, QD_s, QDD_s = (np.concatenate([p_[i] for p_ in parts]) for i in range(3))
-    Y = Ts - _averaged(avg, inverse_dynamics(robot, Qs, QD_s, QDD_s, drives=False))
+        Qs, QD_s, QDD_s, Ts = (np.concatenate([p_[i] for p_ in parts]) for i in range(4))
+        Ts = avg @ Ts
+    P0 = _averaged(avg, inverse_dynamics(robot, Qs, QD_s, QDD_s, drives=False))
+    gear = factor = None
+    tab = np.asarray(robot.table)
+    edge = np.where(dirs > 0, tab[:, COL_FCP], np.where(dirs < 0, -tab[:, COL_FCN], 0.0))
+    if lossy and T is not None:
+        # the torque at the gear's input after an approach from each side, less the
+        # model's friction there: its sign and d's give the power flow (motoring/braking)
+        judge = np.stack([Ts + tab[:, COL_FCN], Ts, Ts - tab[:, COL_FCP]], axis=2)
+        gear = (Ts, P0, judge, eta)
+        factor = _stop_factors(judge, dirs, eta)
+    Y = Ts / (1.0 if factor is None else factor) - P0
     lost = np.zeros(n, dtype=int)
     nuisance = None
     if friction == "model":
-        tab = np.asarray(robot.table)
-        Y = Y - np.where(dirs > 0, tab[:, COL_FCP], np.where(dirs < 0, -tab[:, COL_FCN], 0.0))
+        Y = Y - edge / (1.0 if factor is None else factor)
     elif friction in ("estimate", "symmetric"):
         G = _averaged(avg, inverse_dynamics(_unit_payload_robot(robot, c_body, body), Qs, QD_s,
                                             QDD_s, drives=False))
-        nuisance = [_friction_unknowns(dirs[:, j], G[:, j], friction) for j in range(n)]
+        nuisance = [_friction_unknowns(dirs[:, j], G[:, j], friction,
+                                       None if factor is None else factor[:, j])
+                    for j in range(n)]
         lost = np.array([np.linalg.matrix_rank(A) if A is not None else 0 for A in nuisance])
     return _Equations(Qs, QD_s, QDD_s, Y, np.ones(Y.shape, dtype=bool), lost, nuisance, stops,
-                      directions=dirs, avg=avg)
+                      directions=dirs, avg=avg, gear=gear, factor=factor)
 
 
 def _stops_needed(robot: Robot, eq: _Equations, drives, spent: bool = False) -> str:
@@ -883,7 +998,11 @@ def _averaged(avg, X: np.ndarray) -> np.ndarray:
 
 
 def _motion_equations(robot, Q, QD, QDD, TAU, drives, edge, ordered):
-    Y = TAU - inverse_dynamics(robot, Q, QD, QDD, drives=drives)
+    # with drives: the load the gear passes, (τ − the drive terms)/f, less the unloaded
+    # robot's rigid-body load
+    P0 = inverse_dynamics(robot, Q, QD, QDD, drives=False)
+    Y = (_through_gear(robot, TAU, QD, QDD, _efficiencies(robot), dry=True) if drives
+         else TAU) - P0
     mask = np.ones(Q.shape, dtype=bool)
     if drives:
         tab = np.asarray(robot.table)

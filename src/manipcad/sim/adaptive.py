@@ -115,69 +115,60 @@ STATS = 5
 
 
 @nb.njit(cache=True)
-def _currents(plant, x, xs, U, t, n, ph):
-    """The rigid drives' currents of xs, t s after x (U held), exactly.
+def _currents(plant, x, xs, U, t, n, ph, a0, a1, rtol, atol):
+    """The rigid drives' currents t s after x (U held), exactly
+    (:func:`armature_current_phis`, :func:`armature_current_poly`), for a motor speed
+    polynomial in time over [0, t]; one loop over the drives for both uses:
 
-    The exact solution (:func:`armature_current_poly`) for the motor speed linear from
-    x's to xs's over [0, t]. ``ph``: (n, 5) φ_0..φ_4 of each drive at -R·t/L (see
-    :func:`_phi_table`), or empty (then computed here).
-    """
-    if not plant.use_drives or t <= 0.0:
-        return
-    m = 2 * n
-    for j in range(n):
-        p = plant.dtable[j]
-        if int(p[P_KIND]) == KIND_RIGID:
-            o = m + plant.off[j]
-            r = p[P_RATIO]
-            w0 = r * x[n + j]
-            w1 = (r * xs[n + j] - w0) / t
-            if ph.shape[0]:
-                xs[o] = armature_current_phis(x[o], U[j], w0, w1, 0.0, 0.0, t, p, ph[j, 0],
-                                              ph[j, 1], ph[j, 2], ph[j, 3], ph[j, 4])
-            else:
-                xs[o] = armature_current_poly(x[o], U[j], w0, w1, 0.0, 0.0, t, p)
+    * ``a0`` empty: the speed linear from x's to xs's; the currents written into xs.
+      Returns (0.0, 0).
+    * ``a0``, ``a1`` the joint accelerations at both ends (rad/s², m/s²): the error of the
+      currents xs holds (the linear speed's) over a whole step of t s. The cubic
+      (Hermite) speed of both ends' speeds and accelerations is the better one, and the
+      two currents' distance δi (A) estimates the linear speed's error. A current error
+      decays with L/R and moves the joint by its torque: over the step at most
+      δq̇ = i_r·k_m·δi·t / (J·i_r²) (rad/s, m/s; the rotor alone accelerated), scaled
+      by atol + rtol·|q̇| (with no rotor inertia δi itself, by atol + rtol·|i|). Returns
+      (Σ of the squared scaled errors, count of currents).
 
-
-@nb.njit(cache=True)
-def _current_error(plant, x, xs, U, a0, a1, t, n, rtol, atol, ph):
-    """The error of the currents :func:`_currents` gave xs over a whole step of t s:
-    (Σ of squared scaled errors, count of currents).
-
-    Given the joint accelerations at both ends (``a0``, ``a1``, rad/s²) the cubic
-    (Hermite) speed of the four is the better one, and the two currents' distance δi
-    (A) estimates the linear speed's error. A current error decays with L/R and
-    moves the joint by its torque: over the step at most
-    δq̇ = i_r·k_m·δi·t / (J·i_r²) (rad/s, m/s; the rotor alone accelerated), scaled by
-    atol + rtol·|q̇| (with no rotor inertia δi itself, by atol + rtol·|i|). ``ph``: the
-    φ of each drive at -R·t/L.
+    ``ph``: (n, 5) φ_0..φ_4 of each drive at -R·t/L (see :func:`_phi_table`), or empty
+    (then computed here; linear speed only).
     """
     err = 0.0
     cnt = 0
     if not plant.use_drives or t <= 0.0:
         return err, cnt
     m = 2 * n
+    cubic = a0.shape[0] > 0
     for j in range(n):
         p = plant.dtable[j]
-        if int(p[P_KIND]) == KIND_RIGID:
-            o = m + plant.off[j]
-            r = p[P_RATIO]
-            w0 = r * x[n + j]
-            dw = r * xs[n + j] - w0
-            d0 = r * a0[j]
-            d1 = r * a1[j]
-            w2 = (3.0 * dw - (2.0 * d0 + d1) * t) / (t * t)
-            w3 = ((d0 + d1) * t - 2.0 * dw) / (t * t * t)
-            ic = armature_current_phis(x[o], U[j], w0, d0, w2, w3, t, p, ph[j, 0],
-                                       ph[j, 1], ph[j, 2], ph[j, 3], ph[j, 4])
-            i = xs[o]
-            Jr = p[P_J] * abs(r)
-            if Jr > 0.0:
-                dqd = p[P_KM] * abs(ic - i) * t / Jr
-                err += (dqd / (atol + rtol * max(abs(x[n + j]), abs(xs[n + j])))) ** 2
-            else:   # no rotor inertia: the current's own error, A
-                err += ((ic - i) / (atol + rtol * max(abs(x[o]), abs(i)))) ** 2
-            cnt += 1
+        if int(p[P_KIND]) != KIND_RIGID:
+            continue
+        o = m + plant.off[j]
+        r = p[P_RATIO]
+        w0 = r * x[n + j]
+        dw = r * xs[n + j] - w0
+        if not cubic:
+            if ph.shape[0]:
+                xs[o] = armature_current_phis(x[o], U[j], w0, dw / t, 0.0, 0.0, t, p, ph[j, 0],
+                                              ph[j, 1], ph[j, 2], ph[j, 3], ph[j, 4])
+            else:
+                xs[o] = armature_current_poly(x[o], U[j], w0, dw / t, 0.0, 0.0, t, p)
+            continue
+        d0 = r * a0[j]
+        d1 = r * a1[j]
+        w2 = (3.0 * dw - (2.0 * d0 + d1) * t) / (t * t)
+        w3 = ((d0 + d1) * t - 2.0 * dw) / (t * t * t)
+        ic = armature_current_phis(x[o], U[j], w0, d0, w2, w3, t, p, ph[j, 0],
+                                   ph[j, 1], ph[j, 2], ph[j, 3], ph[j, 4])
+        i = xs[o]
+        Jr = p[P_J] * abs(r)
+        if Jr > 0.0:
+            dqd = p[P_KM] * abs(ic - i) * t / Jr
+            err += (dqd / (atol + rtol * max(abs(x[n + j]), abs(xs[n + j])))) ** 2
+        else:   # no rotor inertia: the current's own error, A
+            err += ((ic - i) / (atol + rtol * max(abs(x[o]), abs(i)))) ** 2
+        cnt += 1
     return err, cnt
 
 
@@ -217,7 +208,8 @@ def _stages(plant, x, xs, U, dist, n, scr, Ks, tab, h, exact, ph, st0):
                     acc += tab.a[st, l] * Ks[l, j]
                 xs[j] = x[j] + h * acc
             if exact:
-                _currents(plant, x, xs, U, tab.c[st] * h, n, ph[st])
+                _currents(plant, x, xs, U, tab.c[st] * h, n, ph[st], Ks[0, n:n], Ks[0, n:n],
+                          0.0, 0.0)
         _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, Ks, st, fext, awork)
 
 
@@ -343,8 +335,8 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
             cnt = me
             if exact:
                 # and of the currents: the linear speed (propagated) against the cubic
-                ce, cc = _current_error(plant, x, xs, U, Ks[0, n:m], Ks[S - 1, n:m], hs, n,
-                                        rtol, atol, ph[S - 1])
+                ce, cc = _currents(plant, x, xs, U, hs, n, ph[S - 1], Ks[0, n:m],
+                                   Ks[S - 1, n:m], rtol, atol)
                 err += ce
                 cnt += cc
             err = math.sqrt(err / cnt)
@@ -414,7 +406,8 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
                 if exact:
                     for j in range(m, nx):
                         xr[j] = x[j]
-                    _currents(plant, x, xr, U, th * hs, n, noph)
+                    _currents(plant, x, xr, U, th * hs, n, noph, Ks[0, n:n], Ks[0, n:n],
+                              0.0, 0.0)
                 _torques(xr, U, dist, n, plant, q, qd, xd, dxd, tau, Kd, 0)
                 write_record(plant, rec, work.rec[0], kk * dt, xr, U, tau)
                 work.rec[0] += 1

@@ -12,7 +12,8 @@ efficiency η < 1 takes part (a *lossy* joint). Each has a mode, ``mode[j]``:
   (:attr:`manipcad.model.robot.Drive.static_friction`, M_f where the data give none);
   once it breaks away it slides with the kinetic friction |i_r|·M_f.
 
-Forward dynamics (:func:`hybrid_rates`): the multibody forward dynamics with the
+Forward dynamics (the simulator's one right-hand side, :func:`manipcad.sim.loop._rates`,
+with :func:`mode_torques` and :func:`constrained`): the multibody forward dynamics with the
 drive terms (the generated kernels or the articulated-body method) gives q̈₀ of
 H_d·q̈ = τ + τ_dist − c − f (H_d = H + diag(J·i_r²)); then, when a joint is stuck
 or a gear has losses, with the mass matrix H_d:
@@ -65,7 +66,6 @@ from manipcad.drives.params import (
     P_WEPS,
 )
 from manipcad.drives.transmission import contact_of, gear_torque
-from manipcad.dynamics.aba import aba_one
 from manipcad.dynamics.crba import CRBA_WORK, crba_one
 from manipcad.dynamics.forward_crba import cholesky_solve
 from manipcad.dynamics.gear import gear_factor, holding_band
@@ -258,44 +258,34 @@ def _dry(fric, j, s):
     return 0.0
 
 
-@nb.njit(cache=True)
-def hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork):
-    """q̈ (into ``qdd``) of the hybrid plant at q, q̇ with the drives' joint torques ``tau``
-    (disturbance ``dist`` included), N·m or N; the stuck joints' margins into
-    ``plant.ev.marg`` (module docstring). Returns False when H is not positive definite
-    (q̈ NaN)."""
-    ev = plant.ev
+@nb.njit(cache=True, inline="always")
+def mode_torques(ev, qd, tau):
+    """The joint torques the forward dynamics takes in a hybrid plant, into ``ev.tf``:
+    ``tau`` (drives and disturbance, N·m or N) with each slipping lossy joint's kinetic
+    friction that of its mode, not of sign(q̇) (the body table's); the stuck joints'
+    margins reset to +inf. Returns whether q̈ then needs :func:`constrained` (a joint held,
+    or a gear with losses). Inlined into the one right-hand side
+    (:func:`manipcad.sim.loop._rates`)."""
     fric = ev.fric
     mode = ev.mode
     tf = ev.tf
-    n = q.shape[0]
-    stuck = False
-    geared = False
-    for j in range(n):
+    more = False
+    for j in range(tau.shape[0]):
         tf[j] = tau[j]
         ev.marg[j] = math.inf
-        if held(ev.mode, ev.lim, ev.fric, j):
-            stuck = True
+        if held(mode, ev.lim, fric, j):
+            more = True
             continue
         if not is_lossy(fric, j):
             continue
         d = mode[j]
         if fric[j, F_ETA] < 1.0:
-            geared = True
+            more = True
         s = qd[j]
         sg = 1.0 if s > 0.0 else (-1.0 if s < 0.0 else 0.0)
         if sg != d:  # the kernel's friction is sign(q̇)'s: the mode's instead
             tf[j] = tau[j] + _dry(fric, j, sg) - _dry(fric, j, d)
-    if plant.gen:
-        if plant.gen_fd(address(q), address(qd), address(tf), address(qdd)) >= 0:
-            for j in range(n):
-                qdd[j] = math.nan
-            return False
-    elif not aba_one(plant.rtable, plant.g, q, qd, tf, fext, False, True, awork, qdd):
-        return False
-    if stuck or geared:
-        return _constrained(plant, q, qd, tau, dist, qdd)
-    return True
+    return more
 
 
 @nb.njit(cache=True, inline="always")
@@ -322,15 +312,17 @@ def _free_part(mode, lim, fric, A, M, n):
             M[i, i] = 1.0
 
 
-@nb.njit(cache=True, inline="always")
-def _constrained(plant, q, qd, tau, dist, qdd):
-    """q̈₀ in ``qdd`` made the hybrid plant's: gear factors and stuck joints (module
-    docstring). Inlined into its one caller (a call passes every array of ``plant``: 4 %
-    of the adaptive PUMA job's CPU time)."""
-    ev = plant.ev
+@nb.njit(cache=True)
+def constrained(gen, gen_mass, rt, ev, q, qd, tau, dist, qdd):
+    """q̈₀ (of the forward dynamics on :func:`mode_torques`) in ``qdd`` made the hybrid
+    plant's: gear factors and held joints (module docstring); the held joints' margins
+    into ``ev.marg`` and break-away directions into ``ev.dirn``. ``gen``, ``gen_mass``,
+    ``rt``: the plant's generated kernels' flag, its mass-matrix kernel and its body table
+    with the drive terms (:class:`manipcad.sim.loop.Plant`); ``ev`` its :class:`Events`.
+    Returns False when H_d is not positive definite (q̈ NaN). A call of its own, made only
+    when a joint is held or a gear has losses, with only the arrays it reads."""
     fric = ev.fric
     mode = ev.mode
-    rt = plant.rtable
     n = q.shape[0]
     A = ev.A
     M = ev.M
@@ -338,7 +330,7 @@ def _constrained(plant, q, qd, tau, dist, qdd):
     rhs = ev.rhs
     frj = ev.frj
     gv = ev.gv
-    _mass(plant.gen, plant.gen_mass, rt, ev.cw, ev.ctmp, q, A)
+    _mass(gen, gen_mass, rt, ev.cw, ev.ctmp, q, A)
     for i in range(n):
         s = 0.0
         for k in range(n):
@@ -486,7 +478,15 @@ def event_values(plant, x, n, e):
     contact event (:func:`_contact_value`, rad or m) and e[3n + j] its motor shaft's: s·ω_m
     sliding (rad/s), the margin stuck (N·m; of the last right-hand side), 0 where the
     gear or shaft does not take part."""
-    ev = plant.ev
+    joint_values(plant.ev, x, n, e)
+    if plant.ev.gear:
+        _gear_values(plant, x, n, e)
+
+
+@nb.njit(cache=True, inline="always")
+def joint_values(ev, x, n, e):
+    """The joints' part of :func:`event_values` (e[:2n]; ``ev`` the :class:`Events`):
+    inlined into the fixed-step core's step without events."""
     for j in range(n):
         if held(ev.mode, ev.lim, ev.fric, j):
             e[j] = ev.marg[j]
@@ -498,8 +498,6 @@ def event_values(plant, x, n, e):
             e[n + j] = min(x[j] - ev.lims[j, 0], ev.lims[j, 1] - x[j])
         else:
             e[n + j] = 0.0
-    if ev.gear:
-        _gear_values(plant, x, n, e)
 
 
 @nb.njit(cache=True)
@@ -626,16 +624,29 @@ def release_edge(plant, x, n, e0, e1, t):
     ev = plant.ev
     any_ = False
     for j in range(n):
-        if held(ev.mode, ev.lim, ev.fric, j) and e0[j] <= 0.0 and e1[j] < 0.0:
+        edge = joint_edge(ev, n, e0, e1, j)
+        if edge == 1:
             _release(ev, j, t)
             any_ = True
-        elif (ev.lim[j] == 0.0 and _has_stops(ev.lims, j) and e0[n + j] <= 0.0
-              and e1[n + j] < 0.0):
+        elif edge == 2:
             _contact(plant, x, n, j, t)
             any_ = True
     if ev.gear and _gear_edges(plant, x, n, e0, e1, t):
         any_ = True
     return any_
+
+
+@nb.njit(cache=True, inline="always")
+def joint_edge(ev, n, e0, e1, j):
+    """Joint j's edge event of :func:`release_edge` between the event values e0 and e1
+    (``ev`` the :class:`Events`): 1 a held joint at its band's edge breaks away, 2 it is
+    put on its hard stop, 0 neither."""
+    if held(ev.mode, ev.lim, ev.fric, j) and e0[j] <= 0.0 and e1[j] < 0.0:
+        return 1
+    if (ev.lim[j] == 0.0 and _has_stops(ev.lims, j) and e0[n + j] <= 0.0
+            and e1[n + j] < 0.0):
+        return 2
+    return 0
 
 
 @nb.njit(cache=True)

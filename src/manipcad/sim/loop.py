@@ -70,9 +70,13 @@ from manipcad.sim.events import (
     MAX_EVENTS,
     bracket_next,
     bracket_start,
+    constrained,
     crossing,
     event_values,
-    hybrid_rates,
+    held,
+    joint_edge,
+    joint_values,
+    mode_torques,
     release_edge,
     release_shafts,
     release_worst,
@@ -159,19 +163,30 @@ def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work):
 
     The one place the simulator evaluates the closed loop's right-hand side (RK4 and
     the adaptive integrator both call it): drives (:func:`_torques`) then the
-    multibody forward dynamics.
+    multibody forward dynamics; with ``plant.ev.on`` the hybrid plant's
+    (:mod:`manipcad.sim.events`): the torques of the slipping joints' modes
+    (:func:`~manipcad.sim.events.mode_torques`, inlined) and, only while a joint is held
+    or a gear has losses, the constrained q̈ (:func:`~manipcad.sim.events.constrained`,
+    a call). The stuck joints' margins go into ``plant.ev.marg``.
     """
     _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st)
     for j in range(n):
         K4[st, j] = qd[j]
-    if plant.ev.on:
-        hybrid_rates(plant, q, qd, tau, dist, qdd, fext, work)
-    elif plant.gen:
-        if plant.gen_fd(address(q), address(qd), address(tau), address(qdd)) >= 0:
+    ev = plant.ev
+    more = False
+    tin = tau
+    if ev.on:  # stick-slip friction, gear losses (manipcad.sim.events)
+        more = mode_torques(ev, qd, tau)
+        tin = ev.tf
+    if plant.gen:
+        if plant.gen_fd(address(q), address(qd), address(tin), address(qdd)) >= 0:
             for j in range(n):  # H not positive definite: the run stops as diverged
                 qdd[j] = math.nan
-    else:
-        aba_state(plant.rtable, plant.g, q, qd, tau, fext, False, True, work, qdd)
+            more = False
+    elif not aba_state(plant.rtable, plant.g, q, qd, tin, fext, False, True, work, qdd):
+        more = False
+    if more:
+        constrained(plant.gen, plant.gen_mass, plant.rtable, ev, q, qd, tau, dist, qdd)
     for j in range(n):
         K4[st, n + j] = qdd[j]
 
@@ -388,18 +403,22 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
     wait = work.wait
     R = ctrl.kind.shape[0]
     kend = K + 1 if last else K
+    ev = plant.ev
+    hyb = ev.on
+    # elastic gears' events: every step through the event code (hybrid_step)
+    gears = hyb and ev.gear
+    xn = ev.xe
     for kr in range(kend):
         k = k0 + kr
         sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait)
         for r in range(R):
             wait[r] -= 1
-        hyb = plant.ev.on
         dist = row(ref.dist, kr)
         # the four RK4 stages (manipcad.rk4) with U held and the disturbance at the
         # step's start; with stick-slip friction or gear losses (plant.ev) the first
-        # with consistent modes, the step's events located (hybrid_step)
+        # with consistent modes (settle: only where a held joint's margin is below 0)
         for st in range(4):
-            if hyb:
+            if gears:
                 if st != 0:
                     break
                 settle(plant, x, U, dist, n, scr, K4, k * dt)
@@ -408,18 +427,61 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
                 _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, awork)
                 if st != 0:
                     continue
+                if hyb and _beyond(ev, n):
+                    settle(plant, x, U, dist, n, scr, K4, k * dt)
             keep_sample(plant, rec, work, k * dt, every, x, U, tau)
             if last and kr == K:
                 return 0, k, -1
             status, joint = check_state(plant, work, x, row(K4, 0), k * dt, stop_at_limits)
             if status:
                 return status, k, joint
-        if hyb:
-            hybrid_step(plant, x, U, dist, k * dt, dt, n, scr, K4, xs, plant.ev.xe)
-        else:
+            if hyb and not gears:
+                joint_values(ev, x, n, ev.e0)
+        if not hyb:
             rk4_update(x, K4, dt, x)
+        elif gears or _step_events(plant, x, U, dist, n, scr, K4, dt, xn):
+            # an event in the step (or at its start): the step again, the events located
+            if not gears:
+                settle(plant, x, U, dist, n, scr, K4, k * dt)
+            hybrid_step(plant, x, U, dist, k * dt, dt, n, scr, K4, xs, xn)
+        else:
+            for j in range(x.shape[0]):
+                x[j] = xn[j]
     keep(own)
     return 0, k0 + K, -1
+
+
+@nb.njit(cache=True, inline="always")
+def _beyond(ev, n):
+    """Whether a held joint's margin (of the last right-hand side) is below zero: the
+    rates need :func:`settle` (``ev`` the :class:`~manipcad.sim.events.Events`)."""
+    for j in range(n):
+        if held(ev.mode, ev.lim, ev.fric, j) and ev.marg[j] < 0.0:
+            return True
+    return False
+
+
+@nb.njit(cache=True, inline="always")
+def _step_events(plant, x, U, dist, n, sc, K, dt, xn):
+    """The end of an RK4 step of dt s of the hybrid plant without elastic gears, its four
+    stages in K and the event values at x in ``plant.ev.e0``: the new state into ``xn``
+    (the held joints' margins there from the rates at xn) and its event values into
+    ``plant.ev.e1``, as :func:`_rk4_sub` makes them. Whether an event happens in the step
+    (:func:`manipcad.sim.events.crossing` below 0) or at its start
+    (:func:`manipcad.sim.events.joint_edge`): then :func:`hybrid_step` takes the step
+    again and locates them. Inlined into :func:`run`: a step without events calls nothing
+    but the rates at xn where a joint is held."""
+    ev = plant.ev
+    rk4_update(x, K, dt, xn)
+    for j in range(n):
+        if ev.mode[j] == 0.0 and ev.marg[j] < math.inf:
+            hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, 0)
+            break
+    joint_values(ev, xn, n, ev.e1)
+    for j in range(n):
+        if joint_edge(ev, n, ev.e0, ev.e1, j):
+            return True
+    return crossing(ev.e0, ev.e1) < 0.0
 
 
 @nb.njit(cache=True)
@@ -428,12 +490,7 @@ def hybrid_at(xs, U, dist, n, plant, sc, K, st):
     margins into ``plant.ev.marg``): :func:`_rates` with ``plant.ev.on``, one compiled copy
     for the event code of both integrators."""
     q, qd, qdd, xd, dxd, tau, sig, H, fext, awork, comp = sc
-    _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K, st)
-    for j in range(n):
-        K[st, j] = qd[j]
-    hybrid_rates(plant, q, qd, tau, dist, qdd, fext, awork)
-    for j in range(n):
-        K[st, n + j] = qdd[j]
+    _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K, st, fext, awork)
 
 
 @nb.njit(cache=True)

@@ -160,9 +160,8 @@ def _currents() -> None:
     ph = np.zeros((S, n, 5))
     Ks = np.zeros((S, nx))
     _compile(adaptive._phi_table, plant, tab.c, 1e-3, n, ph)
-    _compile(adaptive._currents, plant, x, x, work.U, 1e-3, n, ph[0])
-    _compile(adaptive._current_error, plant, x, x, work.U, Ks[0, n:2 * n],
-             Ks[S - 1, n:2 * n], 1e-3, n, rtol, atol, ph[S - 1])
+    _compile(adaptive._currents, plant, x, x, work.U, 1e-3, n, ph[0], Ks[0, n:2 * n],
+             Ks[S - 1, n:2 * n], rtol, atol)
 
 
 def _events() -> None:

@@ -22,12 +22,14 @@ needs (:func:`manipcad.dynamics.identification.identify_payload`).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from manipcad.errors import InputError, require_choice
+from manipcad.dynamics.identification import DITHER_CYCLES_MIN, DITHER_PERIOD_MAX
+from manipcad.errors import InputError, ManipcadWarning, require_choice
 from manipcad.trajectories.base import Trajectory, floats, vector
 from manipcad.trajectories.quintic import quintic_profile
 from manipcad.trajectories.trapezoidal import trapezoidal
@@ -207,4 +209,28 @@ def waypoints(points: Sequence[Sequence[float]], *, move_time: Sequence[float] |
     f = float(dither_frequency)
     if not (np.isfinite(f) and f > 0):
         raise InputError(src, "dither_frequency", f"must be > 0 Hz, got {dither_frequency}")
+    if A.any():
+        _check_dither_cycles(src, W, f)
     return WaypointsTrajectory(P, T, W, profile, dither=A, dither_frequency=f)
+
+
+def _check_dither_cycles(src: str, dwell: np.ndarray, f: float) -> None:
+    """Warn when a dithered dwell cannot give the identification at stops its whole cycles:
+    its first cycle is the start transient (the drives still stuck from the stop; left
+    out), and ``DITHER_CYCLES_MIN`` steady cycles of at most ``DITHER_PERIOD_MAX`` must
+    remain (:func:`manipcad.dynamics.identification.find_stops`)."""
+    need = DITHER_CYCLES_MIN + 1
+    held = dwell[1:][dwell[1:] > 0]
+    short = held[np.floor(held * f + 1e-9) < need]
+    if 1.0 / f > DITHER_PERIOD_MAX or short.size:
+        low = max(1.0 / DITHER_PERIOD_MAX, need / float(held.min())) if held.size else \
+            1.0 / DITHER_PERIOD_MAX
+        warnings.warn(ManipcadWarning(
+            f"{src}: dither_frequency {f:g} Hz gives "
+            + (f"a period over {DITHER_PERIOD_MAX:g} s" if 1.0 / f > DITHER_PERIOD_MAX else
+               f"{int(np.floor(short.min() * f + 1e-9))} whole cycle(s) in the "
+               f"{short.min():g} s dwell")
+            + f": the payload identification at stops needs {need} whole cycles of at "
+            f"most {DITHER_PERIOD_MAX:g} s per dwell (the first is the start transient, "
+            f"left out): use dither_frequency >= {low:.3g} Hz with these dwells, or longer "
+            "dwells"), stacklevel=3)

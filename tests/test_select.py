@@ -351,3 +351,22 @@ def test_power_objective_and_complete_counts(small_catalogue):
     assert [a.label for a in lazy.joints[0].alternatives] == [
         a.label for a in full.joints[0].alternatives]
     assert full.joints[0].skipped == 0 and full.joints[0].feasible >= lazy.joints[0].feasible
+
+
+def test_candidate_table_follows_a_replaced_source(monkeypatch):
+    """Each new table source gets its own table, also when the one before it was freed:
+    keyed by ``id(source)``, a freed source's address was reused by the next (198 stale
+    tables in 200 swaps), so a test selecting from one motor could be handed the previous
+    test's candidates (test_infeasible_names_joint_candidate_and_check, order-dependent)."""
+    monkeypatch.setattr(S, "_TABLES", {})
+    original = S.TABLE_SOURCE
+    monkeypatch.setattr(S, "TABLE_SOURCE", original)  # restored after the test
+
+    def source_of(marker):
+        return lambda prismatic=False, ws=None: marker
+
+    for _ in range(50):  # assigned directly: nothing else keeps a replaced source alive
+        marker = object()
+        S.TABLE_SOURCE = source_of(marker)
+        assert S.candidate_table(False) is marker
+        S.TABLE_SOURCE = original

@@ -399,8 +399,12 @@ _TABLES: dict[tuple, CandidateTable] = {}
 
 def candidate_table(prismatic: bool = False, ws: Any = None) -> CandidateTable:
     """The candidate drives of the parts library for a revolute (or prismatic) joint,
-    built once per source and workspace (:func:`catalogue_table`)."""
-    key = (id(TABLE_SOURCE), prismatic, None if ws is None else str(ws))
+    built once per source and workspace (:func:`catalogue_table`).
+
+    The cache is keyed by the source function itself, not its ``id``: the key holds it, so
+    a source replaced and freed cannot have its address reused by the next one, which
+    would then be handed the old source's table."""
+    key = (TABLE_SOURCE, prismatic, None if ws is None else str(ws))
     if key not in _TABLES:
         _TABLES[key] = TABLE_SOURCE(prismatic, ws)
     return _TABLES[key]

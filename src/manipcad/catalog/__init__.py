@@ -57,10 +57,12 @@ import ast
 import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 from manipcad.catalog.files import GearSpec, MotorSpec, compose_gears, part_names
 from manipcad.catalog.library import (
@@ -103,6 +105,9 @@ def _workspace_rows(ws: str | Path | None) -> tuple[list[dict[str, Any]], list[d
 
 
 def _extend(df: pd.DataFrame, rows: list[dict[str, Any]]) -> pd.DataFrame:
+    # deferred: start-up cost: pandas is 0.3-0.6 s of every command's start
+    import pandas as pd
+
     if not rows:
         return df
     extra = pd.DataFrame.from_records(rows).set_index("name", drop=False)
@@ -213,6 +218,9 @@ def gears(makers: Iterable[str] | None = None, types: Iterable[str] | None = Non
 
 
 def _efficiency_basis(df: pd.DataFrame) -> pd.Series:
+    # deferred: start-up cost: pandas is 0.3-0.6 s of every command's start
+    import pandas as pd
+
     assumed = df["assumed"].map(lambda a: "efficiency" in a)
     out = np.where(assumed, "assumed", np.where(
         df["efficiency"].isna(), "unknown",
@@ -241,6 +249,9 @@ def compatible_pairs(motor_table: pd.DataFrame | None = None,
         >>> bool(p["rule"].str.startswith("adapter rule").all())
         True
     """
+    # deferred: start-up cost: pandas is 0.3-0.6 s of every command's start
+    import pandas as pd
+
     m = tables().motors if motor_table is None else motor_table
     g = gears() if gear_table is None else gear_table
     t = tables().pairs

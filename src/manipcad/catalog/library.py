@@ -51,9 +51,7 @@ import re
 from collections.abc import Iterable
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any
 
 from manipcad import fileio
 from manipcad.catalog.files import (
@@ -66,6 +64,9 @@ from manipcad.catalog.files import (
     part_names,
 )
 from manipcad.errors import InputError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 DATA = PARTS.parent
 #: the Motor-Gearbox Database commit the mgdb/ files were copied from
@@ -451,6 +452,9 @@ def _file_rows() -> list[dict[str, Any]]:
 
 
 def _frame(rows: list[dict[str, Any]], units: dict[str, str]) -> pd.DataFrame:
+    # deferred: start-up cost: pandas is 0.3-0.6 s of every command's start
+    import pandas as pd
+
     cols = ["name", "kind", "maker", "model", "type", *units, "origin", "key", "source",
             "confidence", "assumed", "derived"]
     df = pd.DataFrame.from_records(rows, columns=cols)
@@ -464,6 +468,9 @@ def _frame(rows: list[dict[str, Any]], units: dict[str, str]) -> pd.DataFrame:
 
 def build() -> Tables:
     """Build the tables from the data files (seconds; :func:`tables` caches them)."""
+    # deferred: start-up cost: pandas is 0.3-0.6 s of every command's start
+    import pandas as pd
+
     motors: list[dict[str, Any]] = []
     gears: list[dict[str, Any]] = []
     pairs: list[tuple[str, str, str]] = []

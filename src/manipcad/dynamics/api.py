@@ -36,7 +36,20 @@ _run_crba_fd = batch_runner(crba_fd_batch, crba_fd_batch_parallel, 2)
 _vectors: dict = {}  # name -> compiled one-state kernel, made on first use
 
 
-def _not_pd(state: int) -> ManipcadError:
+def not_positive_definite(state: int) -> ManipcadError:
+    """The error of a state whose mass matrix H is not positive definite: a joint that
+    moves no mass (nor a rotor), so no torque accelerates it.
+
+    Args:
+        state: the state's index in the batch (0 for one state).
+
+    Returns:
+        the :class:`~manipcad.errors.ManipcadError` to raise, naming the state.
+
+    Example:
+        >>> print(not_positive_definite(3))  # doctest: +ELLIPSIS
+        the mass matrix is not positive definite at state 3: a joint moves no mass ...
+    """
     return ManipcadError(f"the mass matrix is not positive definite at state {state}: "
                          "a joint moves no mass (add inertia or a drive)")
 
@@ -166,7 +179,7 @@ def forward_dynamics(robot: Robot, q, qd, tau, *, method: str = "aba", gravity=N
             pass  # not float64 vectors of length n: the checked path converts or explains
         else:
             if bad is not None and bad >= 0:
-                raise _not_pd(bad)
+                raise not_positive_definite(bad)
             return qdd
     (Q, QD, T), single = as_states(robot.n, q=q, qd=qd, tau=tau)
     F, use_f = as_fext(robot.n, Q.shape[0], single, f_ext)
@@ -177,5 +190,5 @@ def forward_dynamics(robot: Robot, q, qd, tau, *, method: str = "aba", gravity=N
     run = _run_aba if method == "aba" else _run_crba_fd
     bad = run(robot.table, g, Q, QD, T, F, use_f, drives, qdd)
     if bad >= 0:  # both methods find a joint that moves no mass the same way
-        raise _not_pd(bad)
+        raise not_positive_definite(bad)
     return qdd[0] if single else qdd

@@ -800,8 +800,17 @@ def combine_bodies(m1: float, c1: np.ndarray, I1: np.ndarray,
 
 @register_jitable
 def _shift(m: float, d: np.ndarray) -> np.ndarray:
-    """Parallel-axis term m(|d|²E - d dᵀ), kg·m²."""
-    return m * (d @ d * np.eye(3) - np.outer(d, d))
+    """Parallel-axis term m(|d|²E - d dᵀ), kg·m².
+
+    Element by element (the same operations as ``m * (d @ d * np.eye(3) - np.outer(d,
+    d))``, so the same values): compiled for the online payload estimator, numpy's
+    ``outer`` and ``eye`` cost seconds of numba's compile on a cold cache."""
+    dd = d @ d
+    out = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = m * (dd * (1.0 if a == b else 0.0) - d[a] * d[b])
+    return out
 
 
 def _pack(robot: Robot) -> np.ndarray:

@@ -8,7 +8,6 @@ from dataclasses import dataclass, field
 from html import escape
 
 import numpy as np
-import pandas as pd
 
 from manipcad.errors import ManipcadError
 from manipcad.sim.metrics import joint_metrics
@@ -105,6 +104,8 @@ class SimulationResult:
             >>> res.to_dataframe().columns[0]
             'turn.q [rad]'
         """
+        # deferred: start-up cost: pandas is 0.3-0.6 s of every command's start
+        import pandas as pd
 
         # deferred: start-up cost: keeps manipcad.sim.series out of import manipcad
         from manipcad.sim.series import series_columns

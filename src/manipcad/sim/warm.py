@@ -8,12 +8,16 @@ the pair and the exact currents are arguments, so ``adaptive``, ``adaptive-exact
 functions they call. numba compiles a callee when it types its caller's call and loads
 it from the cache if it is there, so the work splits into :data:`STEPS`:
 
-- phase 1, the callees, with the argument types the cores pass them: the regulators'
-  updates and the payload estimator (``control``), the moment components, drives and
-  payload swap (``plant``), the error-controlled core's exact currents (``currents``),
-  the stick-slip events' steps (``events``), the
-  batched inverse dynamics and mass matrix the run checks use (``inverse dynamics``);
-- phase 2, the cores themselves (``rk4``, ``adaptive``) and the batched forward dynamics.
+- phase 1, the callees, with the argument types the cores pass them: the stick-slip
+  events' rates in consistent modes (``events``) and, beside them, their crossings and
+  switches (``event edges``), the moment components, drives and payload swap
+  (``plant``), the payload estimator (``estimator``), the error-controlled core's exact
+  currents (``currents``);
+- phase 2, what calls phase 1's kernels: the RK4 core's step with its events
+  located (``event step``), and beside it the regulators' updates (``control``);
+- phase 3, the cores themselves (``rk4``, ``adaptive``), and beside them what no core
+  calls: the batched inverse dynamics a run's checks use (``inverse dynamics``), the
+  rest of the dynamics API (``forward dynamics``).
 
 :func:`compile_steps` runs the steps a command needs on up to two processes (this one
 and ``python -m manipcad.sim.warm``): each worker starts each phase at a different step,
@@ -25,14 +29,17 @@ the same steps out the same way (``tests/conftest.py``).
 
 Example:
     >>> from manipcad.sim.warm import needs
-    >>> needs("adaptive-exact")
-    ('events', 'control', 'plant', 'currents', 'inverse dynamics', 'adaptive')
-    >>> needs("rk4")
-    ('events', 'control', 'plant', 'inverse dynamics', 'rk4')
+    >>> needs("adaptive-exact")  # doctest: +NORMALIZE_WHITESPACE
+    ('events', 'event edges', 'plant', 'estimator', 'currents', 'control', 'adaptive',
+     'inverse dynamics')
+    >>> needs("rk4")  # doctest: +NORMALIZE_WHITESPACE
+    ('events', 'event edges', 'plant', 'estimator', 'event step', 'control', 'rk4',
+     'inverse dynamics')
 """
 
 from __future__ import annotations
 
+import functools
 import importlib
 import os
 import subprocess
@@ -60,7 +67,7 @@ from manipcad.dynamics.aba import _rot_gen, _rot_sym
 from manipcad.errors import ManipcadWarning
 from manipcad.model import load_robot
 from manipcad.model.robot import TABLE_COLS
-from manipcad.sim import adaptive, loop
+from manipcad.sim import adaptive, events, loop
 from manipcad.sim.joint_limits import column_extremes
 from manipcad.sim.simulate import simulate
 from manipcad.trajectories import quintic
@@ -88,29 +95,29 @@ def _warm_up_run(integrator: str) -> None:
                           trajectory=quintic(q0, q0 + 1e-3, 2e-3), integrator=integrator)
 
 
+@functools.cache
 def core_arguments(integrator: str) -> tuple:
     """The arguments :func:`manipcad.simulate` hands its compiled core (``run`` for RK4,
     ``run_adaptive`` otherwise) in the warm-up run, taken at the call instead of running
-    it. The initial state's check (the forward dynamics by Cholesky) is left out here: the
-    ``inverse dynamics`` step compiles it, once, while the other worker is busy."""
+    it (once per process: several steps type their kernels on them). The initial state's
+    check (:func:`manipcad.sim.closed_loop.moves_mass`, the inverse dynamics) is left out
+    here: the ``inverse dynamics`` step compiles it."""
     name = "run" if integrator == "rk4" else "run_adaptive"
     core = getattr(sim, name)
-    check = getattr(closed_loop, "forward_dynamics", None)
+    check = closed_loop.moves_mass
 
     def take(*args):
         raise _Arguments(args)
 
     setattr(sim, name, take)
-    if check is not None:
-        closed_loop.forward_dynamics = lambda *args, **kwargs: None
+    closed_loop.moves_mass = lambda *args, **kwargs: True
     try:
         _warm_up_run(integrator)
     except _Arguments as taken:
         return taken.args[0]
     finally:
         setattr(sim, name, core)
-        if check is not None:
-            closed_loop.forward_dynamics = check
+        closed_loop.moves_mass = check
     raise RuntimeError(f"manipcad.simulate did not call sim.integrate.{name}")
 
 
@@ -121,15 +128,22 @@ def _compile(kernel, *args) -> None:
 
 
 def _control() -> None:
-    """The regulators' updates (every method of the registry) and the online payload
-    estimator, with the argument types the cores' sampling step passes."""
+    """The regulators' updates (every method of the registry), with the argument types
+    the cores' sampling step passes."""
     n = 2
     p, s, sig = np.zeros(NPARAM), np.zeros(NSTATE), np.zeros((n, NSIG))
     H, joints, U = np.zeros((n, n)), np.zeros(n, dtype=np.int64), np.zeros(n)
     for m in METHODS.values():
         _compile(m.update, *((p, s, sig, H, joints, 1, 1e-3, U) if m.spans
                              else (p, s, sig, 0, 1e-3)))
-    _compile(estimator_update, no_estimator(), sig, np.zeros((n, TABLE_COLS)), 1e-3)
+
+
+def _estimator() -> None:
+    """The online payload estimator, with the argument types the cores' sampling step
+    passes."""
+    n = 2
+    _compile(estimator_update, no_estimator(), np.zeros((n, NSIG)), np.zeros((n, TABLE_COLS)),
+             1e-3)
 
 
 def _plant() -> None:
@@ -164,17 +178,40 @@ def _currents() -> None:
              Ks[S - 1, n:2 * n], rtol, atol)
 
 
-def _events() -> None:
-    """The stick-slip friction and gear-loss events' steps both cores call (the rates with
-    consistent modes, the RK4 step with its events located), with the cores' argument types."""
+def _event_arguments():
+    """(plant, x, U, dist, n, scratch, K) as the cores pass them to the events' steps."""
     plant, _, ref, _, work = core_arguments("rk4")[:5]
     n, nx = plant.rtable.shape[0], work.x.shape[0]
-    scr = loop.scratch(n, nx)
-    K = np.zeros((4, nx))
-    x, U, dist = work.x, work.U, ref.dist[0]
+    return plant, work.x, work.U, ref.dist[0], n, loop.scratch(n, nx), np.zeros((4, nx))
+
+
+def _events() -> None:
+    """The stick-slip friction and gear-loss events' right-hand side with consistent modes
+    (:func:`manipcad.sim.loop.settle`: the hybrid plant's rates, the releases), which both
+    cores call, with the cores' argument types."""
+    plant, x, U, dist, n, scr, K = _event_arguments()
     _compile(loop.settle, plant, x, U, dist, n, scr, K, 0.0)
-    _compile(loop.hybrid_step, plant, x, U, dist, 0.0, 1e-3, n, scr, K, np.zeros(nx),
-             plant.ev.xe)
+
+
+def _event_edges() -> None:
+    """The events' values, their crossings located and the mode switches at them, which
+    both cores call (beside :func:`_events`: none calls the other)."""
+    plant, x, U, dist, n, scr, K = _event_arguments()
+    ev = plant.ev
+    _compile(events.event_values, plant, x, n, ev.e0)
+    _compile(events.release_edge, plant, x, n, ev.e0, ev.e1, 0.0)
+    _compile(events.switch, plant, x, n, ev.e0, ev.e1, 0.0)
+    _compile(events.crossing, ev.e0, ev.e1)
+    _compile(events.bracket_start, ev.il, 0.0)
+    _compile(events.bracket_next, ev.il, 0.0)
+
+
+def _event_step() -> None:
+    """The RK4 core's step with its events located (:func:`manipcad.sim.loop.hybrid_step`),
+    on :func:`_events`' and :func:`_event_edges`' kernels."""
+    plant, x, U, dist, n, scr, K = _event_arguments()
+    _compile(loop.hybrid_step, plant, x, U, dist, 0.0, 1e-3, n, scr, K,
+             np.zeros(x.shape[0]), plant.ev.xe)
 
 
 def _rk4() -> None:
@@ -191,47 +228,61 @@ def _dynamics_states():
 
 
 def _inverse_dynamics() -> None:
-    """The batched inverse dynamics (and its one-state kernel) and mass matrix, and a
-    simulation's checks: the one-state forward dynamics by Cholesky (its initial state)
-    and the reference's extremes (the joint limits)."""
+    """What a simulation's checks run: the batched inverse dynamics (its initial state's
+    mass matrix, :func:`manipcad.sim.closed_loop.moves_mass`, and the gear torques of its
+    time series, on numba's threads when long) and the reference's extremes (the joint
+    limits)."""
     arm, q = _dynamics_states()
     inverse_dynamics(arm, q, q, q, drives=True)
-    inverse_dynamics(arm, q[0], q[0], q[0], drives=False)
     # a batch large enough for numba's threads (a run's checks of its time series)
     big = np.full((PARALLEL_MIN_WORK // arm.n + 2 * nb.get_num_threads(), arm.n), 0.1)
     inverse_dynamics(arm, big, big, big, drives=False)
-    mass_matrix(arm, q)
-    forward_dynamics(arm, q[0], q[0], np.zeros(arm.n), drives=True, method="crba")
     column_extremes(q)  # a run's check of its reference against the joint limits
 
 
 def _forward_dynamics() -> None:
-    """The batched forward dynamics (articulated-body method)."""
+    """The rest of the dynamics API (sizing, selection, the studies): the batched forward
+    dynamics (articulated-body method and Cholesky), the mass matrix, the one-state
+    kernels."""
     arm, q = _dynamics_states()
     forward_dynamics(arm, q, q, q)
+    forward_dynamics(arm, q, q, q, method="crba")
+    inverse_dynamics(arm, q[0], q[0], q[0], drives=False)
+    mass_matrix(arm, q)
+    forward_dynamics(arm, q[0], q[0], np.zeros(arm.n), drives=True, method="crba")
 
 
 #: name -> (what, compile step), in the order one process runs them
 STEPS: dict[str, tuple[str, Callable[[], None]]] = {
-    "events": ("stick-slip events", _events),
-    "control": ("regulators and payload estimator", _control),
+    "events": ("stick-slip events: consistent modes", _events),
+    "event edges": ("stick-slip events: crossings and switches", _event_edges),
     "plant": ("drives, moment components", _plant),
+    "estimator": ("payload estimator", _estimator),
     "currents": ("exact armature currents", _currents),
-    "inverse dynamics": ("inverse dynamics, mass matrix, run checks", _inverse_dynamics),
+    "event step": ("stick-slip events: the RK4 step", _event_step),
+    "control": ("regulators", _control),
     "rk4": ("RK4 simulator core", _rk4),
     "adaptive": ("error-controlled simulator core (every adaptive integrator)", _adaptive),
-    "forward dynamics": ("forward dynamics", _forward_dynamics),
+    "inverse dynamics": ("inverse dynamics, run checks", _inverse_dynamics),
+    "forward dynamics": ("forward dynamics, mass matrix", _forward_dynamics),
 }
 
-#: the steps in phases: every step of a phase is done before the next phase starts (the
-#: cores load the callees phase 1 cached). Worker w of W starts each phase at step
-#: w·len/W, then takes what nobody has taken: on two workers the events (about as much
-#: compile as the rest of phase 1) on one, the rest on the other; then the two cores
+#: the steps in phases: every step of a phase is done before the next phase starts (a
+#: caller loads the callees an earlier phase cached). Worker w of W starts each phase at
+#: step w·len/W, then takes what nobody has taken. On two workers: the events' rates on
+#: one, their edges, the plant and the estimator on the other; then the RK4 core's event
+#: step on one, the regulators on the other; then a core on one and what no core calls
+#: (the run checks' and the API's dynamics) on the other
 PHASES = (
-    ("events", "control", "plant", "currents", "inverse dynamics"),
-    ("rk4", "adaptive", "forward dynamics"),
+    ("events", "event edges", "plant", "estimator", "currents"),
+    ("event step", "control"),
+    ("rk4", "inverse dynamics", "adaptive", "forward dynamics"),
 )
 assert sorted(sum(PHASES, ())) == sorted(STEPS)
+
+#: the steps every simulation needs whatever its integrator: the callees both cores share
+#: and the run checks' inverse dynamics
+_CALLEES = ("events", "event edges", "plant", "estimator", "control", "inverse dynamics")
 
 #: the core step of each integrator (``simulate(integrator=...)``)
 CORES = {"rk4": "rk4", "adaptive": "adaptive", "adaptive-exact": "adaptive",
@@ -243,8 +294,8 @@ def needs(integrator: str = "rk4") -> tuple[str, ...]:
     the inverse dynamics its run checks use), in :data:`STEPS` order (an unknown
     integrator: the RK4's; :func:`manipcad.simulate` then names the known ones)."""
     core = CORES.get(integrator, "rk4")
-    return tuple(s for s in STEPS if (s in PHASES[0] and (s != "currents" or core != "rk4"))
-                 or s == core)
+    own = ("event step",) if core == "rk4" else ("currents",)
+    return tuple(s for s in STEPS if s in _CALLEES or s in own or s == core)
 
 
 def cache_dir() -> Path | None:

@@ -47,7 +47,7 @@ from manipcad.fileio import atomic_write, json_safe
 from manipcad.model.load import load_robot
 from manipcad.sizing import ratio_sweep, required_drive, torque_speed_plot
 from manipcad.sizing.plot import ratio_sweep_figure
-from manipcad.sizing.requirements import check_unit
+from manipcad.sizing.requirements import FIELDS, check_unit
 from manipcad.trajectories import load_trajectory
 
 _COLOUR = {"pass": "green", "fail": "red", "unknown": "grey50", "n/a": "grey50"}
@@ -202,29 +202,11 @@ def _print_tables(req, source: str) -> None:
     for name, kind in zip(req.joint_names, req.robot.joint_types, strict=True):
         need.add_column(name + (" (P)" if kind == "prismatic" else ""), justify="right")
     ratios = [d.ratio if d is not None else math.nan for d in req.drives]
-    nm = "N·m (N)" if mixed else "N·m"
-    rad_s = "rad/s (m/s)" if mixed else "rad/s"
-    rows = [
-        ("gear ratio i_r", "rad/rad (rad/m)" if mixed else "rad/rad", ratios),
-        ("peak joint torque |P|", nm, req.peak_torque),
-        ("RMS joint torque", nm, req.rms_torque),
-        ("peak joint speed |q̇|", rad_s, req.peak_speed),
-        ("peak gear output |P_rigid|", nm, req.peak_gear_torque),
-        ("RMS gear output torque", nm, req.rms_gear_torque),
-        ("average gear load torque", nm, req.average_gear_torque),
-        ("peak motor torque |T_m|", "N·m", req.peak_motor_torque),
-        ("RMS motor torque", "N·m", req.rms_motor_torque),
-        ("peak motor speed |ω_m|", "rad/s", req.peak_motor_speed),
-        ("mean motor speed |ω_m|", "rad/s", req.mean_motor_speed),
-        ("peak current |i|", "A", req.peak_current),
-        ("RMS current", "A", req.rms_current),
-        ("peak voltage |u_a|", "V", req.peak_voltage),
-        ("peak amp. input |U|", "V", req.peak_input_voltage),
-        ("peak |P·q̇|", "W", req.peak_mech_power),
-        ("mean P·q̇", "W", req.mean_mech_power),
-        ("peak |u_a·i|", "W", req.peak_elec_power),
-        ("mean u_a·i", "W", req.mean_elec_power),
-    ]
+    # every summary of the requirements (sizing.requirements.FIELDS: label and units, the
+    # prismatic one in brackets where the robot has such joints)
+    rows = [("gear ratio i_r", "rad/rad (rad/m)" if mixed else "rad/rad", ratios)]
+    rows += [(text, f"{unit} ({unit_p})" if mixed and unit_p != unit else unit,
+              getattr(req, key)) for key, (unit, unit_p, text) in FIELDS.items()]
     for label, unit, values in rows:
         need.add_row(label, unit, *(_fmt(float(v)) for v in values))
     console.print(need)

@@ -53,28 +53,28 @@ from manipcad.sizing.motor import least_over_efficiency, motor_series
 from manipcad.sizing.stats import peak, time_mean, time_rms, weighted_cubic_mean
 from manipcad.trajectories.base import Trajectory
 
-#: per-joint summary fields: name -> (unit for a revolute joint, unit for a prismatic one, text)
+#: per-joint summary fields: name -> (unit for a revolute joint, unit for a prismatic one,
+#: label in tables; the meaning of each is in :class:`DriveRequirements`)
 FIELDS: dict[str, tuple[str, str, str]] = {
-    "peak_torque": ("N·m", "N", "peak joint torque |P| (drive terms included)"),
+    "peak_torque": ("N·m", "N", "peak joint torque |P|"),
     "rms_torque": ("N·m", "N", "RMS joint torque"),
     "peak_speed": ("rad/s", "m/s", "peak joint speed |q̇|"),
-    "peak_gear_torque": ("N·m", "N", "peak gear output torque |P_rigid|"),
+    "peak_gear_torque": ("N·m", "N", "peak gear output |P_rigid|"),
     "rms_gear_torque": ("N·m", "N", "RMS gear output torque"),
-    "average_gear_torque": ("N·m", "N", "average gear load torque, cubic mean of |P_rigid| "
-                            "weighted by |q̇| (Harmonic Drive)"),
-    "peak_motor_torque": ("N·m", "N·m", "peak motor torque |k_m·i| = |P/i_r|"),
+    "average_gear_torque": ("N·m", "N", "average gear load torque"),
+    "peak_motor_torque": ("N·m", "N·m", "peak motor torque |T_m|"),
     "rms_motor_torque": ("N·m", "N·m", "RMS motor torque"),
-    "peak_motor_speed": ("rad/s", "rad/s", "peak motor speed |i_r·q̇|"),
+    "peak_motor_speed": ("rad/s", "rad/s", "peak motor speed |ω_m|"),
     "rms_motor_speed": ("rad/s", "rad/s", "RMS motor speed"),
-    "mean_motor_speed": ("rad/s", "rad/s", "mean |ω_m| (the gear's average input speed)"),
-    "peak_current": ("A", "A", "peak armature current |i|"),
-    "rms_current": ("A", "A", "RMS armature current"),
-    "peak_voltage": ("V", "V", "peak armature voltage |u_a|"),
-    "peak_input_voltage": ("V", "V", "peak amplifier input |U| = |u_a|/k_u"),
-    "peak_mech_power": ("W", "W", "peak |P·q̇| (motoring or braking)"),
-    "mean_mech_power": ("W", "W", "mean P·q̇ over the run"),
-    "peak_elec_power": ("W", "W", "peak |u_a·i| (motoring or braking)"),
-    "mean_elec_power": ("W", "W", "mean u_a·i over the run"),
+    "mean_motor_speed": ("rad/s", "rad/s", "mean motor speed |ω_m|"),
+    "peak_current": ("A", "A", "peak current |i|"),
+    "rms_current": ("A", "A", "RMS current"),
+    "peak_voltage": ("V", "V", "peak voltage |u_a|"),
+    "peak_input_voltage": ("V", "V", "peak amp. input |U|"),
+    "peak_mech_power": ("W", "W", "peak |P·q̇|"),
+    "mean_mech_power": ("W", "W", "mean P·q̇"),
+    "peak_elec_power": ("W", "W", "peak |u_a·i|"),
+    "mean_elec_power": ("W", "W", "mean u_a·i"),
 }
 
 

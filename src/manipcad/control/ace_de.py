@@ -37,6 +37,7 @@ import numpy as np
 from manipcad._lazy import ct
 from manipcad.control.design import (
     DEFAULT_PERIOD,
+    back_emf_feedforward,
     check_period,
     design_for_accuracy,
     design_pd,
@@ -62,7 +63,7 @@ from manipcad.control.method import GEAR_EFFICIENCY_OPTIONAL, Method
 from manipcad.control.regulator import Regulator, u_limit
 from manipcad.control.signals import S_CI, S_HII, S_I, S_QD, S_QI
 from manipcad.drives.dc import clip, dry_friction
-from manipcad.drives.laws import law3_voltage, nominal_tf
+from manipcad.drives.laws import default_T1, law3_voltage, nominal_tf
 from manipcad.drives.params import P_J, P_KM, P_KV, P_RATIO, P_WEPS
 from manipcad.dynamics.gear import gear_factor
 from manipcad.errors import ManipcadError
@@ -128,8 +129,7 @@ def sce_feedforward(drive, J_n: float, order: int) -> tuple[float, float]:
 
     k_fv = k_w·i_r/k_u (V·s/rad), k_fa = R·J_n·i_r/(k_m·k_u) (V·s²/rad).
     """
-    kfv = drive.k_w * drive.ratio / drive.k_u
-    return kfv, drive.R * J_n * drive.ratio / (drive.k_m * drive.k_u)
+    return back_emf_feedforward(drive), drive.R * J_n * drive.ratio / (drive.k_m * drive.k_u)
 
 
 @dataclass(frozen=True)
@@ -263,7 +263,7 @@ def synthesize_ace_de(robot: Robot, joint, *, spec=None, period: float = DEFAULT
                           accuracy=True)
     e_max, ref = max_error_of(spec, reference, j)
     plant = nominal_tf(d, Jn, order=order)
-    T = d.R * Jn / (d.k_m * d.k_w)
+    T = default_T1(d, Jn)
     wn, raised = pd_bandwidth(spec, wn, T, zeta)
     sce = design_sce(d, plant, T, Jn, order, wn, zeta, period, e_max, ref,
                      feedforward=feedforward, what=f"ace_de on {robot.joint_names[j]!r}")

@@ -66,6 +66,7 @@ from manipcad.drives.laws import (
     ace1_parameters,
     ace1_target_tf,
     ace1_tf,
+    default_T1,
 )
 from manipcad.drives.params import P_KM, P_KV, P_KW, P_R, P_RATIO
 from manipcad.dynamics.gear import gear_factor
@@ -162,7 +163,7 @@ def synthesize_ace_tf(robot: Robot, joint, *, spec=None, period: float = DEFAULT
     Hmin, Hmax = inertia_range(robot, j, load_range)
     eta = law_efficiency(d)
     Jn = d.J + Hmax / (eta * d.ratio ** 2)
-    T1 = d.R * Jn / (d.k_m * d.k_w) if T_1 is None else float(T_1)
+    T1 = default_T1(d, Jn) if T_1 is None else float(T_1)
     if not (math.isfinite(T1) and T1 > 0):
         raise ManipcadError(f"ACE time constant T_1 must be > 0 s, got {T1}")
     Jn = T1 * d.k_m * d.k_w / d.R

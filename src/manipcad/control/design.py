@@ -99,9 +99,51 @@ def nominal_drive(robot: Robot, joint, load_range=None, H_nominal: float | None 
     H = Hmax if H_nominal is None else float(H_nominal)
     if not (math.isfinite(H) and H >= 0):
         raise ManipcadError(f"H_nominal must be >= 0 kg·m², got {H}")
+    return (j, d, (Hmin, Hmax), H, *second_order_model(d, H))
+
+
+def second_order_model(d: Drive, H: float) -> tuple[float, float]:
+    """The drive's 2nd-order model q/U = K/(s·(T_m·s + 1)) at the joint-side load H
+    (kg·m², kg for a prismatic joint; h* = 0, L neglected): (K rad/(V·s) = k_u·k_p/i_r,
+    T_m s), from :func:`~manipcad.drives.linear.drive_gain` and
+    :func:`~manipcad.drives.linear.mechanical_time_constant`.
+
+    Example:
+        >>> from manipcad.model.robot import Drive
+        >>> d = Drive(J=1e-4, ratio=10, R=1.0, L=1e-3, k_m=0.1, k_w=0.1)
+        >>> K, T = second_order_model(d, 0.01)
+        >>> round(K, 9), round(T, 9)
+        (1.0, 0.02)
+    """
     K = d.k_u * drive_gain(d, H, 0.0) / d.ratio
     T = mechanical_time_constant(d, H, 0.0)
-    return j, d, (Hmin, Hmax), H, K, T
+    return K, T
+
+
+def pd_gains(K: float, T: float, wn: float, zeta: float) -> tuple[float, float]:
+    """PD gains placing the poles of K/(s·(T·s + 1)) at ω_n, ζ: the characteristic
+    polynomial T·s² + (1 + K·k_d)·s + K·k_p gives k_p = T·ω_n²/K (V/rad) and
+    k_d = (2ζω_n·T − 1)/K (V·s/rad); unchecked (:func:`design_pd` checks them).
+
+    Example:
+        >>> pd_gains(2.0, 0.05, 30.0, 1.0)
+        (22.5, 1.0)
+    """
+    kp = T * wn * wn / K
+    kd = (2.0 * zeta * wn * T - 1.0) / K
+    return kp, kd
+
+
+def back_emf_feedforward(d: Drive) -> float:
+    """k_ff = k_w·i_r/k_u, V·s/rad (V·s/m): the velocity feed-forward that cancels the
+    back-EMF at the reference speed.
+
+    Example:
+        >>> from manipcad.model.robot import Drive
+        >>> back_emf_feedforward(Drive(ratio=10, R=1.0, L=1e-3, k_m=0.1, k_w=0.1, k_u=2.0))
+        0.5
+    """
+    return d.k_w * d.ratio / d.k_u
 
 
 def inertia_range(robot: Robot, j: int, given=None, *, samples: int = 256,
@@ -171,8 +213,7 @@ def _check_pd(plant, K: float, T: float, wn: float, zeta: float, period: float, 
     if wn * period > 0.5:
         raise ManipcadError(f"{what}: bandwidth {wn:g} rad/s is unreachable with the control "
                             f"period {period:g} s (need ω_n·T_s <= 0.5)")
-    kp = T * wn * wn / K
-    kd = (2.0 * zeta * wn * T - 1.0) / K
+    kp, kd = pd_gains(K, T, wn, zeta)
     C = ct.tf([kd, kp], [1.0])
     cl = ct.feedback(C * plant, 1)
     poles = np.asarray(cl.poles())
@@ -274,7 +315,7 @@ def design_pd(plant: ct.TransferFunction, K: float, T: float, wn: float, zeta: f
         manipcad.errors.ManipcadError: demo: ...wrong sign...that work: 10 to 500 rad/s...
     """
     if 2.0 * zeta * wn * T < 1.0 - 1e-9:
-        kd = (2.0 * zeta * wn * T - 1.0) / K
+        kd = pd_gains(K, T, wn, zeta)[1]
         rng = bandwidth_range(plant, K, T, zeta, period, what=what)
         works = (f"bandwidths that work: {rng[0]:.4g} to {rng[1]:.4g} rad/s" if rng else
                  f"no bandwidth works at this period (need ω_n >= {damping_floor(T, zeta):.4g}"

@@ -45,6 +45,7 @@ import numpy as np
 from manipcad._lazy import ct
 from manipcad.control.design import (
     DEFAULT_PERIOD,
+    back_emf_feedforward,
     check_period,
     inertia_range,
     joint_drive,
@@ -470,7 +471,7 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
     name = robot.joint_names[j]
     kf = (g[2] + d.R / d.k_u) / (d.k_m * d.ratio)
     ff = (f" + {kf * (H + d.J * d.ratio ** 2):.6g}·q̈* + "
-          f"{kf * d.k_v * d.ratio ** 2 + d.k_w * d.ratio / d.k_u:.6g}·q̇*") if feedforward else ""
+          f"{kf * d.k_v * d.ratio ** 2 + back_emf_feedforward(d):.6g}·q̇*") if feedforward else ""
     el = (f" + {g[3]:.6g}·(θ_m* − θ_m) + {g[4]:.6g}·(ω_m* − ω_m)" if tr is not None else "")
     on = (f"elastic model k_s = {tr.stiffness:g} N·m/rad, d_s = {tr.damping:g} N·m·s/rad, "
           if tr is not None else "")

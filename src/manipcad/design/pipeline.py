@@ -32,6 +32,7 @@ from typing import Any
 
 from manipcad.analysis.counterbalance import apply_counterweights
 from manipcad.control import synthesize
+from manipcad.control.design import back_emf_feedforward
 from manipcad.control.files import regulators_document
 from manipcad.control.pid import PID_FF
 from manipcad.design import cases as C
@@ -416,7 +417,7 @@ def _support(nominal, support: list[int], period: float) -> list:
                                 f"{nominal.joint_names[j]!r} the requirements do not name: "
                                 f"{exc}") from None
         d = nominal.drives[j]
-        kff = d.k_w * d.ratio / d.k_u
+        kff = back_emf_feedforward(d)
         reg.params[PID_FF] = kff
         reg.law += f"; + {kff:.6g}·q̇_ref (k_ff = k_w·i_r/k_u)"
         reg.design["kff"] = kff

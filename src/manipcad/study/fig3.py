@@ -56,8 +56,8 @@ import numpy as np
 
 import manipcad
 from manipcad.control import pid, realization_complexity, synthesize
+from manipcad.control.design import back_emf_feedforward, pd_gains, second_order_model
 from manipcad.control.regulator import u_limit
-from manipcad.drives.linear import drive_gain, mechanical_time_constant
 from manipcad.dynamics import mass_matrix
 from manipcad.errors import InputError, ManipcadError
 from manipcad.fileio import json_safe, writable_folder
@@ -158,16 +158,6 @@ def control_period(dt: float, period: float = 1e-4) -> float:
     return dt * max(1, round(period / dt))
 
 
-def _pid_design(drive, H: float, wn: float, zeta: float) -> tuple[float, float]:
-    """PD gains (k_p V/unit, k_d V·s/unit) placing the poles of K/(s(T s + 1)) at ω_n, ζ."""
-
-    K = drive.k_u * drive_gain(drive, H, 0.0) / drive.ratio
-    T = mechanical_time_constant(drive, H, 0.0)
-    kp = T * wn * wn / K
-    kd = (2.0 * zeta * wn * T - 1.0) / K
-    return kp, kd
-
-
 def support_regulators(robot: Robot, period: float, *, bandwidth: float = 200.0) -> list:
     """The PID regulators of the reach q3 and the lift q2, the same in every run.
 
@@ -184,10 +174,10 @@ def support_regulators(robot: Robot, period: float, *, bandwidth: float = 200.0)
     for name in (REACH, LIFT):
         j = robot.joint_index(name)
         d = robot.drives[j]
-        kp, kd = _pid_design(d, float(H[j, j]), bandwidth, 1.0)
+        kp, kd = pd_gains(*second_order_model(d, float(H[j, j])), bandwidth, 1.0)
         ulim = u_limit(d)
         out.append(pid(name, kp=kp, ki=kp * bandwidth / 10.0, kd=kd, period=period,
-                       u_limit=ulim, kff=d.k_w * d.ratio / d.k_u))
+                       u_limit=ulim, kff=back_emf_feedforward(d)))
     return out
 
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from manipcad.drives.dc import rigid_current, rigid_rhs, static_current
+from manipcad.drives.dc import rigid_current, rigid_current_for, rigid_rhs, static_current
 from manipcad.drives.linear import DriveLinearization, linearize
 from manipcad.drives.params import (
     KIND_ELASTIC,
@@ -189,9 +189,9 @@ class DriveModel:
     def rest_state(self, q0: float = 0.0) -> np.ndarray:
         """The state at rest at q = q0 with the load torque held by the motor.
 
-        Current ``τ_l/(i_r·k_m)`` (order 3); for an elastic gear the spring is
-        pre-loaded to carry τ_l (``θ_m = i_r·(q0 + δ0)``). At rest the dry
-        friction is not needed to hold the load.
+        Current ``τ_l/(i_r·k_m)`` (order 3; :func:`~manipcad.drives.dc.rigid_current_for`);
+        for an elastic gear the spring is pre-loaded to carry τ_l
+        (``θ_m = i_r·(q0 + δ0)``). At rest the dry friction is not needed to hold the load.
 
         Args:
             q0: joint angle, rad.
@@ -200,7 +200,7 @@ class DriveModel:
             State vector.
         """
         d = self.drive
-        i0 = self.tau_load / (d.ratio * d.k_m)
+        i0 = rigid_current_for(self.tau_load, self.p)
         x = [q0, 0.0]
         if self.transmission is not None:
             ks, b = self.p[P_KS], self.p[P_GAP]

@@ -137,10 +137,11 @@ class JobPanel:
     progress bar and a status line where the panel is made; :meth:`controls` adds the
     run and Cancel buttons (``data-testid`` ``TESTID-run``, ``TESTID-cancel``) and the
     timer that follows the latest such job of the tab, showing its progress and its end
-    once (an error in the page's error line)."""
+    once (an error in the page's error line, whose ``show`` and ``clear`` of
+    :func:`error_label` the panel is given)."""
 
-    def __init__(self, testid: str, kind: type, show) -> None:
-        self.testid, self.kind, self.show = testid, kind, show
+    def __init__(self, testid: str, kind: type, show, clear) -> None:
+        self.testid, self.kind, self.show, self.clear = testid, kind, show, clear
         self.bar = ui.linear_progress(value=0.0, show_value=False).classes("w-full")
         self.status = ui.label("").props(f"data-testid={testid}-status")
         self._shown: dict[str, Any] = {"job": None, "state": None}
@@ -183,10 +184,27 @@ class JobPanel:
         if state == "error":
             self.show(ManipcadError(job.message))
 
-    def controls(self, label: str, start, done, *, what=lambda job: "", ended=None,
-                 period: float = 0.25) -> None:
-        """The run button (``start``), Cancel, and the timer (every ``period`` s) that
-        calls ``done(job)`` when the latest job succeeds."""
+    def start(self, make_spec, note) -> None:
+        """Clear the error line, read the form into a job spec (``make_spec()``) and
+        submit it, with the status ``note(spec)``; a form error (ManipcadError) goes to
+        the error line instead."""
+        self.clear()
+        try:
+            spec = make_spec()
+        except ManipcadError as exc:
+            self.show(exc)
+            return
+        self.submit(spec, note(spec))
+
+    def controls(self, label: str, make_spec, done, *, what=lambda job: "", ended=None,
+                 note=lambda spec: "starting the worker...", period: float = 0.25) -> None:
+        """The run button (:meth:`start` of ``make_spec``, the page's form read into a
+        job spec), Cancel, and the timer (every ``period`` s) that calls ``done(job)``
+        when the latest job succeeds."""
+
+        def start() -> None:
+            self.start(make_spec, note)
+
         with ui.row():
             ui.button(label, on_click=start).props(f"data-testid={self.testid}-run") \
                 .mark(f"{self.testid}-run")

@@ -112,28 +112,22 @@ async def page() -> None:
                            label="counterweights")
             methods = ui.input("methods verified (the rules' first)", value="4")
             name = ui.input("Design name", value="design").props("data-testid=design-name")
-        panel = JobPanel("design", DesignSpec, show)
+        panel = JobPanel("design", DesignSpec, show, clear)
         out = ui.column().classes("w-full")
 
-        def start() -> None:
-            clear()
-            try:
-                if not traj.value:
-                    raise InputError(FORM, "trajectories", "pick at least one trajectory "
-                                     "(make one on the Trajectories page)")
-                f = read_form({"accuracy": acc.value, "overshoot": over.value,
-                               "fast": fast.value, "backlash": back.value,
-                               "elasticity": elas.value, "joint": joint.value,
-                               "payload": pay.value, "uncertainty": unc.value,
-                               "samples": samples.value, "period": period.value,
-                               "counterbalance": cb.value, "methods": methods.value},
-                              joints)
-                spec = DesignSpec(workspace=str(SERVER["ws"]), robot=S["robot"],
-                                  trajectories=list(traj.value), name=name.value, **f)
-            except ManipcadError as exc:
-                show(exc)
-                return
-            panel.submit(spec)
+        def form_spec() -> DesignSpec:
+            if not traj.value:
+                raise InputError(FORM, "trajectories", "pick at least one trajectory "
+                                 "(make one on the Trajectories page)")
+            f = read_form({"accuracy": acc.value, "overshoot": over.value,
+                           "fast": fast.value, "backlash": back.value,
+                           "elasticity": elas.value, "joint": joint.value,
+                           "payload": pay.value, "uncertainty": unc.value,
+                           "samples": samples.value, "period": period.value,
+                           "counterbalance": cb.value, "methods": methods.value},
+                          joints)
+            return DesignSpec(workspace=str(SERVER["ws"]), robot=S["robot"],
+                              trajectories=list(traj.value), name=name.value, **f)
 
         def done(job) -> None:
             m = job.metrics
@@ -154,4 +148,4 @@ async def page() -> None:
                 for f in m["files"]:
                     ui.link(f, f"/api/studies/{job.result}/{f}", new_tab=True)
 
-        panel.controls("Design", start, done, what=lambda job: "design ")
+        panel.controls("Design", form_spec, done, what=lambda job: "design ")

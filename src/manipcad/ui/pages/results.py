@@ -93,22 +93,17 @@ async def page() -> None:
             smethods = ui.input("fig3: methods (comma; empty: all)", value="") \
                 .classes("w-64").props("data-testid=study-methods")
             kind.on_value_change(lambda e: sname.set_value(e.value))
-        panel = JobPanel("study", StudySpec, show)
+        panel = JobPanel("study", StudySpec, show, clear)
         snotes = ui.column().classes("gap-0")
 
-        def start_study() -> None:
-            clear()
-            try:
-                spec = StudySpec(
-                    workspace=str(SERVER["ws"]), study=kind.value, name=sname.value,
-                    t_end=numbers(st_end.value, "t_end", "study form")[0]
-                    if str(st_end.value).strip() else None,
-                    methods=smethods.value.strip() or None)
-                check_name(spec.name, "study name")
-            except ManipcadError as exc:
-                show(exc)
-                return
-            panel.submit(spec, f"starting the worker for {spec.study}...")
+        def study_spec() -> StudySpec:
+            spec = StudySpec(
+                workspace=str(SERVER["ws"]), study=kind.value, name=sname.value,
+                t_end=numbers(st_end.value, "t_end", "study form")[0]
+                if str(st_end.value).strip() else None,
+                methods=smethods.value.strip() or None)
+            check_name(spec.name, "study name")
+            return spec
 
         def ended(job) -> None:
             snotes.clear()
@@ -122,8 +117,9 @@ async def page() -> None:
             if report:
                 ui.navigate.to(f"/api/studies/{job.result}/{report}", new_tab=True)
 
-        panel.controls("Run the study", start_study, done, ended=ended, period=0.5,
-                       what=lambda job: f"{job.spec.study} ")
+        panel.controls("Run the study", study_spec, done, ended=ended, period=0.5,
+                       what=lambda job: f"{job.spec.study} ",
+                       note=lambda spec: f"starting the worker for {spec.study}...")
 
         @ui.refreshable
         def studies() -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from nicegui import ui
 
-from manipcad.errors import InputError, ManipcadError
+from manipcad.errors import InputError
 from manipcad.ui import logic, worker
 from manipcad.ui.pages.common import (
     QUANTITIES,
@@ -45,27 +45,21 @@ async def page() -> None:
             dt = ui.input("dt [s]", value="1e-4").props("data-testid=sim-dt")
             name = ui.input("Result name (optional)", value="").props("data-testid=sim-name")
             keep = ui.checkbox("keep a diverged run's partial result")
-        panel = JobPanel("sim", SimSpec, show)
+        panel = JobPanel("sim", SimSpec, show, clear)
         figs = ui.column().classes("w-full")
 
-        def start() -> None:
-            clear()
-            try:
-                if not traj.value:
-                    raise InputError("simulation form", "trajectory", "pick a trajectory "
-                                     "(make one on the Trajectories page)")
-                spec = SimSpec(workspace=str(SERVER["ws"]), robot=S["robot"],
-                               trajectory=traj.value,
-                               regulators=list(dict.fromkeys(   # each once, in order
-                                   r for r in [reg.value, *(more.value or [])] if r)),
-                               t_end=numbers(t_end.value, "t_end", "simulation form")[0]
-                               if str(t_end.value).strip() else None,
-                               dt=numbers(dt.value, "dt", "simulation form")[0],
-                               name=name.value or None, save_diverged=keep.value)
-            except ManipcadError as exc:
-                show(exc)
-                return
-            panel.submit(spec)
+        def form_spec() -> SimSpec:
+            if not traj.value:
+                raise InputError("simulation form", "trajectory", "pick a trajectory "
+                                 "(make one on the Trajectories page)")
+            return SimSpec(workspace=str(SERVER["ws"]), robot=S["robot"],
+                           trajectory=traj.value,
+                           regulators=list(dict.fromkeys(   # each once, in order
+                               r for r in [reg.value, *(more.value or [])] if r)),
+                           t_end=numbers(t_end.value, "t_end", "simulation form")[0]
+                           if str(t_end.value).strip() else None,
+                           dt=numbers(dt.value, "dt", "simulation form")[0],
+                           name=name.value or None, save_diverged=keep.value)
 
         def done(job) -> None:
             panel.status.text = (f"done: stored results/{job.result} in {job.wall:.3g} s; "
@@ -90,4 +84,4 @@ async def page() -> None:
                     "joint", "check", "value", "limit", "unit", "verdict")], rows=rows) \
                     .props("dense flat data-testid=sim-checks")
 
-        panel.controls("Simulate", start, done)
+        panel.controls("Simulate", form_spec, done)

@@ -284,3 +284,25 @@ def test_dither_start_transient_left_out():
         s = dith[0]
         assert s.start == pytest.approx(first_used, abs=2 * dt), stuck
         assert s.end - s.start == pytest.approx(1.1 - first_used, abs=2 * dt)
+
+
+def test_few_stops_say_how_many_per_drive_and_direction():
+    """Three stops (the shoulder and the elbow arrive twice from above, once from below):
+    the warning says, per drive and approach direction, how many stops at how many poses
+    there were, what is left, and how many are needed."""
+    import manipcad
+
+    arm = manipcad.load_robot("puma560")
+    pts = [[0.0, -0.3, 0.3, 0.0, 0.3, 0.0], [0.3, -0.1, 0.5, 0.2, 0.5, 0.1],
+           [-0.2, -0.5, 0.1, -0.2, 0.1, -0.1], [0.1, -0.2, 0.4, 0.1, 0.4, 0.2]]
+    traj = waypoints(pts, move_time=0.5, dwell=0.4)
+    t = np.arange(0.0, traj.duration, 2e-3)
+    q, qd, qdd = traj.sample(t)
+    tau = manipcad.inverse_dynamics(arm.with_payload(2.0, (0, 0, 0)), q, qd, qdd)
+    with pytest.warns(ManipcadWarning, match=(
+            r"only 3 stops: .* at most 1 equation\(s\) per drive remain.*"
+            r"drive shoulder: 2 approached from \+ \(2 distinct poses\), 1 from − \(1 distinct "
+            r"pose\), 1 equation\(s\) left after 2 held-friction level\(s\); drive elbow: .*"
+            r"5 equations are needed per drive: 4 stops at different poses from each "
+            r"direction, or 6 dithered stops")):
+        identify_payload(arm, q, qd, None, tau, t=t, method="stops")

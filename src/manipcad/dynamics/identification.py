@@ -371,7 +371,9 @@ def find_stops(t, q, qd=None, *, joint_types=None, stop_speed=None,
 
     Also the dithered stops (``Stop.dither``; ``waypoints(dither=...)``): runs of at least
     ``DITHER_CYCLES_MIN`` whole cycles of a back-and-forth motion about a pose, every joint
-    within ``DITHER_BAND`` of it; ``used`` spans the whole cycles, direction 0.
+    within ``DITHER_BAND`` of it, the start transient left out (leading cycles in which
+    the joints rest ``DITHER_REST_EXCESS`` of a cycle longer than in the steadiest);
+    ``used`` spans the whole cycles, direction 0.
 
     Args:
         t: (N,) sample times, s, strictly increasing.
@@ -442,7 +444,8 @@ def _dither_stops(T, Q, V, types, vmax, min_duration: float) -> list[Stop]:
     """Dithered stops: runs of at least ``DITHER_CYCLES_MIN`` whole cycles (between upward
     zero crossings of its velocity, each at most ``DITHER_PERIOD_MAX`` long, faster than
     the stop speed somewhere) of the joint that moves most, with every joint within
-    ``DITHER_BAND`` of the run's mean pose; the run spans at least ``min_duration``."""
+    ``DITHER_BAND`` of the run's mean pose, its start transient left out; the run spans at
+    least ``min_duration``."""
     n = Q.shape[1]
     band = np.array([DITHER_BAND[jt] for jt in types])
     runs = []

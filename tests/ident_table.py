@@ -1,7 +1,7 @@
 """The closed-loop accuracy table of docs/identification.md ("Accuracy"), from the same
 simulated data as tests/test_identification_sim.py::test_within_two_percent_with_friction.
 
-Run ``python tests/ident_table.py`` (from the repository root; about ten minutes on two
+Run ``python tests/ident_table.py`` (from the repository root; a few minutes on two
 cores): one row per robot, the mass ± reported std (relative error) per method and signal.
 """
 

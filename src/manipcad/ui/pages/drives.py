@@ -11,15 +11,7 @@ from nicegui import ui
 from manipcad.errors import InputError, ManipcadError
 from manipcad.sizing import required_drive
 from manipcad.ui import logic
-from manipcad.ui.pages.common import (
-    connected,
-    error_label,
-    frame,
-    numbers,
-    robot,
-    trajectory,
-    ws,
-)
+from manipcad.ui.pages.common import connected, error_label, frame, numbers, robot, trajectory, ws
 from manipcad.ui.pages.drive_select import select_form
 
 

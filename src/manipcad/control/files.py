@@ -22,8 +22,9 @@ A file made by ``manipcad synthesize --out`` (or :meth:`Regulator.save`,
         ...
       design: {...}                                 # design numbers, for reading only
 
-Units are in the keys. Floats are written with ``repr`` (YAML round-trips them exactly),
-so a regulator read back runs bit for bit as the one saved. Hand-written files may also
+Units are in the keys (a drive's: :data:`manipcad.drives.params.PACKED_FIELDS`). Floats
+are written with ``repr`` (YAML round-trips them exactly), so a regulator read back runs
+bit for bit as the one saved. Hand-written files may also
 use the short PID form (``type: pid`` with one gain or one per joint; see
 :func:`regulators_from_dict`).
 
@@ -53,39 +54,12 @@ from manipcad.control.pid_file import short_pid_groups
 from manipcad.control.registry import METHODS, method
 from manipcad.control.regulator import Regulator
 from manipcad.control.signals import NPARAM
-from manipcad.drives.params import (
-    NPAR,
-    P_DS,
-    P_GAP,
-    P_J,
-    P_KIND,
-    P_KM,
-    P_KS,
-    P_KU,
-    P_KV,
-    P_KW,
-    P_L,
-    P_MFN,
-    P_MFP,
-    P_R,
-    P_RATIO,
-    P_UMAX,
-    P_WEPS,
-)
+from manipcad.drives.params import NPAR, P_KIND, P_RATIO, PACKED_FIELDS
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning
 from manipcad.fileio import atomic_write_text, dump_yaml, file_number, json_safe, read_yaml
 from manipcad.model.hashing import robot_hash
 from manipcad.model.robot import Robot
 from manipcad.version import __version__
-
-#: the packed drive in files: key (with unit) -> index
-DRIVE_FIELDS = {
-    "kind": P_KIND, "J_kgm2": P_J, "ratio": P_RATIO, "k_v_Nms_per_rad": P_KV,
-    "M_f_pos_Nm": P_MFP, "M_f_neg_Nm": P_MFN, "R_ohm": P_R, "L_H": P_L,
-    "k_m_Nm_per_A": P_KM, "k_w_Vs_per_rad": P_KW, "k_u": P_KU, "u_max_V": P_UMAX,
-    "k_s_Nm_per_rad": P_KS, "d_s_Nms_per_rad": P_DS, "backlash_rad": P_GAP,
-    "friction_zone_rad_per_s": P_WEPS,
-}
 
 _GROUP_KEYS = {"method", "joints", "period_s", "law", "spec", "options", "drive_assumed",
                "drives_assumed", "gains", "table", "design"}
@@ -101,11 +75,11 @@ def regulator_to_dict(reg: Regulator) -> dict[str, Any]:
                          "law": reg.law, "spec": json_safe(dict(reg.spec)),
                          "options": json_safe(dict(reg.options))}
     if m.drive_blocks == 1:
-        g["drive_assumed"] = {k: float(p[i]) for k, i in DRIVE_FIELDS.items()}
+        g["drive_assumed"] = {k: float(p[i]) for k, i in PACKED_FIELDS.items()}
     elif m.drive_blocks == "per_joint":
         base = m.drive_base
         g["drives_assumed"] = {
-            nm: {**{k: float(p[base + a * NPAR + i]) for k, i in DRIVE_FIELDS.items()},
+            nm: {**{k: float(p[base + a * NPAR + i]) for k, i in PACKED_FIELDS.items()},
                  **{k: float(p[i0 + a]) for k, i0 in m.joint_fields.items()}}
             for a, nm in enumerate(names)}
     g["gains"] = {k: float(p[i]) for k, i in m.fields.items()}
@@ -318,8 +292,8 @@ def _group(group: Any, robot: Robot, source: str, where: str,
     assumed: list[str] = []
     if m.drive_blocks == 1:
         d = _mapping(source, f"{where}.drive_assumed", group.get("drive_assumed"),
-                     DRIVE_FIELDS, inf_ok=_INF_OK)
-        for k, i in DRIVE_FIELDS.items():
+                     PACKED_FIELDS, inf_ok=_INF_OK)
+        for k, i in PACKED_FIELDS.items():
             p[i] = d[k]
         _check_drive(source, f"{where}.drive_assumed", p, 0)
     elif m.drive_blocks == "per_joint":
@@ -329,12 +303,12 @@ def _group(group: Any, robot: Robot, source: str, where: str,
             raise InputError(source, f"{where}.drives_assumed",
                              f"expected one drive per joint of the group: {', '.join(names)}")
         base = m.drive_base
-        keys = {**DRIVE_FIELDS, **m.joint_fields}
+        keys = {**PACKED_FIELDS, **m.joint_fields}
         for a, nm in enumerate(names):
             d = _mapping(source, f"{where}.drives_assumed.{nm}", ds[nm], keys, inf_ok=_INF_OK,
                          optional=m.optional_fields, assumed=assumed)
             _check_efficiency(source, f"{where}.drives_assumed.{nm}", d)
-            for k, i in DRIVE_FIELDS.items():
+            for k, i in PACKED_FIELDS.items():
                 p[base + a * NPAR + i] = d[k]
             for k, i0 in m.joint_fields.items():
                 p[i0 + a] = d[k]
@@ -400,7 +374,8 @@ def _joints(v: Any, robot: Robot, source: str, where: str, spans: bool) -> list[
 
 
 def _check_drive(source: str, where: str, p: np.ndarray, o: int) -> None:
-    for k, i in (("R_ohm", P_R), ("k_m_Nm_per_A", P_KM), ("k_u", P_KU)):
+    for k in ("R_ohm", "k_m_Nm_per_A", "k_u"):
+        i = PACKED_FIELDS[k]
         if not p[o + i] > 0:
             raise InputError(source, f"{where}.{k}", f"must be > 0, got {p[o + i]}")
     if p[o + P_RATIO] == 0:
@@ -410,4 +385,4 @@ def _check_drive(source: str, where: str, p: np.ndarray, o: int) -> None:
 
 
 __all__ = ["load_regulators", "save_regulators", "regulators_from_dict", "regulator_to_dict",
-           "regulators_yaml", "regulators_document", "DRIVE_FIELDS"]
+           "regulators_yaml", "regulators_document"]

@@ -83,6 +83,16 @@ KIND_RIGID_STATIC = 2
 KIND_ELASTIC = 3
 KIND_ELASTIC_STATIC = 4
 
+#: the layout of ``p`` by name, each key with its unit (as regulator files write a drive):
+#: key -> index
+PACKED_FIELDS = {
+    "kind": P_KIND, "J_kgm2": P_J, "ratio": P_RATIO, "k_v_Nms_per_rad": P_KV,
+    "M_f_pos_Nm": P_MFP, "M_f_neg_Nm": P_MFN, "R_ohm": P_R, "L_H": P_L,
+    "k_m_Nm_per_A": P_KM, "k_w_Vs_per_rad": P_KW, "k_u": P_KU, "u_max_V": P_UMAX,
+    "k_s_Nm_per_rad": P_KS, "d_s_Nms_per_rad": P_DS, "backlash_rad": P_GAP,
+    "friction_zone_rad_per_s": P_WEPS,
+}
+
 #: number of drive states of each kind (index = kind)
 KIND_STATES = (0, 1, 0, 3, 2)
 #: names of the drive states of each kind, in state order

@@ -71,6 +71,28 @@ def referred_load(drive: Drive, H_ii: float = 0.0, h_i: float = 0.0) -> tuple[fl
     return _load(drive, H_ii, h_i)
 
 
+def inertia_ratio(drive: Drive, H_min, H_max):
+    """How much the inertia the drive moves changes over a load range, joint side:
+    ρ = (J·i_r² + H_max)/(J·i_r² + H_min), -.
+
+    Args:
+        drive: the drive (J, i_r).
+        H_min, H_max: the least and largest joint-side inertia H_ii, kg·m² (kg); floats
+            or arrays that broadcast.
+
+    Returns:
+        ρ >= 1 for H_max >= H_min.
+
+    Example:
+        >>> from manipcad.model.robot import Drive
+        >>> from manipcad.drives.linear import inertia_ratio
+        >>> inertia_ratio(Drive(J=1e-4, ratio=10.0), 0.01, 0.03)     # (0.01 + 0.03)/(0.01 + 0.01)
+        2.0
+    """
+    rotor = drive.J * drive.ratio ** 2
+    return (rotor + H_max) / (rotor + H_min)
+
+
 def mechanical_time_constant(drive: Drive, H_ii: float = 0.0, h_i: float = 0.0) -> float:
     """T_m = (H* + J)·R / [(h* + k_v)·R + k_m·k_w], s.
 

@@ -83,7 +83,11 @@ from pydantic import (
     field_validator,
 )
 
-from manipcad.drives.linear import electrical_time_constant, mechanical_time_constant
+from manipcad.drives.linear import (
+    electrical_time_constant,
+    inertia_ratio,
+    mechanical_time_constant,
+)
 from manipcad.dynamics import inverse_dynamics, mass_matrix
 from manipcad.errors import InputError, ManipcadError
 from manipcad.fileio import read_yaml, validation_error
@@ -390,8 +394,7 @@ def derive_load_variation(robot, trajectory, joints: list[int]) -> Derivation:
     worst, notes = 1.0, []
     for j in driven:
         d = robot.drives[j]
-        rotor = d.J * d.ratio ** 2
-        rho = float((rotor + H[:, j, j].max()) / (rotor + H[:, j, j].min()))
+        rho = float(inertia_ratio(d, H[:, j, j].min(), H[:, j, j].max()))
         notes.append(f"{robot.joint_names[j]}: ρ = {rho:.3g}")
         worst = max(worst, rho)
     return Derivation("load_variation", worst, "ρ = (J·i_r² + H_ii,max)/(J·i_r² + H_ii,min) "

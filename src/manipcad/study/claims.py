@@ -90,6 +90,7 @@ import numpy as np
 import manipcad
 from manipcad.control import synthesize
 from manipcad.control.design import inertia_range
+from manipcad.drives.linear import inertia_ratio
 from manipcad.dynamics import mass_matrix
 from manipcad.errors import InputError, ManipcadWarning
 from manipcad.fileio import json_safe, writable_folder
@@ -342,7 +343,7 @@ def arm_with_load_ratio(arm: Robot, rho: float, *, max_payload: float = MAX_PAYL
     drives = list(new.drives)
     drives[j] = d.replace(ratio=ratio)
     new = new.replace(drives=tuple(drives))
-    got = (d.J * ratio**2 + hmax) / (d.J * ratio**2 + hmin)
+    got = inertia_ratio(drives[j], hmin, hmax)
     return new, {"payload_kg": m_p, "over_rated": bool(m_p > max_payload), "shift_m": shift,
                  "stroke_m": stroke, "ratio": ratio, "H_11_min": hmin, "H_11_max": hmax,
                  "load_ratio": got, "target": float(rho),
@@ -357,10 +358,8 @@ def own_load_ratio(arm: Robot) -> float:
         >>> round(own_load_ratio(manipcad.load_robot("cylindrical")), 3)
         1.422
     """
-    d = arm.drives[arm.joint_index(TURN)]
     lo, hi = turn_load_range(arm)
-    Jr2 = d.J * d.ratio**2
-    return (Jr2 + hi) / (Jr2 + lo)
+    return inertia_ratio(arm.drives[arm.joint_index(TURN)], lo, hi)
 
 
 def laws(speed_scale: float, stroke: float = STROKE):

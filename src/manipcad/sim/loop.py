@@ -87,6 +87,11 @@ from manipcad.sim.events import (
 #: divergence: joint speeds beyond this (rad/s or m/s) count as a runaway
 MAX_SPEED = 1.0e4
 
+#: row 0 of a rates matrix as the compiled code passes it to :func:`hybrid_at`: an int64
+#: (numba types a literal 0 argument as Literal[int](0), a specialization of its own: the
+#: hybrid plant's right-hand side compiled twice, once for row 0, once for the stages)
+ROW0 = np.int64(0)
+
 regulator_update = dispatch()
 
 #: the robot: body tables (with and without the joint-referred drive terms), gravity (3,)
@@ -475,7 +480,7 @@ def _step_events(plant, x, U, dist, n, sc, K, dt, xn):
     rk4_update(x, K, dt, xn)
     for j in range(n):
         if ev.mode[j] == 0.0 and ev.marg[j] < math.inf:
-            hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, 0)
+            hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, ROW0)
             break
     joint_values(ev, xn, n, ev.e1)
     for j in range(n):
@@ -500,7 +505,7 @@ def settle(plant, x, U, dist, n, sc, K, t):
     (:func:`manipcad.sim.events.release_worst`); likewise every stuck motor shaft of an
     elastic gear that cannot be held (:func:`manipcad.sim.events.release_shafts`)."""
     for _ in range(2 * n + 1):
-        hybrid_at(x, U, dist, n, plant, sc, K, 0)
+        hybrid_at(x, U, dist, n, plant, sc, K, ROW0)
         shafts = plant.ev.gear and release_shafts(plant, t)
         if not release_worst(plant, t) and not shafts:
             return
@@ -519,11 +524,11 @@ def _rk4_sub(plant, x, U, dist, n, sc, K, h, xs, xn, e1):
     again = True
     for j in range(n):
         if ev.mode[j] == 0.0 and ev.marg[j] < math.inf:
-            hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, 0)
+            hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, ROW0)
             again = False
             break
     if again and ev.gear and shaft_stuck(ev.gm, n):
-        hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, 0)
+        hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, ROW0)
     event_values(plant, xn, n, e1)
 
 

@@ -51,7 +51,7 @@ import numpy as np
 from manipcad.analysis.realtime import components_one  # noqa: F401  (loaded with _signals)
 from manipcad.drives.dc import armature_current_phis, armature_current_poly, phis
 from manipcad.drives.params import KIND_RIGID, P_J, P_KIND, P_KM, P_L, P_R, P_RATIO
-from manipcad.sim.borrow import borrowed, keep
+from manipcad.sim.borrow import borrowed, callee, keep
 from manipcad.sim.events import (
     bracket_next,
     bracket_start,
@@ -114,7 +114,7 @@ TABLEAUS = {"dp54": DP54, "bs32": BS32}
 STATS = 5
 
 
-@nb.njit(cache=True)
+@callee
 def _currents(plant, x, xs, U, t, n, ph, a0, a1, rtol, atol):
     """The rigid drives' currents t s after x (U held), exactly
     (:func:`armature_current_phis`, :func:`armature_current_poly`), for a motor speed
@@ -172,7 +172,7 @@ def _currents(plant, x, xs, U, t, n, ph, a0, a1, rtol, atol):
     return err, cnt
 
 
-@nb.njit(cache=True)
+@callee
 def _phi_table(plant, c, h, n, ph):
     """ph[st, j] = φ_0..φ_4 (:func:`manipcad.drives.dc.phis`) at -R·c[st]·h/L of the
     rigid drives (the exact currents of a step of h s, stage by stage)."""
@@ -186,7 +186,7 @@ def _phi_table(plant, c, h, n, ph):
                     phis(-c[st] * h * p[P_R] / p[P_L])
 
 
-@nb.njit(cache=True)
+@callee
 def _stages(plant, x, xs, U, dist, n, scr, Ks, tab, h, exact, ph, st0):
     """The stages st0 .. S-1 of a step of h s of the pair ``tab`` from x into Ks (Ks[0]
     given when st0 is 1), the last at the new solution xs; with ``exact`` the rigid
@@ -273,6 +273,9 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
             reuse = False
     have = False
     h = stats[0]
+    # the stages from the second: an int64, not the literal 1 (numba compiles a callee
+    # once for each literal int it is given: _stages, with the right-hand side, twice)
+    ONE = np.intp(1)
     while True:
         kr = (k - k0) // stride
         dist = ref.dist[kr]
@@ -373,7 +376,7 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
                     while th > 0.0:
                         if exact:
                             _phi_table(plant, tab.c, th * hs, n, ph)
-                        _stages(plant, x, xs, U, dist, n, scr, Ks, tab, th * hs, exact, ph, 1)
+                        _stages(plant, x, xs, U, dist, n, scr, Ks, tab, th * hs, exact, ph, ONE)
                         stats[3] += S - 1
                         event_values(plant, xs, n, ev.e1)
                         th = bracket_next(il, crossing(ev.e0, ev.e1))
@@ -382,7 +385,7 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
                         if exact:
                             _phi_table(plant, tab.c, il[2] * hs, n, ph)
                         _stages(plant, x, xs, U, dist, n, scr, Ks, tab, il[2] * hs, exact, ph,
-                                1)
+                                ONE)
                         stats[3] += S - 1
                         event_values(plant, xs, n, ev.e1)
                     hfull = hs

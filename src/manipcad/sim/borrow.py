@@ -28,9 +28,18 @@ Example:
 
 from __future__ import annotations
 
+import numba as nb
 from numba import types
 from numba.core import cgutils
 from numba.core.extending import intrinsic
+
+#: the decorator of a compiled function that only other compiled functions call: numba
+#: builds no Python entry for it (the wrapper that unboxes every argument from Python
+#: objects; for a callee taking the simulator's structures, some 80 % of its compile
+#: time: 0.30 s against 0.06 s of CPU for a three-line function taking the
+#: :class:`~manipcad.sim.loop.Plant`) and no C entry. Such a function cannot be called
+#: from Python; ``.compile(signature)`` and the cache work as for any other.
+callee = nb.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
 
 @intrinsic

@@ -70,7 +70,7 @@ from manipcad.dynamics.crba import CRBA_WORK, crba_one
 from manipcad.dynamics.forward_crba import cholesky_solve
 from manipcad.dynamics.gear import gear_factor, holding_band
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR
-from manipcad.sim.borrow import address
+from manipcad.sim.borrow import address, callee
 
 #: columns of :attr:`Events.fric` (joint side, N·m or N; η -): kinetic friction against
 #: positive and negative motion, static friction against positive and negative motion,
@@ -312,7 +312,7 @@ def _free_part(mode, lim, fric, A, M, n):
             M[i, i] = 1.0
 
 
-@nb.njit(cache=True)
+@callee
 def constrained(gen, gen_mass, rt, ev, q, qd, tau, dist, qdd):
     """q̈₀ (of the forward dynamics on :func:`mode_torques`) in ``qdd`` made the hybrid
     plant's: gear factors and held joints (module docstring); the held joints' margins
@@ -380,7 +380,7 @@ def constrained(gen, gen_mass, rt, ev, q, qd, tau, dist, qdd):
     return True
 
 
-@nb.njit(cache=True)
+@callee
 def _log(ev, t, j, what):
     """Keep the switch of joint j at t s in ``ev.log``: ``what`` its new mode (+1, -1, 0),
     or +2 / -2 reaching its upper / lower hard stop."""
@@ -392,7 +392,7 @@ def _log(ev, t, j, what):
     ev.count[0] = c + 1
 
 
-@nb.njit(cache=True)
+@callee
 def _release(ev, j, t):
     """Joint j, held, breaks away at t s in its direction ``dirn`` (off its stop, if at
     one)."""
@@ -407,7 +407,7 @@ def _has_stops(lims, j):
     return lims[j, 0] > -math.inf or lims[j, 1] < math.inf
 
 
-@nb.njit(cache=True)
+@callee
 def _contact(plant, x, n, j, t):
     """Joint j reaches its nearest hard stop at t s: q_j set on the stop, an inelastic
     impact (:func:`_impact`) brings q̇_j to 0, and the joint is held there."""
@@ -423,7 +423,7 @@ def _contact(plant, x, n, j, t):
     _log(ev, t, j, 2.0 * side)
 
 
-@nb.njit(cache=True)
+@callee
 def _impact(plant, x, n, j, t):
     """The inelastic impact of joint j on its stop, at state x (t s): the stop's impulse
     λ·e_j (N·m·s, N·s) through the mass matrix H_d (drives' rotors included) of the joints
@@ -451,7 +451,7 @@ def _impact(plant, x, n, j, t):
                 _log(ev, t, k, ev.mode[k])
 
 
-@nb.njit(cache=True)
+@callee
 def release_worst(plant, t):
     """Release the stuck joint furthest beyond its holding band (the last right-hand
     side's margins) in its break-away direction, at t s; whether one was."""
@@ -468,7 +468,7 @@ def release_worst(plant, t):
     return True
 
 
-@nb.njit(cache=True)
+@callee
 def event_values(plant, x, n, e):
     """The event functions at state x into ``e`` (4n; 2n without gears taking part):
     e[j] d·q̇_j of a slipping lossy joint (rad/s, m/s), the margin of a held one (N·m, N;
@@ -500,7 +500,7 @@ def joint_values(ev, x, n, e):
             e[n + j] = 0.0
 
 
-@nb.njit(cache=True)
+@callee
 def _gear_values(plant, x, n, e):
     """The gears' part of :func:`event_values` (its own function: the rigid drives' runs
     never enter it)."""
@@ -519,7 +519,7 @@ def _gear_values(plant, x, n, e):
             e[3 * n + j] = s * x[o + 1]
 
 
-@nb.njit(cache=True)
+@callee
 def _contact_value(p, d, dd, c):
     """The contact event of a gear (packed drive ``p``) in contact mode c at δ, δ̇ (rad,
     rad/s; m, m/s), positive while the mode holds, rad (m): with u± = τ_s(±1)/k_s =
@@ -547,7 +547,7 @@ def _shaft_margin(gm, j):
     return min(up, dn), (1.0 if up < dn else -1.0)
 
 
-@nb.njit(cache=True)
+@callee
 def _gear_switch(plant, x, n, j, t, which):
     """Switch joint j's gear at t s: ``which`` 0 its contact (the gap closes on the flank
     δ points to, or the contact opens), 1 its motor shaft (a sliding one stops: ω_m = 0
@@ -571,7 +571,7 @@ def _gear_switch(plant, x, n, j, t, which):
         _log(ev, t, j, 20.0 + ev.gm[j, 1])
 
 
-@nb.njit(cache=True)
+@callee
 def release_shafts(plant, t):
     """Release, at t s, the stuck motor shafts whose static friction cannot hold their
     torque (of the last right-hand side) in its direction; whether one was."""
@@ -598,7 +598,7 @@ def shaft_stuck(gm, n):
     return False
 
 
-@nb.njit(cache=True)
+@callee
 def crossing(e0, e1):
     """The earliest-crossing measure min_j e1_j/e0_j over the events positive at the
     start (1.0 when there is none): below zero when one crossed."""
@@ -611,7 +611,7 @@ def crossing(e0, e1):
     return phi
 
 
-@nb.njit(cache=True)
+@callee
 def release_edge(plant, x, n, e0, e1, t):
     """Release, at t s, the held joints that sat on the edge of their holding band at
     a step's start (margin e0 = 0) and are past it at its end (e1 < 0): their break-away
@@ -624,7 +624,7 @@ def release_edge(plant, x, n, e0, e1, t):
     ev = plant.ev
     any_ = False
     for j in range(n):
-        edge = joint_edge(ev, n, e0, e1, j)
+        edge = joint_edge(ev.mode, ev.lim, ev.fric, ev.lims, n, e0, e1, j)
         if edge == 1:
             _release(ev, j, t)
             any_ = True
@@ -637,19 +637,18 @@ def release_edge(plant, x, n, e0, e1, t):
 
 
 @nb.njit(cache=True, inline="always")
-def joint_edge(ev, n, e0, e1, j):
+def joint_edge(mode, lim, fric, lims, n, e0, e1, j):
     """Joint j's edge event of :func:`release_edge` between the event values e0 and e1
-    (``ev`` the :class:`Events`): 1 a held joint at its band's edge breaks away, 2 it is
-    put on its hard stop, 0 neither."""
-    if held(ev.mode, ev.lim, ev.fric, j) and e0[j] <= 0.0 and e1[j] < 0.0:
+    (``mode``, ``lim``, ``fric``, ``lims`` of :class:`Events`): 1 a held joint at its
+    band's edge breaks away, 2 it is put on its hard stop, 0 neither."""
+    if held(mode, lim, fric, j) and e0[j] <= 0.0 and e1[j] < 0.0:
         return 1
-    if (ev.lim[j] == 0.0 and _has_stops(ev.lims, j) and e0[n + j] <= 0.0
-            and e1[n + j] < 0.0):
+    if lim[j] == 0.0 and _has_stops(lims, j) and e0[n + j] <= 0.0 and e1[n + j] < 0.0:
         return 2
     return 0
 
 
-@nb.njit(cache=True)
+@callee
 def _gear_edges(plant, x, n, e0, e1, t):
     """The gears' part of :func:`release_edge`: a contact event (or a stuck shaft's
     margin) at 0 at the step's start and below at its end switches at the start."""
@@ -657,15 +656,15 @@ def _gear_edges(plant, x, n, e0, e1, t):
     any_ = False
     for j in range(n):
         if ev.gm[j, 0] == ev.gm[j, 0] and e0[2 * n + j] <= 0.0 and e1[2 * n + j] < 0.0:
-            _gear_switch(plant, x, n, j, t, 0)
+            _gear_switch(plant, x, n, j, t, np.intp(0))
             any_ = True
         if ev.gm[j, 1] == 0.0 and e0[3 * n + j] <= 0.0 and e1[3 * n + j] < 0.0:
-            _gear_switch(plant, x, n, j, t, 1)
+            _gear_switch(plant, x, n, j, t, np.intp(1))
             any_ = True
     return any_
 
 
-@nb.njit(cache=True)
+@callee
 def switch(plant, x, n, e0, e1, t):
     """Switch the modes of the joints whose events crossed (e0 > 0 >= e1): a slipping joint
     stops (stuck, q̇_j = 0 exactly; :func:`release_worst` turns it back if it cannot be
@@ -688,7 +687,7 @@ def switch(plant, x, n, e0, e1, t):
         _gear_switches(plant, x, n, e0, e1, t)
 
 
-@nb.njit(cache=True)
+@callee
 def _gear_switches(plant, x, n, e0, e1, t):
     """The gears' part of :func:`switch`: those whose contact or shaft event crossed."""
     for j in range(n):
@@ -697,7 +696,7 @@ def _gear_switches(plant, x, n, e0, e1, t):
                 _gear_switch(plant, x, n, j, t, w)
 
 
-@nb.njit(cache=True)
+@callee
 def _theta(il):
     """The next fraction to try of the bracket ``il`` (regula falsi), or -1 when located
     (to 1e-12 of the step, or after 60 rounds)."""
@@ -711,7 +710,7 @@ def _theta(il):
     return th
 
 
-@nb.njit(cache=True)
+@callee
 def bracket_start(il, fhi):
     """Start locating the first crossing in a step whose end has the measure ``fhi`` < 0
     (:func:`crossing`; 1 at the start): the first fraction θ of the step to try.
@@ -725,7 +724,7 @@ def bracket_start(il, fhi):
     return _theta(il)
 
 
-@nb.njit(cache=True)
+@callee
 def bracket_next(il, f):
     """Take the crossing measure ``f`` at the fraction last given; the next fraction, or
     -1 when located (:func:`bracket_start`)."""

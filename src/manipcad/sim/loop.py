@@ -61,11 +61,11 @@ from manipcad.drives.params import (
     P_KIND,
     P_RATIO,
 )
-from manipcad.dynamics.aba import ABA_WORK, aba_state
+from manipcad.dynamics.aba import ABA_WORK, aba_one
 from manipcad.dynamics.crba import CRBA_WORK
 from manipcad.dynamics.rnea import RNEA_WORK
 from manipcad.rk4 import rk4_stage, rk4_update
-from manipcad.sim.borrow import address, borrowed, keep, row
+from manipcad.sim.borrow import address, borrowed, callee, keep, row
 from manipcad.sim.events import (
     MAX_EVENTS,
     bracket_next,
@@ -135,7 +135,7 @@ def _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st):
         tau[j] = U[j]
     if plant.use_drives:
         if plant.generic_drives:
-            _generic(xs, U, plant, q, qd, xd, dxd, tau, K4, st, m)
+            _generic(xs, U, plant, q, qd, xd, dxd, tau, K4, np.intp(st), m)
         else:
             for j in range(n):
                 kind = int(dtable[j, P_KIND])
@@ -150,7 +150,7 @@ def _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st):
         tau[j] = tau[j] + dist[j]
 
 
-@nb.njit(cache=True)
+@callee
 def _generic(xs, U, plant, q, qd, xd, dxd, tau, K4, st, m):
     """The generic drives' part of :func:`_torques` (elastic gears, in their modes
     ``plant.ev.gm``): a call of its own, so that the rigid drives' inlined right-hand side
@@ -173,6 +173,10 @@ def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work):
     (:func:`~manipcad.sim.events.mode_torques`, inlined) and, only while a joint is held
     or a gear has losses, the constrained q̈ (:func:`~manipcad.sim.events.constrained`,
     a call). The stuck joints' margins go into ``plant.ev.marg``.
+
+    The general forward dynamics is a call of :func:`manipcad.dynamics.aba.aba_one`, not
+    inlined: inlined into both integrators and the event code it cost some 8 s of CPU of
+    a first run's compile and saved 1-3 % of a run (PUMA 560, RK4, general kernels).
     """
     _torques(xs, U, dist, n, plant, q, qd, xd, dxd, tau, K4, st)
     for j in range(n):
@@ -188,7 +192,7 @@ def _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, work):
             for j in range(n):  # H not positive definite: the run stops as diverged
                 qdd[j] = math.nan
             more = False
-    elif not aba_state(plant.rtable, plant.g, q, qd, tin, fext, False, True, work, qdd):
+    elif not aba_one(plant.rtable, plant.g, q, qd, tin, fext, False, True, work, qdd):
         more = False
     if more:
         constrained(plant.gen, plant.gen_mass, plant.rtable, ev, q, qd, tau, dist, qdd)
@@ -351,7 +355,7 @@ def sample_due(plant, ctrl, x, U, k, kr, dt, ref, sig, H, comp, wait):
         estimator_update(est, sig, plant.ctable, est.steps * dt)
 
 
-@nb.njit(cache=True)
+@callee
 def _copy(dst, src):
     """dst[:, :] = src for two C arrays of one shape, element by element (a slice
     assignment compiles its broadcasting and the shape check's message too: 3.4 s of
@@ -361,7 +365,7 @@ def _copy(dst, src):
             dst[i, c] = src[i, c]
 
 
-@nb.njit(cache=True)
+@callee
 def _pick_up(plant):
     """The payload step: the plant's table (and, if the model follows it, the model's)."""
     pick = plant.pick
@@ -432,7 +436,7 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
                 _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K4, st, fext, awork)
                 if st != 0:
                     continue
-                if hyb and _beyond(ev, n):
+                if hyb and _beyond(ev.mode, ev.lim, ev.fric, ev.marg, n):
                     settle(plant, x, U, dist, n, scr, K4, k * dt)
             keep_sample(plant, rec, work, k * dt, every, x, U, tau)
             if last and kr == K:
@@ -457,11 +461,11 @@ def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
 
 
 @nb.njit(cache=True, inline="always")
-def _beyond(ev, n):
+def _beyond(mode, lim, fric, marg, n):
     """Whether a held joint's margin (of the last right-hand side) is below zero: the
-    rates need :func:`settle` (``ev`` the :class:`~manipcad.sim.events.Events`)."""
+    rates need :func:`settle` (the arrays of :class:`~manipcad.sim.events.Events`)."""
     for j in range(n):
-        if held(ev.mode, ev.lim, ev.fric, j) and ev.marg[j] < 0.0:
+        if held(mode, lim, fric, j) and marg[j] < 0.0:
             return True
     return False
 
@@ -484,12 +488,12 @@ def _step_events(plant, x, U, dist, n, sc, K, dt, xn):
             break
     joint_values(ev, xn, n, ev.e1)
     for j in range(n):
-        if joint_edge(ev, n, ev.e0, ev.e1, j):
+        if joint_edge(ev.mode, ev.lim, ev.fric, ev.lims, n, ev.e0, ev.e1, j):
             return True
     return crossing(ev.e0, ev.e1) < 0.0
 
 
-@nb.njit(cache=True)
+@callee
 def hybrid_at(xs, U, dist, n, plant, sc, K, st):
     """The hybrid plant's right-hand side at xs into row ``st`` of K (the stuck joints'
     margins into ``plant.ev.marg``): :func:`_rates` with ``plant.ev.on``, one compiled copy
@@ -498,7 +502,7 @@ def hybrid_at(xs, U, dist, n, plant, sc, K, st):
     _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, K, st, fext, awork)
 
 
-@nb.njit(cache=True)
+@callee
 def settle(plant, x, U, dist, n, sc, K, t):
     """The rates at x (time t s) into K[0] with consistent modes: while a stuck joint
     cannot be held, release the one furthest beyond its band and solve again
@@ -511,7 +515,7 @@ def settle(plant, x, U, dist, n, sc, K, t):
             return
 
 
-@nb.njit(cache=True)
+@callee
 def _rk4_sub(plant, x, U, dist, n, sc, K, h, xs, xn, e1):
     """An RK4 step of h s from x (K[0] its rates) into xn, the modes held; the event
     values at xn into e1 (the rates at xn computed for the stuck joints' and motor shafts'
@@ -532,7 +536,7 @@ def _rk4_sub(plant, x, U, dist, n, sc, K, h, xs, xn, e1):
     event_values(plant, xn, n, e1)
 
 
-@nb.njit(cache=True)
+@callee
 def hybrid_step(plant, x, U, dist, t, dt, n, sc, K, xs, xn):
     """One RK4 step of dt s from x at t s (K[0]: its settled rates) with the events located.
 

@@ -58,6 +58,7 @@ import manipcad
 from manipcad.control import pid, realization_complexity, synthesize
 from manipcad.control.design import back_emf_feedforward, pd_gains, second_order_model
 from manipcad.control.regulator import u_limit
+from manipcad.drives.linear import inertia_ratio
 from manipcad.dynamics import mass_matrix
 from manipcad.errors import InputError, ManipcadError
 from manipcad.fileio import json_safe, writable_folder
@@ -225,7 +226,7 @@ def arm_parameters(robot: Robot) -> dict[str, Any]:
         "turn_load": {
             "H_11_min": H["min_load"], "H_11_max": H["max_load"],
             "rotor_reflected": Jr,
-            "motor_side_ratio": (Jr + H["max_load"]) / (Jr + H["min_load"]),
+            "motor_side_ratio": inertia_ratio(d1, H["min_load"], H["max_load"]),
             "note": "H_11 of the links at q3 = 0 and 0.5 m; rotor_reflected = J·i_r²; "
                     "motor_side_ratio = (J·i_r² + H_max)/(J·i_r² + H_min), the load change "
                     "the turning motor sees",

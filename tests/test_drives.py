@@ -20,10 +20,13 @@ from manipcad.drives.coupling import drive_rates
 from manipcad.drives.dc import (
     amplifier_voltage,
     dry_friction,
+    required_joint_torque,
+    rigid_current_for,
     rigid_drive_rate,
     rigid_powers,
     rigid_rhs,
     static_current,
+    static_input,
 )
 from manipcad.drives.laws import (
     ace1_filter_rate,
@@ -146,6 +149,31 @@ def test_dry_friction_follows_joint_direction():
             abs(d.ratio) * mf * np.sign(qd))
     p_eps = pack_drive(d, friction_eps=2.0)
     assert dry_friction(1.0, p_eps) == pytest.approx(0.3 * 0.5)
+
+
+def test_rigid_drive_inverse_is_the_forward_model_inverted():
+    """required_joint_torque and rigid_current_for (what the computed torque and LQR
+    feed-forward invert) against rigid_rhs (the plant): the current and input they give
+    for a wanted q̈ at q̇, through a lossy gear, make the forward model produce that q̈."""
+    H, h, tau_load, eta = 1.3, 0.2, 4.0, 0.8
+    for ratio, qd, qdd in ((62.6, 0.7, 3.0), (62.6, -0.4, 5.0), (-30.0, 0.9, -6.0)):
+        d = DRIVE.replace(M_f=(0.05, 0.08), L=0.0, k_w=0.25, ratio=ratio)
+        p = pack_drive(d, order=2, friction_eps=0.0)
+        load = H * qdd + h * qd + tau_load            # what the gear passes to the joint
+        f = 1.0 / eta if load * qd >= 0 else eta
+        tau = required_joint_torque(f, load, qdd, qd, 1.0, p)
+        i = rigid_current_for(tau, p)
+        U = static_input(i, d.ratio * qd, p)
+        dx = np.zeros(2)
+        # the plant with the gear's loss as the extra load torque (f − 1)·P it costs
+        rigid_rhs(np.array([0.0, qd]), U, H, h, tau_load + (f - 1.0) * load, p, dx)
+        assert dx[1] == pytest.approx(qdd, rel=1e-12, abs=1e-12)
+        assert d.ratio * d.k_m * i == pytest.approx(tau, rel=1e-14)
+    # without the friction flag the motor's dry friction is left out, and only it
+    # (here i_r < 0 and q̇ > 0: the joint moves forward, M_f+)
+    assert (required_joint_torque(1.0, 0.0, 0.0, 0.7, 1.0, p)
+            - required_joint_torque(1.0, 0.0, 0.0, 0.7, 0.0, p)) == pytest.approx(
+        abs(d.ratio) * 0.05)
 
 
 # ------------------------------------------------------------------ linear models

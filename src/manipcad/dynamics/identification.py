@@ -1169,7 +1169,11 @@ def _estimate_com(robot, eq, sel, c0, body):
 
     G0 = g_of(c0)
     fit0 = _fit(G0, eq.Y[:, sel], W, eq.lost[sel])
-    var = np.maximum((fit0["res_j"] ** 2), 1e-300)
+    # each drive's residual variance, floored relative to its torques as in _fit's weights:
+    # noise-free data (a drive whose residual is rounding) keep finite, sane weights
+    Yw = eq.Y[:, sel] * W
+    scale = np.sqrt(np.mean(Yw**2, axis=0)) + np.sqrt(np.mean(Yw**2))
+    var = np.maximum(fit0["res_j"] ** 2, (1e-12 * scale) ** 2 + 1e-300)
     # residuals correlated in time count as fewer equations (the largest drive factor)
     infl = float(_ar1_inflation(eq.Y[:, sel] - fit0["mass"] * G0, W).max()) if eq.ordered \
         else 1.0
@@ -1416,8 +1420,7 @@ def check_estimate(est: PayloadEstimate, source: str) -> PayloadEstimate:
     what = "payload mass" if not math.isfinite(est.mass) else "centre of mass"
     raise ManipcadError(
         f"{source}: the data determine no {what} (the fit gives nan): its least squares "
-        "are singular, e.g. noise-free (synthetic) torques, whose drives are weighted by "
-        "an estimated noise of zero" + (", or too little excitation to separate the mass "
+        "are singular" + (", e.g. too little excitation to separate the mass "
                                         "from the centre of mass (--estimate-com)"
                                         if est.com_estimated else "")
         + "; nothing is reported")

@@ -15,17 +15,7 @@ from nicegui import ui
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import worker
-from manipcad.ui.pages.common import (
-    SERVER,
-    JobPanel,
-    connected,
-    error_label,
-    frame,
-    job_notes,
-    numbers,
-    robot,
-    ws,
-)
+from manipcad.ui.pages import common
 from manipcad.ui.worker import DesignSpec
 
 FORM = "design form"
@@ -47,10 +37,10 @@ def read_form(fields: dict[str, Any], joints: list[str]) -> dict[str, Any]:
         (0.001, (0.0, 1.0), 0.05)
     """
     def num(key: str, name: str) -> float:
-        return numbers(fields[key], name, FORM)[0]
+        return common.numbers(fields[key], name, FORM)[0]
 
-    pay = numbers(fields["payload"], "payload range", FORM) if str(fields["payload"]).strip() \
-        else [0.0]
+    pay = (common.numbers(fields["payload"], "payload range", FORM)
+           if str(fields["payload"]).strip() else [0.0])
     if len(pay) not in (1, 2):
         raise InputError(FORM, "payload range", f"expected LO, HI in kg, got "
                          f"{fields['payload']!r}")
@@ -77,14 +67,14 @@ def read_form(fields: dict[str, Any], joints: list[str]) -> dict[str, Any]:
 
 
 async def page() -> None:
-    S = await connected()
+    S = await common.connected()
     worker.prestart()                   # this page runs jobs: have a worker ready
-    with frame("Design"):
-        show, clear = error_label()
-        w = ws()
+    with common.frame("Design"):
+        show, clear = common.error_label()
+        w = common.ws()
         trajs = [i.name for i in w.list("trajectories")]
         try:
-            joints = list(robot().joint_names)
+            joints = list(common.robot().joint_names)
         except ManipcadError as exc:
             joints = []
             show(exc)
@@ -112,7 +102,7 @@ async def page() -> None:
                            label="counterweights")
             methods = ui.input("methods verified (the rules' first)", value="4")
             name = ui.input("Design name", value="design").props("data-testid=design-name")
-        panel = JobPanel("design", DesignSpec, show, clear)
+        panel = common.JobPanel("design", DesignSpec, show, clear)
         out = ui.column().classes("w-full")
 
         def form_spec() -> DesignSpec:
@@ -126,7 +116,7 @@ async def page() -> None:
                            "samples": samples.value, "period": period.value,
                            "counterbalance": cb.value, "methods": methods.value},
                           joints)
-            return DesignSpec(workspace=str(SERVER["ws"]), robot=S["robot"],
+            return DesignSpec(workspace=str(common.SERVER["ws"]), robot=S["robot"],
                               trajectories=list(traj.value), name=name.value, **f)
 
         def done(job) -> None:
@@ -135,7 +125,7 @@ async def page() -> None:
                                  f"studies/{job.result}")
             out.clear()
             with out:
-                job_notes(job)
+                common.job_notes(job)
                 if m.get("failure"):
                     ui.label(m["failure"]["text"]).classes("text-negative")
                 rows = [{"joint": jn, "method": m["methods"].get(jn) or "-",

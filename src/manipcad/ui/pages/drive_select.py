@@ -8,7 +8,7 @@ from nicegui import run, ui
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import logic
-from manipcad.ui.pages.common import numbers, trajectory, ws
+from manipcad.ui.pages import common
 
 
 def select_form(S, show, clear) -> None:
@@ -39,13 +39,13 @@ def select_form(S, show, clear) -> None:
         clear()
         out.clear()
         try:
-            arm, traj = trajectory("select form")
-            lohi = numbers(pay.value, "payload range", "select form")
+            arm, traj = common.trajectory("select form")
+            lohi = common.numbers(pay.value, "payload range", "select form")
             if len(lohi) != 2:
                 raise InputError("select form", "payload range", f"expected LO, HI in kg, "
                                  f"got {pay.value!r}")
-            margin = numbers(mar.value, "margin", "select form")[0]
-            w = ws()
+            margin = common.numbers(mar.value, "margin", "select form")[0]
+            w = common.ws()
             with out:
                 ui.spinner()
             sel = await run.io_bound(

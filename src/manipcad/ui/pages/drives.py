@@ -11,14 +11,14 @@ from nicegui import ui
 from manipcad.errors import InputError, ManipcadError
 from manipcad.sizing import required_drive
 from manipcad.ui import logic
-from manipcad.ui.pages.common import connected, error_label, frame, numbers, robot, trajectory, ws
+from manipcad.ui.pages import common
 from manipcad.ui.pages.drive_select import select_form
 
 
 async def page() -> None:
-    S = await connected()
-    with frame("Drives"):
-        show, clear = error_label()
+    S = await common.connected()
+    with common.frame("Drives"):
+        show, clear = common.error_label()
         ui.markdown("Motors and gears: the catalog's and your own (kept in the workspace), "
                     "attached to the joints of the current robot; then what the current "
                     "trajectory needs from the drives against their limits (`manipcad "
@@ -27,7 +27,7 @@ async def page() -> None:
         # ---- the libraries
         @ui.refreshable
         def libraries() -> None:
-            w = ws()
+            w = common.ws()
             for kind, fields in (("motors", logic.MOTOR_FIELDS),
                                  ("gears", logic.GEAR_FIELDS)):
                 cols = [("ref", "name", ""), ("origin", "origin", "")] + \
@@ -62,10 +62,10 @@ async def page() -> None:
                         for key, inp in inputs.items():
                             if not str(inp.value).strip():
                                 continue
-                            vals = numbers(inp.value, key, f"{kind}/{name.value}")
+                            vals = common.numbers(inp.value, key, f"{kind}/{name.value}")
                             form[key] = vals if key == "M_f" and len(vals) > 1 else (
                                 int(vals[0]) if key == "direction" else vals[0])
-                        item = logic.add_part(ws(), kind, name.value, form,
+                        item = logic.add_part(common.ws(), kind, name.value, form,
                                               source=source.value)
                     except ManipcadError as exc:
                         show(exc)
@@ -84,14 +84,14 @@ async def page() -> None:
         sel: dict[str, Any] = {}
 
         def reload_parts() -> None:
-            w = ws()
+            w = common.ws()
             sel["motor"].set_options([r["ref"] for r in logic.library_rows(w, "motors")])
             sel["gear"].set_options(["(none)", *(r["ref"] for r in
                                                 logic.library_rows(w, "gears"))])
 
         def attach_form() -> None:
             try:
-                arm = robot()
+                arm = common.robot()
             except ManipcadError as exc:
                 show(exc)
                 return
@@ -118,7 +118,7 @@ async def page() -> None:
                     motor, gear = sel["motor"].value, sel["gear"].value
                     try:
                         _, item = logic.attach_drive(
-                            ws(), robot(), joint.value, motor or "",
+                            common.ws(), common.robot(), joint.value, motor or "",
                             [] if gear in (None, "(none)") else [gear],
                             name=rname.value, force=force.value)
                     except ManipcadError as exc:
@@ -141,7 +141,7 @@ async def page() -> None:
             clear()
             out.clear()
             try:
-                arm, traj = trajectory("drives")
+                arm, traj = common.trajectory("drives")
                 req = required_drive(arm, traj)
                 png = logic.torque_speed_png(req)
                 figs = logic.required_series_figures(req)
@@ -184,7 +184,7 @@ async def page() -> None:
             clear()
             sweep_out.clear()
             try:
-                arm, traj = trajectory("sweep form")
+                arm, traj = common.trajectory("sweep form")
                 jv = str(sj.value).strip()
                 joint = int(jv) - 1 if jv.isdigit() else jv
                 if isinstance(joint, int) and not 0 <= joint < arm.n:
@@ -193,12 +193,12 @@ async def page() -> None:
                 if isinstance(joint, str) and joint not in arm.joint_names:
                     raise InputError("sweep form", "joint", f"no joint {jv!r}; joints: "
                                      f"{', '.join(arm.joint_names)}")
-                n = numbers(nr.value, "ratios", "sweep form")[0]
+                n = common.numbers(nr.value, "ratios", "sweep form")[0]
                 if n != int(n):
                     raise InputError("sweep form", "ratios", f"a whole number, got {n}")
                 sw = logic.ratio_sweep_for(
-                    arm, traj, joint, numbers(lo.value, "lowest", "sweep form")[0],
-                    numbers(hi.value, "highest", "sweep form")[0], int(n))
+                    arm, traj, joint, common.numbers(lo.value, "lowest", "sweep form")[0],
+                    common.numbers(hi.value, "highest", "sweep form")[0], int(n))
                 png = logic.ratio_sweep_png(sw)
             except ManipcadError as exc:
                 show(exc)

@@ -7,7 +7,7 @@ from fastapi.responses import FileResponse
 
 from manipcad.errors import InputError
 from manipcad.ui import logic
-from manipcad.ui.pages.common import ws
+from manipcad.ui.pages import common
 from manipcad.workspace import check_name
 
 
@@ -19,7 +19,7 @@ def study_file(name: str, file: str):
     except InputError as exc:
         raise HTTPException(400, str(exc)) from None
     try:
-        path = logic.study_file(ws(), name, file)
+        path = logic.study_file(common.ws(), name, file)
     except InputError as exc:
         raise HTTPException(404, str(exc)) from None
     return FileResponse(path)
@@ -34,7 +34,7 @@ def item_file(kind: str, name: str):
         check_name(name, "name")
     except InputError as exc:
         raise HTTPException(400, str(exc)) from None
-    w = ws()
+    w = common.ws()
     try:
         w.get(f"{kind}/{name}")
         path = w.resolve(kind, name)

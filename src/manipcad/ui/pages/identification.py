@@ -8,23 +8,13 @@ from nicegui import ui
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import logic
-from manipcad.ui.pages.common import (
-    SERVER,
-    connected,
-    error_label,
-    frame,
-    numbers,
-    off_loop,
-    robot,
-    upload_refused,
-    ws,
-)
+from manipcad.ui.pages import common
 
 
 async def page() -> None:
-    await connected()
-    with frame("Identification"):
-        show, clear = error_label()
+    await common.connected()
+    with common.frame("Identification"):
+        show, clear = common.error_label()
         ui.label("Upload measured joint torques or motor currents along a motion (CSV: t, "
                  "q1.., qd1.., qdd1.., tau1.. or current1..; SI units) of the picked "
                  "robot, or take a stored simulation result's recorded motion and torques; "
@@ -34,7 +24,7 @@ async def page() -> None:
         out = ui.column().classes("w-full")
 
         def centre() -> list[float]:
-            c = numbers(com.value, "com", "identification form")
+            c = common.numbers(com.value, "com", "identification form")
             if len(c) != 3:
                 raise InputError("identification form", "com", "expected x, y, z")
             return c
@@ -57,8 +47,8 @@ async def page() -> None:
             out.clear()
             try:
                 c = centre()
-                data, arm = await e.file.read(), robot()
-                est = await off_loop(logic.identify_upload, arm, e.file.name, data, com=c)
+                data, arm = await e.file.read(), common.robot()
+                est = await common.off_loop(logic.identify_upload, arm, e.file.name, data, com=c)
             except ManipcadError as exc:
                 show(exc)
                 return
@@ -66,7 +56,7 @@ async def page() -> None:
 
         ui.upload(label="Upload measured data (.csv)", auto_upload=True,
                   max_file_size=logic.MAX_UPLOAD, on_upload=uploaded,
-                  on_rejected=upload_refused(show, ".csv")) \
+                  on_rejected=common.upload_refused(show, ".csv")) \
             .props("accept=.csv data-testid=ident-upload")
 
         async def from_result() -> None:
@@ -75,9 +65,9 @@ async def page() -> None:
             try:
                 if not stored.value:
                     raise InputError("identification form", "result", "pick a stored result")
-                c, arm, name, root = centre(), robot(), stored.value, SERVER["ws"]
+                c, arm, name, root = centre(), common.robot(), stored.value, common.SERVER["ws"]
                 # the workspace opened in the worker thread (its index belongs to it)
-                est = await off_loop(lambda: logic.identify_result(
+                est = await common.off_loop(lambda: logic.identify_result(
                     logic.open_workspace(root), name, arm, com=c))
             except ManipcadError as exc:
                 show(exc)
@@ -85,7 +75,7 @@ async def page() -> None:
             shown(est)
 
         with ui.row().classes("items-center"):
-            names = logic.result_names(ws())
+            names = logic.result_names(common.ws())
             stored = ui.select(names, value=names[-1] if names else None,
                                label="or a stored simulation result").classes("w-64") \
                 .props("data-testid=ident-result")

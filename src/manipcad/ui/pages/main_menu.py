@@ -5,19 +5,19 @@ from __future__ import annotations
 
 from nicegui import ui
 
-from manipcad.ui.pages.common import MENU, connected, frame, ws
+from manipcad.ui.pages import common
 
 
 async def page() -> None:
-    await connected()
-    with frame("Main menu"):
+    await common.connected()
+    with common.frame("Main menu"):
         ui.markdown("The designer's path (paper Fig. 1): pick a **robot**, make a "
                     "**trajectory**, state **requirements** and get the recommended synthesis "
                     "**method**, **synthesize** the regulators, **simulate** and compare the "
                     "**results**. Everything is kept in the workspace.")
-        w = ws()
+        w = common.ws()
         with ui.row():
-            for path, text in MENU[1:]:
+            for path, text in common.MENU[1:]:
                 kind = {"/robots": "robots", "/trajectories": "trajectories",
                         "/synthesis": "regulators", "/results": "results"}.get(path)
                 count = f" ({len(w.list(kind))} in the workspace)" if kind else ""

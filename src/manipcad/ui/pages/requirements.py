@@ -10,15 +10,15 @@ from nicegui import ui
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import logic, worker
-from manipcad.ui.pages.common import SERVER, connected, error_label, frame, numbers, robot, ws
+from manipcad.ui.pages import common
 from manipcad.ui.worker import SimulationJob, VerifySpec
 
 
 async def page() -> None:
-    S = await connected()
+    S = await common.connected()
     worker.prestart()                   # this page runs jobs: have a worker ready
-    with frame("Requirements → method"):
-        show, clear = error_label()
+    with common.frame("Requirements → method"):
+        show, clear = common.error_label()
         yes_no = {None: "—", True: "yes", False: "no"}
         with ui.grid(columns=3).classes("gap-2"):
             acc = ui.input("accuracy: largest error [rad|m]", value="1e-3") \
@@ -39,10 +39,10 @@ async def page() -> None:
 
         def read_form() -> dict[str, Any]:
             return {
-                "accuracy": numbers(acc.value, "accuracy", "requirements form")[0]
+                "accuracy": common.numbers(acc.value, "accuracy", "requirements form")[0]
                 if str(acc.value).strip() else None,
                 "overshoot_allowed": over.value, "fast_action": fast.value,
-                "gripper_speed": numbers(speed.value, "gripper_speed",
+                "gripper_speed": common.numbers(speed.value, "gripper_speed",
                                          "requirements form")[0]
                 if str(speed.value).strip() else None,
                 "inductance": ind.value, "coupling": coup.value,
@@ -54,8 +54,8 @@ async def page() -> None:
             out.clear()
             try:
                 form = read_form()
-                arm = robot()
-                traj = logic.load_trajectory_ref(ws(), S["trajectory"], arm) \
+                arm = common.robot()
+                traj = logic.load_trajectory_ref(common.ws(), S["trajectory"], arm) \
                     if S["trajectory"] else None
                 recs = logic.recommend_for(form, arm, traj)
             except ManipcadError as exc:
@@ -91,7 +91,7 @@ async def page() -> None:
                                      "simulation needs a trajectory (Trajectories page)")
                 checked.text = "verifying: synthesizing and simulating the top candidates"
                 # in the spare worker process, as a simulation: the server keeps answering
-                job = SimulationJob(VerifySpec(str(SERVER["ws"]), S["robot"],
+                job = SimulationJob(VerifySpec(str(common.SERVER["ws"]), S["robot"],
                                                S["trajectory"], form))
                 while job.poll() in ("starting", "running"):
                     await asyncio.sleep(0.1)

@@ -7,30 +7,20 @@ from nicegui import ui
 
 from manipcad.errors import ManipcadError
 from manipcad.ui import logic, worker
-from manipcad.ui.pages.common import (
-    QUANTITIES,
-    SERVER,
-    JobPanel,
-    connected,
-    error_label,
-    frame,
-    job_notes,
-    numbers,
-    ws,
-)
+from manipcad.ui.pages import common
 from manipcad.ui.worker import StudySpec
 from manipcad.workspace import check_name
 
 
 async def page() -> None:
-    await connected()
+    await common.connected()
     worker.prestart()                   # this page runs jobs: have a worker ready
-    with frame("Results and studies"):
-        show, clear = error_label()
+    with common.frame("Results and studies"):
+        show, clear = common.error_label()
         with ui.row().classes("items-end"):
             where = ui.input("filter, e.g. max_error<1e-3 and status=ok", value="") \
                 .classes("w-96").props("data-testid=res-where")
-            quantity = ui.select(QUANTITIES, value="error", label="Quantity")
+            quantity = ui.select(common.QUANTITIES, value="error", label="Quantity")
         cols = ["name", "status", "checks", "max_error", "rms_error", "peak_torque",
                 "peak_current", "peak_power", "energy", "created"]
         table = ui.table(columns=[{"name": c, "label": c, "field": c, "sortable": True}
@@ -40,7 +30,7 @@ async def page() -> None:
         def load() -> None:
             clear()
             try:
-                table.rows = logic.result_rows(ws(), where.value.strip() or None)
+                table.rows = logic.result_rows(common.ws(), where.value.strip() or None)
             except ManipcadError as exc:
                 show(exc)
                 table.rows = []
@@ -51,7 +41,7 @@ async def page() -> None:
             names = [r["name"] for r in table.selected] or [r["name"] for r in table.rows]
             figs.clear()
             try:
-                fig = logic.overlay_figure(ws(), names, quantity.value)
+                fig = logic.overlay_figure(common.ws(), names, quantity.value)
             except ManipcadError as exc:
                 show(exc)
                 return
@@ -70,7 +60,7 @@ async def page() -> None:
             figs.clear()
             with figs:
                 for nm in picked[:1]:
-                    rows, verdict = logic.check_rows(ws(), nm)
+                    rows, verdict = logic.check_rows(common.ws(), nm)
                     ui.label(f"{nm}: {verdict or 'stored without checks'}") \
                         .props("data-testid=res-verdict")
                     ui.table(columns=[{"name": c, "label": c, "field": c} for c in (
@@ -93,13 +83,13 @@ async def page() -> None:
             smethods = ui.input("fig3: methods (comma; empty: all)", value="") \
                 .classes("w-64").props("data-testid=study-methods")
             kind.on_value_change(lambda e: sname.set_value(e.value))
-        panel = JobPanel("study", StudySpec, show, clear)
+        panel = common.JobPanel("study", StudySpec, show, clear)
         snotes = ui.column().classes("gap-0")
 
         def study_spec() -> StudySpec:
             spec = StudySpec(
-                workspace=str(SERVER["ws"]), study=kind.value, name=sname.value,
-                t_end=numbers(st_end.value, "t_end", "study form")[0]
+                workspace=str(common.SERVER["ws"]), study=kind.value, name=sname.value,
+                t_end=common.numbers(st_end.value, "t_end", "study form")[0]
                 if str(st_end.value).strip() else None,
                 methods=smethods.value.strip() or None)
             check_name(spec.name, "study name")
@@ -108,7 +98,7 @@ async def page() -> None:
         def ended(job) -> None:
             snotes.clear()
             with snotes:
-                job_notes(job)
+                common.job_notes(job)
 
         def done(job) -> None:
             report = "report.html" if "report.html" in job.metrics.get("files", []) else None
@@ -123,7 +113,7 @@ async def page() -> None:
 
         @ui.refreshable
         def studies() -> None:
-            w = ws()
+            w = common.ws()
             for item in w.list("studies"):
                 with ui.row().classes("items-center").props(
                         f"data-testid=study-{item.name}"):

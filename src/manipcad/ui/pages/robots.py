@@ -12,14 +12,14 @@ from nicegui import ui
 from manipcad.errors import ManipcadError
 from manipcad.report.projection import VIEW
 from manipcad.ui import logic
-from manipcad.ui.pages.common import connected, error_label, frame, off_loop, upload_refused, ws
+from manipcad.ui.pages import common
 
 
 async def page() -> None:
-    S = await connected()
-    with frame("Robots"):
-        show, clear = error_label()
-        w = ws()
+    S = await common.connected()
+    with common.frame("Robots"):
+        show, clear = common.error_label()
+        w = common.ws()
         pick = ui.select(logic.robot_choices(w), value=S["robot"], label="Robot") \
             .classes("w-64").props("data-testid=robot-select")
         with ui.row().classes("items-center"):
@@ -29,25 +29,26 @@ async def page() -> None:
                 clear()
                 try:
                     data, name = await e.file.read(), name_in.value or None
-                    item = await off_loop(lambda: logic.add_upload(
-                        ws(), e.file.name, data, kind="robots", name=name))
+                    item = await common.off_loop(lambda: logic.add_upload(
+                        common.ws(), e.file.name, data, kind="robots", name=name))
                 except (ManipcadError, OSError) as exc:
                     show(exc)
                     return
                 ui.notify(f"added {item.ref}")
-                pick.options = logic.robot_choices(ws())
+                pick.options = logic.robot_choices(common.ws())
                 pick.value = item.ref
 
             ui.upload(label="Upload URDF / YAML / MJCF", auto_upload=True,
                       max_file_size=logic.MAX_UPLOAD, on_upload=uploaded,
-                      on_rejected=upload_refused(show, ".urdf, .yaml, .yml, .xml or .mjcf")) \
+                      on_rejected=common.upload_refused(
+                          show, ".urdf, .yaml, .yml, .xml or .mjcf")) \
                 .props("accept=.urdf,.yaml,.yml,.xml,.mjcf data-testid=robot-upload")
         body = ui.column().classes("w-full")
 
         def render() -> None:
             body.clear()
             try:
-                arm, notes = logic.load_robot_ref(ws(), S["robot"])
+                arm, notes = logic.load_robot_ref(common.ws(), S["robot"])
             except ManipcadError as exc:
                 show(exc)
                 return

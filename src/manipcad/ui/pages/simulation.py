@@ -7,26 +7,16 @@ from nicegui import ui
 
 from manipcad.errors import InputError
 from manipcad.ui import logic, worker
-from manipcad.ui.pages.common import (
-    QUANTITIES,
-    SERVER,
-    JobPanel,
-    connected,
-    error_label,
-    frame,
-    job_notes,
-    numbers,
-    ws,
-)
+from manipcad.ui.pages import common
 from manipcad.ui.worker import SimSpec
 
 
 async def page() -> None:
-    S = await connected()
+    S = await common.connected()
     worker.prestart()                   # this page runs jobs: have a worker ready
-    with frame("Simulation"):
-        show, clear = error_label()
-        w = ws()
+    with common.frame("Simulation"):
+        show, clear = common.error_label()
+        w = common.ws()
         trajs = [i.name for i in w.list("trajectories")]
         regs = [i.name for i in w.list("regulators")]
         with ui.row().classes("items-end"):
@@ -45,20 +35,20 @@ async def page() -> None:
             dt = ui.input("dt [s]", value="1e-4").props("data-testid=sim-dt")
             name = ui.input("Result name (optional)", value="").props("data-testid=sim-name")
             keep = ui.checkbox("keep a diverged run's partial result")
-        panel = JobPanel("sim", SimSpec, show, clear)
+        panel = common.JobPanel("sim", SimSpec, show, clear)
         figs = ui.column().classes("w-full")
 
         def form_spec() -> SimSpec:
             if not traj.value:
                 raise InputError("simulation form", "trajectory", "pick a trajectory "
                                  "(make one on the Trajectories page)")
-            return SimSpec(workspace=str(SERVER["ws"]), robot=S["robot"],
+            return SimSpec(workspace=str(common.SERVER["ws"]), robot=S["robot"],
                            trajectory=traj.value,
                            regulators=list(dict.fromkeys(   # each once, in order
                                r for r in [reg.value, *(more.value or [])] if r)),
-                           t_end=numbers(t_end.value, "t_end", "simulation form")[0]
+                           t_end=common.numbers(t_end.value, "t_end", "simulation form")[0]
                            if str(t_end.value).strip() else None,
-                           dt=numbers(dt.value, "dt", "simulation form")[0],
+                           dt=common.numbers(dt.value, "dt", "simulation form")[0],
                            name=name.value or None, save_diverged=keep.value)
 
         def done(job) -> None:
@@ -66,18 +56,18 @@ async def page() -> None:
                                  f"max |e| = {job.metrics.get('max_error', float('nan')):.3g}")
             figs.clear()
             with figs:
-                job_notes(job)
+                common.job_notes(job)
                 box = ui.column().classes("w-full")
 
                 def draw(q: str, name: str = job.result) -> None:
                     box.clear()
                     with box:
-                        ui.plotly(logic.overlay_figure(ws(), [name], q)).classes("w-full")
+                        ui.plotly(logic.overlay_figure(common.ws(), [name], q)).classes("w-full")
 
-                ui.toggle(QUANTITIES, value="error", on_change=lambda e: draw(e.value)) \
+                ui.toggle(common.QUANTITIES, value="error", on_change=lambda e: draw(e.value)) \
                     .move(target_index=0)
                 draw("error")
-                rows, verdict = logic.check_rows(ws(), job.result)
+                rows, verdict = logic.check_rows(common.ws(), job.result)
                 ui.label(verdict).props("data-testid=sim-verdict").classes(
                     "text-negative" if verdict.startswith("FAIL") else "")
                 ui.table(columns=[{"name": c, "label": c, "field": c} for c in (

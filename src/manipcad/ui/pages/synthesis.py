@@ -9,13 +9,13 @@ from nicegui.run import io_bound as run_io
 from manipcad.control import realization_complexity
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import logic
-from manipcad.ui.pages.common import SERVER, connected, error_label, frame, numbers, robot, ws
+from manipcad.ui.pages import common
 
 
 async def page() -> None:
-    S = await connected()
-    with frame("Synthesis"):
-        show, clear = error_label()
+    S = await common.connected()
+    with common.frame("Synthesis"):
+        show, clear = common.error_label()
         ms = logic.methods()
         with ui.row().classes("items-end"):
             method = ui.select(ms, value=S["method"] or "pid", label="Method") \
@@ -38,16 +38,16 @@ async def page() -> None:
                     if not sep:
                         raise InputError("synthesis form", "spec",
                                          f"expected KEY=VALUE, got {part!r}")
-                    pairs[key.strip()] = numbers(val, f"spec.{key.strip()}",
+                    pairs[key.strip()] = common.numbers(val, f"spec.{key.strip()}",
                                                  "synthesis form")[0]
-                per = numbers(period.value, "period", "synthesis form")[0] \
+                per = common.numbers(period.value, "period", "synthesis form")[0] \
                     if str(period.value).strip() else None
                 nm = name.value or f"{method.value}-{S['robot'].split('/')[-1]}"
                 picked = [int(x) - 1 if x.isdigit() else x for x in
                           (p.strip() for p in str(joints.value).split(",")) if x]
                 busy.text = f"synthesizing {method.value}..."
                 # in a thread: a gain table takes seconds, the page stays live meanwhile
-                root, arm, m, f = SERVER["ws"], robot(), method.value, force.value
+                root, arm, m, f = common.SERVER["ws"], common.robot(), method.value, force.value
                 regs, item = await run_io(   # its own workspace handle in the thread
                     lambda: logic.synthesize_to(logic.open_workspace(root), arm, m,
                                                 joints=picked or "all",
@@ -81,7 +81,7 @@ async def page() -> None:
         @ui.refreshable
         def listing() -> None:
             ui.label("Regulators in the workspace: " + (", ".join(
-                i.name for i in ws().list("regulators")) or "none"))
+                i.name for i in common.ws().list("regulators")) or "none"))
 
         listing()
         out = ui.column().classes("w-full")

@@ -10,22 +10,13 @@ from nicegui import ui
 
 from manipcad.errors import InputError, ManipcadError
 from manipcad.ui import logic
-from manipcad.ui.pages.common import (
-    connected,
-    error_label,
-    frame,
-    numbers,
-    off_loop,
-    robot,
-    upload_refused,
-    ws,
-)
+from manipcad.ui.pages import common
 
 
 async def page() -> None:
-    S = await connected()
-    with frame("Trajectories"):
-        show, clear = error_label()
+    S = await common.connected()
+    with common.frame("Trajectories"):
+        show, clear = common.error_label()
         law = ui.select({"cosine": "laws (2): q = q0 + A(1 − cos ωt)",
                          "quintic": "quintic point to point",
                          "trapezoidal": "trapezoidal velocity",
@@ -72,15 +63,15 @@ async def page() -> None:
                         .props(f"data-testid=traj-{key}")
 
         def build():
-            arm = robot()
+            arm = common.robot()
             data: dict[str, Any] = {"type": law.value}
             for key, inp in fields.items():
                 if key == "points":
-                    rows = [numbers(r, f"points[{k}]", "trajectory form")
+                    rows = [common.numbers(r, f"points[{k}]", "trajectory form")
                             for k, r in enumerate(str(inp.value).split(";"))]
                     data[key] = [r * arm.n if len(r) == 1 else r for r in rows]
                     continue
-                vals = numbers(inp.value, key, "trajectory form")
+                vals = common.numbers(inp.value, key, "trajectory form")
                 if key in ("move", "offset"):
                     continue
                 if key == "q0" and len(vals) == 1:
@@ -94,14 +85,14 @@ async def page() -> None:
                 else:
                     data[key] = vals
             if law.value == "line":     # from the tool's position at q0, by `move`
-                d = numbers(fields["move"].value, "move", "trajectory form")
+                d = common.numbers(fields["move"].value, "move", "trajectory form")
                 if len(d) != 3:
                     raise InputError("trajectory form", "move", "expected x, y, z in m")
                 p0 = logic.tool_position(arm, data["q0"])
                 data["p_start"] = [float(x) for x in p0]
                 data["p_end"] = [float(x) for x in p0 + np.asarray(d)]
             if law.value == "circle":   # centred at the tool's position at q0 + offset
-                d = numbers(fields["offset"].value, "offset", "trajectory form")
+                d = common.numbers(fields["offset"].value, "offset", "trajectory form")
                 if len(d) != 3:
                     raise InputError("trajectory form", "offset", "expected x, y, z in m")
                 p0 = logic.tool_position(arm, data["q0"])
@@ -127,7 +118,7 @@ async def page() -> None:
             clear()
             try:
                 _, traj = build()
-                item = logic.save_trajectory_to(ws(), traj, name.value, force=force.value)
+                item = logic.save_trajectory_to(common.ws(), traj, name.value, force=force.value)
             except ManipcadError as exc:
                 show(exc)
                 return
@@ -141,11 +132,11 @@ async def page() -> None:
                 data, ref = await e.file.read(), S["robot"]
 
                 def add():  # in a worker thread: the robot's loading too
-                    w = ws()
+                    w = common.ws()
                     return logic.add_upload(w, e.file.name, data, kind="trajectories",
                                             robot=logic.load_robot_ref(w, ref)[0])
 
-                item = await off_loop(add)
+                item = await common.off_loop(add)
             except (ManipcadError, OSError) as exc:
                 show(exc)
                 return
@@ -155,7 +146,7 @@ async def page() -> None:
 
         ui.upload(label="Or upload a trajectory file (.yaml)", auto_upload=True,
                   max_file_size=logic.MAX_UPLOAD, on_upload=uploaded,
-                  on_rejected=upload_refused(show, ".yaml or .yml")) \
+                  on_rejected=common.upload_refused(show, ".yaml or .yml")) \
             .props("accept=.yaml,.yml data-testid=traj-upload")
         law.on_value_change(lambda _: fill())
         fill()
@@ -167,7 +158,7 @@ async def page() -> None:
 
         @ui.refreshable
         def listing() -> None:
-            names = [i.name for i in ws().list("trajectories")]
+            names = [i.name for i in common.ws().list("trajectories")]
             ui.label("In the workspace (pick the current one):")
 
             def chosen(e) -> None:

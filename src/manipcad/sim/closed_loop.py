@@ -33,8 +33,7 @@ from manipcad.drives.params import (
     pack_drives,
     state_offsets,
 )
-from manipcad.dynamics import inverse_dynamics
-from manipcad.dynamics.api import not_positive_definite
+from manipcad.dynamics.api import moves_mass, not_positive_definite
 from manipcad.errors import ManipcadError
 from manipcad.model.robot import COL_BV, COL_FCN, COL_FCP, COL_JR, Robot
 from manipcad.objcache import PerObject
@@ -90,38 +89,6 @@ def start_state(robot: Robot, n: int, steps: int, dt: float, trajectory, q0, qd0
         raise ManipcadError(f"cannot simulate {robot.name!r} from its initial state: "
                             f"{not_positive_definite(0)}")
     return Start(x_q, x_qd, first, first_extremes)
-
-
-def moves_mass(robot: Robot, q: np.ndarray, drives: bool) -> bool:
-    """Whether every joint moves some mass (or a rotor) at q: the mass matrix H(q) is
-    positive definite, so the arm can accelerate from there (else the run would be NaN
-    at t = 0; the caller says so by name, as the dynamics API does).
-
-    H comes from the inverse dynamics its run checks use anyway (column j: the torques
-    of q̈ = e_j at rest without gravity, a batch of n states) and numpy's Cholesky: no
-    kernel of its own to compile on a first run.
-
-    Args:
-        robot: the robot.
-        q: (n,) joint positions, rad or m.
-        drives: with the rotors' inertias J·i_r² on H's diagonal.
-
-    Returns:
-        True when H(q) is positive definite.
-
-    Example:
-        >>> import numpy as np, manipcad
-        >>> moves_mass(manipcad.load_robot("puma560"), np.zeros(6), drives=False)
-        True
-    """
-    n = robot.n
-    H = inverse_dynamics(robot, np.tile(q, (n, 1)), np.zeros((n, n)), np.eye(n),
-                         gravity=np.zeros(3), drives=drives)
-    try:
-        np.linalg.cholesky(H)
-    except np.linalg.LinAlgError:
-        return False
-    return True
 
 
 def _vec(x, n: int, name: str) -> np.ndarray:
@@ -366,5 +333,5 @@ def period_too_long(period: float, joint: str, t_end: float) -> str:
 
 
 
-__all__ = ["Start", "start_state", "moves_mass", "ClosedLoop", "build", "pick_kernels",
-           "packed_drives", "pack_regulators", "period_too_long"]
+__all__ = ["Start", "start_state", "ClosedLoop", "build", "pick_kernels", "packed_drives",
+           "pack_regulators", "period_too_long"]

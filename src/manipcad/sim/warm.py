@@ -100,7 +100,7 @@ def core_arguments(integrator: str) -> tuple:
     """The arguments :func:`manipcad.simulate` hands its compiled core (``run`` for RK4,
     ``run_adaptive`` otherwise) in the warm-up run, taken at the call instead of running
     it (once per process: several steps type their kernels on them). The initial state's
-    check (:func:`manipcad.sim.closed_loop.moves_mass`, the inverse dynamics) is left out
+    check (:func:`manipcad.dynamics.api.moves_mass`, the inverse dynamics) is left out
     here: the ``inverse dynamics`` step compiles it."""
     name = "run" if integrator == "rk4" else "run_adaptive"
     core = getattr(sim, name)
@@ -229,7 +229,7 @@ def _dynamics_states():
 
 def _inverse_dynamics() -> None:
     """What a simulation's checks run: the batched inverse dynamics (its initial state's
-    mass matrix, :func:`manipcad.sim.closed_loop.moves_mass`, and the gear torques of its
+    mass matrix, :func:`manipcad.dynamics.api.moves_mass`, and the gear torques of its
     time series, on numba's threads when long) and the reference's extremes (the joint
     limits)."""
     arm, q = _dynamics_states()

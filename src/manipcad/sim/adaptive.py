@@ -56,9 +56,11 @@ from manipcad.sim.events import (
     bracket_next,
     bracket_start,
     crossing,
+    edge_due,
     event_values,
     release_edge,
     switch,
+    values_at,
 )
 from manipcad.sim.loop import (
     _rates,
@@ -356,8 +358,9 @@ def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_li
             hfull = hs
             if hyb:
                 ev = plant.ev
-                event_values(plant, xs, n, ev.e1)
-                if release_edge(plant, x, n, ev.e0, ev.e1, t0 + s):
+                values_at(plant, xs, n, ev.e1)
+                if edge_due(ev, n, ev.e0, ev.e1) and release_edge(plant, x, n, ev.e0, ev.e1,
+                                                                  t0 + s):
                     # a stuck joint on its band's edge at the step's start breaks away
                     # there: the step again from x
                     stats[1] -= 1

@@ -484,6 +484,29 @@ def event_values(plant, x, n, e):
 
 
 @nb.njit(cache=True, inline="always")
+def values_at(plant, x, n, e):
+    """:func:`event_values` with the joints' part inlined: a call only where a gear takes
+    part (the integrators evaluate the events at every step)."""
+    if plant.ev.gear:
+        event_values(plant, x, n, e)
+    else:
+        joint_values(plant.ev, x, n, e)
+
+
+@nb.njit(cache=True, inline="always")
+def edge_due(ev, n, e0, e1):
+    """Whether :func:`release_edge` has anything to do between the event values e0 and
+    e1 (``ev`` the :class:`Events`; always where a gear takes part): the test inlined,
+    the call only then."""
+    if ev.gear:
+        return True
+    for j in range(n):
+        if joint_edge(ev.mode, ev.lim, ev.fric, ev.lims, n, e0, e1, j):
+            return True
+    return False
+
+
+@nb.njit(cache=True, inline="always")
 def joint_values(ev, x, n, e):
     """The joints' part of :func:`event_values` (e[:2n]; ``ev`` the :class:`Events`):
     inlined into the fixed-step core's step without events."""

@@ -72,9 +72,9 @@ from manipcad.sim.events import (
     bracket_start,
     constrained,
     crossing,
+    edge_due,
     event_values,
     held,
-    joint_edge,
     joint_values,
     mode_torques,
     release_edge,
@@ -487,10 +487,7 @@ def _step_events(plant, x, U, dist, n, sc, K, dt, xn):
             hybrid_at(xn, U, dist, n, plant, sc, ev.Ke, ROW0)
             break
     joint_values(ev, xn, n, ev.e1)
-    for j in range(n):
-        if joint_edge(ev.mode, ev.lim, ev.fric, ev.lims, n, ev.e0, ev.e1, j):
-            return True
-    return crossing(ev.e0, ev.e1) < 0.0
+    return edge_due(ev, n, ev.e0, ev.e1) or crossing(ev.e0, ev.e1) < 0.0
 
 
 @callee

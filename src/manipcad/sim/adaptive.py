@@ -215,7 +215,7 @@ def _stages(plant, x, xs, U, dist, n, scr, Ks, tab, h, exact, ph, st0):
         _rates(xs, U, dist, n, plant, q, qd, xd, dxd, tau, qdd, Ks, st, fext, awork)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, no_cfunc_wrapper=True)  # no C-ABI entry: nothing uses one
 def run_adaptive(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits,
                  stride, hold, tab, rtol, atol, stats, exact):
     """Integrate from step k0 to k0+K (times k·dt, s) with error control; see the module.

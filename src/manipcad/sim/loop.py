@@ -375,7 +375,7 @@ def _pick_up(plant):
         _copy(plant.ctable, pick.ctable)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, no_cfunc_wrapper=True)  # no C-ABI entry: nothing uses one
 def scratch(n, nx):
     """The work arrays both integrators need (allocated once per call of the core, never
     in the step loop): q, q̇, q̈ (n,), the drive states and their rates (nx − 2n,),
@@ -389,7 +389,7 @@ def scratch(n, nx):
             np.empty((n, ABA_WORK)), comp)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, no_cfunc_wrapper=True)  # no C-ABI entry: nothing uses one
 def run(plant, ctrl, ref, rec, work, k0, K, dt, every, last, stop_at_limits):
     """Integrate the steps k0 .. k0+K−1 (RK4, dt s) from ``work.x``; record every ``every``.
 

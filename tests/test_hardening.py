@@ -289,6 +289,23 @@ def test_zero_mass_detected_alike(method, batch):
         manipcad.forward_dynamics(r, [0.0, 0.0], [0.0, 0.0], [0.0, 0.0], method=method)
 
 
+def test_simulate_refuses_a_start_where_a_joint_moves_no_mass():
+    """simulate's initial check (dynamics.api.moves_mass: H from the inverse dynamics and
+    numpy's Cholesky) refuses what the forward dynamics refuses, naming the state; a robot
+    whose joints all move mass passes."""
+    import manipcad
+    from manipcad.dynamics.api import moves_mass
+
+    r = _zero_mass_robot()
+    assert not moves_mass(r, np.zeros(2), drives=False)
+    with pytest.raises(ManipcadError, match="cannot simulate 'massless' from its initial "
+                       "state: the mass matrix is not positive definite at state 0"):
+        manipcad.simulate(r, t_end=1e-3, dt=1e-3, drives=False)
+    arm = manipcad.load_robot("cylindrical")
+    assert moves_mass(arm, np.full(arm.n, 0.1), drives=False)
+    assert moves_mass(arm, np.full(arm.n, 0.1), drives=True)
+
+
 # --------------------------------------------------------------------------- API inputs
 
 @pytest.mark.parametrize("call,arg", [

@@ -142,7 +142,7 @@ def robot_summary(robot: Any) -> dict[str, Any]:
                 "k_u": d.k_u, "u_max": d.u_max, "rated_torque": d.rated_torque,
                 "peak_torque": d.peak_torque, "max_speed": d.max_speed,
                 "rated_voltage": d.rated_voltage, "rated_current": d.rated_current,
-                "J_joint": d.J * d.ratio**2, "efficiency": d.efficiency,
+                "J_joint": d.reflected_inertia, "efficiency": d.efficiency,
                 "gear_rated_torque": d.gear_rated_torque,
                 "gear_peak_torque": d.gear_peak_torque,
                 "gear_max_input_speed": d.gear_max_input_speed,
@@ -211,7 +211,7 @@ def show(
         else:
             drive = " + ".join(x for x in (d.name, d.gear) if x) or "(explicit)"
             unit = "kg·m²" if robot.joint_types[i] == "revolute" else "kg"
-            ratio, jref = _num(d.ratio, ".5g"), f"{_num(d.J * d.ratio**2, '.4g')} {unit}"
+            ratio, jref = _num(d.ratio, ".5g"), f"{_num(d.reflected_inertia, '.4g')} {unit}"
         table.add_row(str(i + 1), robot.joint_names[i], robot.link_names[i],
                       robot.joint_types[i][0].upper(),
                       "base" if p < 0 else robot.joint_names[p], limits,

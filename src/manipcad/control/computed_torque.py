@@ -115,7 +115,7 @@ def synthesize_computed_torque(robot: Robot, joint, *, spec=None,
     p[CT_ETA] = eta
     name = robot.joint_names[j]
     law = (f"computed_torque ({name}): v = q̈* + {kd:.6g}·ė + {kp:.6g}·e; τ = f·(H_ii·v + c_i "
-           f"+ Q_i) + {d.J * d.ratio ** 2:.6g}·v + {d.k_v * d.ratio ** 2:.6g}·q̇"
+           f"+ Q_i) + {d.reflected_inertia:.6g}·v + {d.k_v * d.ratio ** 2:.6g}·q̇"
            f"{' + |i_r|·M_f·sgn q̇' if friction else ''}, f = 1/η motoring or holding, η "
            f"braking, η = {eta:g}; U = ({d.R:g}·τ/({d.k_m:g}·{d.ratio:g}) "
            f"+ {d.k_w * d.ratio:.6g}·q̇)/{d.k_u:g} (|U| <= {ulim:g} V); H_ii in "

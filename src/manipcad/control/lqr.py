@@ -470,7 +470,7 @@ def synthesize_lqr(robot: Robot, joint, *, spec=None, period: float = DEFAULT_PE
     poles = closed_loop_poles(d, H, 0.0, g, order, tr)
     name = robot.joint_names[j]
     kf = (g[2] + d.R / d.k_u) / (d.k_m * d.ratio)
-    ff = (f" + {kf * (H + d.J * d.ratio ** 2):.6g}·q̈* + "
+    ff = (f" + {kf * (H + d.reflected_inertia):.6g}·q̈* + "
           f"{kf * d.k_v * d.ratio ** 2 + back_emf_feedforward(d):.6g}·q̇*") if feedforward else ""
     el = (f" + {g[3]:.6g}·(θ_m* − θ_m) + {g[4]:.6g}·(ω_m* − ω_m)" if tr is not None else "")
     on = (f"elastic model k_s = {tr.stiffness:g} N·m/rad, d_s = {tr.damping:g} N·m·s/rad, "

@@ -89,7 +89,7 @@ def inertia_ratio(drive: Drive, H_min, H_max):
         >>> inertia_ratio(Drive(J=1e-4, ratio=10.0), 0.01, 0.03)     # (0.01 + 0.03)/(0.01 + 0.01)
         2.0
     """
-    rotor = drive.J * drive.ratio ** 2
+    rotor = drive.reflected_inertia
     return (rotor + H_max) / (rotor + H_min)
 
 

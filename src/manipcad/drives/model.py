@@ -169,7 +169,7 @@ class DriveModel:
         p = pack_drive(self.drive, tr, order=self.order, friction_eps=self.friction_eps)
         if tr is not None and (self.H_ii <= 0 or self.drive.J <= 0):
             raise ModelError("an elastic transmission needs H_ii > 0 and J > 0")
-        if tr is None and self.H_ii + self.drive.J * self.drive.ratio**2 <= 0:
+        if tr is None and self.H_ii + self.drive.reflected_inertia <= 0:
             raise ModelError("H_ii + J·i_r² must be > 0")
         p.setflags(write=False)
         object.__setattr__(self, "p", p)

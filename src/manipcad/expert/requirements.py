@@ -373,7 +373,7 @@ def derive_parameter_variation(robot, trajectory, joints: list[int]) -> Derivati
         Hj = H[:, j, j]
         Hdot = np.gradient(Hj, t)
         Tm = np.array([mechanical_time_constant(d, h) for h in Hj])      # s, h* = 0
-        nu = float(np.max(np.abs(Hdot) * Tm / (Hj + d.J * d.ratio**2)))
+        nu = float(np.max(np.abs(Hdot) * Tm / (Hj + d.reflected_inertia)))
         notes.append(f"{robot.joint_names[j]}: ν = {nu:.3g} (max |Ḣ_ii| = "
                      f"{np.abs(Hdot).max():.3g}, T_m in [{Tm.min():.3g}, {Tm.max():.3g}] s)")
         worst = max(worst, nu)

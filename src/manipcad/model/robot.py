@@ -200,6 +200,17 @@ class Drive:
         return self.M_f if self.M_s is None else self.M_s
 
     @property
+    def reflected_inertia(self) -> float:
+        """The rotor's inertia as the joint sees it through the gear, J·i_r², kg·m² (kg on
+        a prismatic joint).
+
+        Example:
+            >>> Drive(J=0.25, ratio=4.0).reflected_inertia
+            4.0
+        """
+        return self.J * self.ratio**2
+
+    @property
     def elastic(self) -> bool:
         """True when the transmission has a finite stiffness (elastic or with backlash)."""
         return math.isfinite(self.stiffness)
@@ -825,7 +836,7 @@ def _pack(robot: Robot) -> np.ndarray:
     t[:, COL_IC:COL_IC + 9] = robot.inertia.reshape(-1, 9)
     for i, d in enumerate(robot.drives):
         if d is not None:
-            t[i, COL_JR] = d.J * d.ratio**2
+            t[i, COL_JR] = d.reflected_inertia
             t[i, COL_BV] = d.k_v * d.ratio**2
             t[i, COL_FCP] = abs(d.ratio) * d.M_f[0]
             t[i, COL_FCN] = abs(d.ratio) * d.M_f[1]

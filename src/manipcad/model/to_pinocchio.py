@@ -58,6 +58,6 @@ def to_pinocchio(robot: Robot, *, armature: bool = False):
         model.appendBodyToJoint(jid, inertia, pin.SE3.Identity())
         ids[int(i)] = jid
     if armature:
-        model.armature = np.array([0.0 if d is None else d.J * d.ratio**2
+        model.armature = np.array([0.0 if d is None else d.reflected_inertia
                                    for d in (robot.drives[i] for i in order)])
     return model, order

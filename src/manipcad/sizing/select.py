@@ -458,7 +458,7 @@ class Candidate:
             "label": self.label, "motor": self.part.motor, "gear": self.part.gear or None,
             "maker": self.part.maker, "gear_type": self.part.gear_type,
             "ratio": float(d.ratio), "mass": self.part.mass,
-            "rotor_inertia": float(d.J * d.ratio ** 2), "objective": self.objective,
+            "rotor_inertia": float(d.reflected_inertia), "objective": self.objective,
             "feasible": self.feasible, "binding": self.binding or None,
             "binding_margin": self.binding_margin,
             "worst_margin": min(worst) if worst else None, "reason": self.reason or None,

@@ -218,7 +218,7 @@ def arm_parameters(robot: Robot) -> dict[str, Any]:
         })
     H = turn_inertia(robot)
     d1 = robot.drives[robot.joint_index(TURN)]
-    Jr = d1.J * d1.ratio ** 2
+    Jr = d1.reflected_inertia
     return {
         "robot": robot.name, "catalog": f"{ROBOT} (src/manipcad/model/catalog/robots/"
                                         f"{ROBOT}.yaml)",

@@ -69,6 +69,31 @@ def gear_factors(eta: np.ndarray, load: np.ndarray, speed: np.ndarray,
         out[k] = gear_factor(eta[k], load[k], speed[k])
 
 
+def gear_factor_array(eta, load, speed) -> np.ndarray:
+    """:func:`gear_factor` of arrays of any shapes that broadcast against each other.
+
+    Args:
+        eta: gear efficiencies η in (0, 1], -.
+        load: load torques P, N·m (N), or anything of their sign.
+        speed: joint speeds q̇, rad/s (m/s), or anything of their sign.
+
+    Returns:
+        f of each element, the broadcast shape, -.
+
+    Example:
+        >>> import numpy as np
+        >>> from manipcad.dynamics.gear import gear_factor_array
+        >>> gear_factor_array(0.5, np.array([[1.0], [-1.0]]), np.array([1.0, -1.0])).tolist()
+        [[2.0, 0.5], [0.5, 2.0]]
+    """
+    eta, load, speed = (np.ascontiguousarray(a, dtype=float) for a in np.broadcast_arrays(
+        np.asarray(eta, dtype=float), np.asarray(load, dtype=float),
+        np.asarray(speed, dtype=float)))
+    out = np.empty(load.shape)
+    gear_factors(eta.reshape(-1), load.reshape(-1), speed.reshape(-1), out.reshape(-1))
+    return out
+
+
 @numba.njit(cache=True)
 def holding_band(eta: float, torque: float, f_pos: float, f_neg: float) -> tuple[float, float]:
     """The loads a drive holds at rest: (lowest, highest) torque P its gear can pass

@@ -66,7 +66,7 @@ from pathlib import Path
 import numpy as np
 
 from manipcad.dynamics.api import inverse_dynamics
-from manipcad.dynamics.gear import gear_factors
+from manipcad.dynamics.gear import gear_factor_array
 from manipcad.errors import InputError, ManipcadError, ManipcadWarning, require_choice
 from manipcad.fileio import read_text
 from manipcad.model.robot import (
@@ -848,6 +848,13 @@ def _efficiencies(robot: Robot) -> np.ndarray:
     return np.where(np.isfinite(eta), eta, 1.0)
 
 
+def _friction_edge(tab: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """The model's dry friction at the joint, N·m (N), of motion in the sign of ``s``
+    (speeds or approach directions, (N, n)): the positive level where s > 0, minus the
+    negative one where s < 0, 0 where s = 0 (``tab``: the robot's table)."""
+    return np.where(s > 0, tab[:, COL_FCP], np.where(s < 0, -tab[:, COL_FCN], 0.0))
+
+
 def _stop_factors(judge: np.ndarray, dirs: np.ndarray, eta: np.ndarray) -> np.ndarray:
     """The gear factor f (:func:`manipcad.dynamics.gear.gear_factor`) of each stop and
     drive, (E, n), from its approach direction d: the torque a drive holds at rest is the
@@ -856,13 +863,8 @@ def _stop_factors(judge: np.ndarray, dirs: np.ndarray, eta: np.ndarray) -> np.nd
     (f = η) when it pushed against it. ``judge`` (E, n, 3): that load (the held torque less
     the model's friction of direction d, N·m or N) for d = −1, 0, +1. A stop of direction 0
     (no approach seen, or dithered: factors applied per sample) has f = 1."""
-    E, n = dirs.shape
     load = np.take_along_axis(judge, (dirs + 1)[:, :, None], axis=2)[:, :, 0]
-    out = np.empty(E * n)
-    gear_factors(np.ascontiguousarray(np.broadcast_to(eta, (E, n))).reshape(-1),
-                 np.ascontiguousarray(load).reshape(-1),
-                 np.ascontiguousarray(dirs, dtype=float).reshape(-1), out)
-    return np.where(dirs == 0, 1.0, out.reshape(E, n))
+    return np.where(dirs == 0, 1.0, gear_factor_array(eta, load, dirs))
 
 
 def _through_gear(robot: Robot, TAU, QD, QDD, eta, dry: bool) -> np.ndarray:
@@ -874,12 +876,9 @@ def _through_gear(robot: Robot, TAU, QD, QDD, eta, dry: bool) -> np.ndarray:
     the result, divided by f like the rest (the stops' held-friction levels take it)."""
     tab = np.asarray(robot.table)
     T = TAU - tab[:, COL_JR] * QDD - tab[:, COL_BV] * QD
-    F = np.where(QD > 0, tab[:, COL_FCP], np.where(QD < 0, -tab[:, COL_FCN], 0.0))
-    f = np.empty(T.size)
-    gear_factors(np.ascontiguousarray(np.broadcast_to(eta, T.shape)).reshape(-1),
-                 np.ascontiguousarray(T - F).reshape(-1),
-                 np.ascontiguousarray(QD, dtype=float).reshape(-1), f)
-    return ((T - F) if dry else T) / f.reshape(T.shape)
+    F = _friction_edge(tab, QD)
+    f = gear_factor_array(eta, T - F, QD)
+    return ((T - F) if dry else T) / f
 
 
 def _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes, c_body, body,
@@ -948,7 +947,7 @@ def _stop_equations(robot, Q, QD, TAU, T, friction, stop_speed, min_stop, notes,
     P0 = _averaged(avg, inverse_dynamics(robot, Qs, QD_s, QDD_s, drives=False))
     gear = factor = None
     tab = np.asarray(robot.table)
-    edge = np.where(dirs > 0, tab[:, COL_FCP], np.where(dirs < 0, -tab[:, COL_FCN], 0.0))
+    edge = _friction_edge(tab, dirs)
     if lossy and T is not None:
         # the torque at the gear's input after an approach from each side, less the
         # model's friction there: its sign and d's give the power flow (motoring/braking)

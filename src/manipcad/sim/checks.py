@@ -232,9 +232,10 @@ class RunChecks:
 
 
 def _grouped(rows: Sequence[tuple[str, str, Check]], joints: Sequence[str]) -> str:
-    """Checks that cannot be made, grouped by the joints they concern: ``"current_rms,
-    speed on every joint; tracking on elbow (no rating)"``; a check whose value is known
-    lacks its limit (a rating), one whose value is unknown lacks the run's data."""
+    """Checks that cannot be made, grouped by the joints they concern, then why:
+    ``"current_rms, speed on every joint; tracking on elbow: no rating / no value"`` (a
+    check whose value is known lacks its limit, a rating; one whose value is unknown
+    lacks the run's data)."""
     by_check: dict[str, list[str]] = {}
     for j, k, _ in rows:
         by_check.setdefault(k, []).append(j)

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from manipcad.dynamics.gear import gear_factors
+from manipcad.dynamics.gear import gear_factor_array
 from manipcad.model.robot import Drive
 
 
@@ -116,13 +116,8 @@ def efficiency_factor(drive: Drive, tau_rigid: np.ndarray, qd: np.ndarray) -> np
     """
     eta = np.asarray(drive.efficiency, dtype=float)
     eta = np.where(np.isnan(eta), 1.0, eta)  # unknown: η = 1 here; the sizing bounds the rest
-    eta, load, speed = np.broadcast_arrays(eta, np.asarray(tau_rigid, dtype=float),
-                                           np.asarray(qd, dtype=float))
-    out = np.empty(load.shape)
     # the simulated plant's own formula (manipcad.dynamics.gear), element by element
-    gear_factors(np.ascontiguousarray(eta).reshape(-1), np.ascontiguousarray(load).reshape(-1),
-                 np.ascontiguousarray(speed).reshape(-1), out.reshape(-1))
-    return out
+    return gear_factor_array(eta, tau_rigid, qd)
 
 
 def least_over_efficiency(at_one: np.ndarray, at_half: np.ndarray,

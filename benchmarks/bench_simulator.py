@@ -62,6 +62,7 @@ import control as ct
 import numba
 import numpy as np
 import pinocchio as pin
+from _core_calls import core_calls
 
 import manipcad
 from manipcad.codegen import simulation_kernels
@@ -180,7 +181,6 @@ def run_python_rk4(peer: Peer, t_end: float):
 
 def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
     """Per-call cost of the simulator's compiled pieces, and simulate()'s Python share."""
-    sim_mod = sys.modules["manipcad.sim.integrate"]  # the module calling the compiled core
     from manipcad.control import kind_of
     from manipcad.control.pid import PID_KD, PID_KP, PID_ULIM
     from manipcad.control.signals import NPARAM, NSIG, NSTATE
@@ -292,26 +292,14 @@ def profile(robot, traj, t_end: float, reps: int = 20000) -> dict:
         "6 PID updates per step": per_call(loop_regulators, n, kind_of("pid"), rparam),
     }
     # simulate(): the compiled loop against the whole call
-    kernel = []
-    real_run = sim_mod.run
-
-    def timed_run(*args):
-        t0 = time.perf_counter()
-        r = real_run(*args)
-        kernel.append(time.perf_counter() - t0)
-        return r
-
-    sim_mod.run = timed_run
-    try:
-        best_total, best_kernel = np.inf, np.inf
+    best_total, best_kernel = np.inf, np.inf
+    with core_calls() as kernel:
         for _ in range(10):
             t0 = time.perf_counter()
             run_manipcad(robot, traj, t_end)
             total = time.perf_counter() - t0
             if total < best_total:
                 best_total, best_kernel = total, kernel[-1]
-    finally:
-        sim_mod.run = real_run
     steps = int(round(t_end / DT))
     out["simulate() whole call per step"] = best_total / steps
     out["compiled loop per step"] = best_kernel / steps

@@ -28,9 +28,9 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _core_calls import core_calls
 
 import manipcad
-import manipcad.sim.integrate as integrate
 from manipcad.control.files import load_regulators
 from manipcad.errors import ManipcadWarning
 from manipcad.sim import simulate
@@ -53,17 +53,7 @@ def main() -> None:
     jobs = {"PUMA PID 0.2 s": (puma, move, puma_regs, 0.2),
             "PUMA PID 1 s": (puma, move, puma_regs, 1.0),
             "cylindrical PID 10 steps": (arm, laws, arm_regs, 1e-3)}
-    core = integrate.run
-    spent: list[float] = []
-
-    def timed(*a):
-        t0 = time.perf_counter()
-        out = core(*a)
-        spent.append(time.perf_counter() - t0)
-        return out
-
-    integrate.run = timed
-    try:
+    with core_calls() as spent:
         for name, (robot, traj, regs, t_end) in jobs.items():
             best_total = best_outside = np.inf
             for i in range(args.runs + 3):
@@ -77,8 +67,6 @@ def main() -> None:
             print(f"{name:25s} whole call min {best_total * 1e3:8.3f} ms, outside the core "
                   f"min {best_outside * 1e3:6.3f} ms ({args.runs} runs); load "
                   f"{os.getloadavg()[0]:.2f}")
-    finally:
-        integrate.run = core
 
 
 if __name__ == "__main__":

@@ -18,27 +18,29 @@ from pathlib import Path
 
 from numba.core import config
 
+from manipcad import _shipped_kernels
+
 
 def configure() -> None:
     """Set NUMBA_CACHE_DIR to ~/.cache/manipcad/numba-<hash of the package's folder>-<hash
-    of the kernel sources>."""
+    of the kernel sources>; a new folder starts with the shipped kernels where they fit
+    (:mod:`manipcad._shipped_kernels`; ``MANIPCAD_SHIPPED_KERNELS=0`` compiles them all
+    here instead, for this machine's CPU)."""
     if "NUMBA_CACHE_DIR" in os.environ:
         return
     root = Path(__file__).parent
-    digest = hashlib.sha1()
-    for path in sorted(root.rglob("*.py")):
-        text = path.read_bytes()
-        if b"numba" in text:
-            digest.update(path.relative_to(root).as_posix().encode())
-            digest.update(text)
+    digest = _shipped_kernels.sources_digest(root)
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "manipcad"
     # numba keys its cache files by the path of their source too: another copy of the
     # package (a second venv, a checkout) gets its own folders, or the warm-up's marks
     # (manipcad.sim.warm) would claim kernels this copy cannot load
     copy = hashlib.sha1(str(root.resolve()).encode()).hexdigest()[:8]
-    here = base / f"numba-{copy}-{digest.hexdigest()[:16]}"
+    here = base / f"numba-{copy}-{digest}"
     try:
-        here.mkdir(parents=True, exist_ok=True)
+        base.mkdir(parents=True, exist_ok=True)
+        if not here.is_dir() and os.environ.get("MANIPCAD_SHIPPED_KERNELS", "1") != "0":
+            _shipped_kernels.STATUS = _shipped_kernels.install(here, root, digest)
+        here.mkdir(exist_ok=True)
         # this copy's older versions, and folders named before the copy was in the name
         for old in [*base.glob(f"numba-{copy}-*"), *base.glob("numba-" + "?" * 16)]:
             # stale versions go after a day (another process may still be using a fresh one)

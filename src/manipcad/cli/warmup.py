@@ -12,7 +12,9 @@ one-line "compiling kernels (once)" message and does nothing when they are warm.
 A step is warm when its marker file ``warm-<step>`` exists in the kernel cache folder
 (``$NUMBA_CACHE_DIR``, by default ``~/.cache/manipcad/numba-<copy>-<hash>``: the hash of
 the package's folder, then of its kernel sources): a change of any kernel source, or
-another copy of the package, gives a new folder, hence a cold cache again.
+another copy of the package, gives a new folder, hence a cold cache again. A new folder
+starts with the kernels shipped in the package where they fit this numba, Python and
+CPU family (:mod:`manipcad._shipped_kernels`): then nothing compiles at all.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import time
 
 import typer
 
+from manipcad._shipped_kernels import CPU, ORIGIN
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.sim import warm
 from manipcad.sim.warm import STEPS, cache_dir, is_warm, needs
@@ -87,7 +90,11 @@ def warmup(
     every later command start at once. Exit 1 if a step fails."""
     d = cache_dir()
     if is_warm() and not force:
-        console.print(f"kernels already compiled (cache {d})", highlight=False)
+        shipped = d is not None and (d / ORIGIN).is_file()
+        console.print("kernels already compiled" + (
+            f" (shipped with manipcad, for a {CPU} CPU; MANIPCAD_SHIPPED_KERNELS=0 and a "
+            "new cache folder compile them for this one)" if shipped else "")
+            + f"; cache {d}", highlight=False)
         return
     if force and d is not None:
         for name in STEPS:

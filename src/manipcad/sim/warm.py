@@ -249,7 +249,9 @@ def _forward_dynamics() -> None:
     forward_dynamics(arm, q, q, q, method="crba")
     inverse_dynamics(arm, q[0], q[0], q[0], drives=False)
     mass_matrix(arm, q)
+    mass_matrix(arm, q[0])
     forward_dynamics(arm, q[0], q[0], np.zeros(arm.n), drives=True, method="crba")
+    forward_dynamics(arm, q[0], q[0], np.zeros(arm.n), drives=True)
 
 
 #: name -> (what, compile step), in the order one process runs them

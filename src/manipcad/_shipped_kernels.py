@@ -1,0 +1,287 @@
+"""The numba kernels shipped with the package: built once for a generic CPU, unpacked into an
+empty kernel cache so a first run compiles nothing.
+
+numba compiles every kernel on first use and keeps the machine code in its on-disk cache
+(:mod:`manipcad._numba_cache`); on an empty cache the simulator's cores alone take tens of
+seconds. :func:`build` compiles what ``manipcad warmup`` compiles (every integrator's core,
+the dynamics, drives and regulators) with ``NUMBA_CPU_NAME=generic``, i.e. machine code for
+the family's baseline instruction set (SSE2 on x86-64) that runs on every CPU of the
+family, and packs the cache folder into :data:`BUNDLE` with a manifest: numba's version,
+Python's, the target triple and the digest of the kernel sources it was built from.
+
+When :func:`manipcad._numba_cache.configure` creates a new cache folder it calls
+:func:`install`: if the manifest matches this numba, this Python, this triple and these
+sources, the files are unpacked under this copy's paths (numba names a cache folder after
+the absolute path of the source folder) and each entry's key is re-labelled from the
+generic CPU to this one, since numba looks entries up by the CPU it would compile for. The
+code itself is the generic code: on this machine's Xeon (``rocketlake``) the general
+kernels run 4 % slower than kernels compiled for it, bit for bit the same results
+(``benchmarks/rk4_job.py``, see docs/performance.md). Anything else (another numba or
+Python, an ARM machine, changed sources) compiles as before; :data:`STATUS` says which.
+
+Rebuild after changing a kernel (tests/test_shipped_kernels.py fails until then)::
+
+    python tools/ship_kernels.py
+
+Example:
+    >>> from manipcad._shipped_kernels import read_manifest, BUNDLE
+    >>> sorted(read_manifest(BUNDLE))
+    ['cpu', 'numba', 'python', 'sources', 'triple']
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+import tarfile
+import tempfile
+from pathlib import Path
+
+import llvmlite.binding as ll
+import numba
+from numba.core.caching import _CacheLocator
+from numba.core.registry import cpu_target
+from numba.core.serialize import dumps
+
+#: the shipped kernels: a tar.xz of a kernel cache folder, with ``manifest.json``
+BUNDLE = Path(__file__).with_name("kernels.tar.xz")
+#: the CPU the shipped kernels are compiled for (numba's ``NUMBA_CPU_NAME``)
+CPU = "generic"
+#: what became of the shipped kernels in this process ("" until a new cache folder is made)
+STATUS = ""
+
+#: the file in a kernel cache folder that says it started with the shipped kernels (their
+#: manifest)
+ORIGIN = "shipped.json"
+
+_TOP, _OWN, _PKG = "top/", "cache/", "pkg/"
+
+
+#: modules that name numba but hold no kernel: the cache's own set-up
+_NO_KERNELS = frozenset({"_numba_cache.py", "_shipped_kernels.py"})
+
+
+def sources_digest(root: Path) -> str:
+    """The digest (16 hex digits) of the kernel sources of the package at ``root``: the
+    package-relative paths and contents of its modules that use numba."""
+    digest = hashlib.sha1()
+    for path in sorted(root.rglob("*.py")):
+        text = path.read_bytes()
+        if b"numba" in text and path.relative_to(root).as_posix() not in _NO_KERNELS:
+            digest.update(path.relative_to(root).as_posix().encode())
+            digest.update(text)
+    return digest.hexdigest()[:16]
+
+
+def _subpath(py_file: Path) -> str:
+    """numba's cache sub-folder for the functions of ``py_file`` (named after its folder's
+    absolute path)."""
+    return _CacheLocator.get_suitable_cache_subpath(str(py_file))
+
+
+def _package_dirs(root: Path) -> dict[str, str]:
+    """numba's cache sub-folder name -> the package-relative folder ("" for the root) for
+    every folder of the package at ``root``."""
+    dirs = [root, *(p for p in root.rglob("*") if p.is_dir() and p.name != "__pycache__")]
+    return {_subpath(d / "_.py"): d.relative_to(root).as_posix() for d in dirs}
+
+
+def manifest(digest: str) -> dict[str, str]:
+    """What shipped kernels must match to be used here: numba's and Python's versions, the
+    target triple, the CPU they are compiled for and the kernel sources' digest
+    (:func:`sources_digest`)."""
+    return {"numba": numba.__version__, "python": "{}.{}".format(*sys.version_info[:2]),
+            "triple": ll.get_process_triple(), "cpu": CPU, "sources": digest}
+
+
+def read_manifest(bundle: Path) -> dict[str, str]:
+    """The manifest of a bundle ({} when there is no bundle or it is unreadable)."""
+    try:
+        with tarfile.open(bundle, "r:xz") as tar:
+            f = tar.extractfile("manifest.json")
+            return json.loads(f.read()) if f is not None else {}
+    except (OSError, KeyError, tarfile.TarError, ValueError):
+        return {}
+
+
+def mismatch(bundle: Path, digest: str) -> str:
+    """Why the bundle cannot be used here ("" when it can)."""
+    have = read_manifest(bundle)
+    if not have:
+        return f"no shipped kernels ({bundle.name} missing or unreadable)"
+    want = manifest(digest)
+    for key in ("sources", "numba", "python", "triple"):
+        if have.get(key) != want[key]:
+            what = "kernel sources" if key == "sources" else key
+            return f"shipped kernels are for {what} {have.get(key)}, here {want[key]}"
+    return ""
+
+
+def _host_magic() -> tuple:
+    """numba's (triple, CPU name, CPU features) key of code compiled in this process."""
+    return cpu_target.target_context.codegen().magic_tuple()
+
+
+class _Loads:
+    """Pickles as ``pickle.loads(data)``: an object carried as its own pickle, rebuilt only
+    when numba reads the index (the signature's types may import manipcad's modules, which
+    must not happen while the package is still setting up its cache)."""
+
+    def __init__(self, data: bytes):
+        self.data = data
+
+    def __reduce__(self):
+        return pickle.loads, (self.data,)
+
+
+class _Plain(pickle.Unpickler):
+    """Unpickles built-in values only (a shipped index in its neutral form)."""
+
+    def find_class(self, module, name):
+        raise pickle.UnpicklingError(f"{module}.{name} in a shipped kernel index")
+
+
+def _neutral(index: bytes) -> bytes:
+    """A numba cache index (``*.nbi``) of generic-CPU code in a neutral form: built-in
+    values only, each entry's signature kept as its own pickle. Raises RuntimeError on an
+    entry compiled for another CPU."""
+    f = io.BytesIO(index)
+    version = pickle.load(f)
+    stamp, overloads = pickle.loads(f.read())
+    entries = []
+    for (sig, magic, code), name in overloads.items():
+        if magic[1:] != (CPU, ""):
+            raise RuntimeError(f"an entry compiled for {magic}, not the {CPU} CPU")
+        entries.append((dumps(sig), magic[0], code, name))
+    return pickle.dumps((version, stamp, entries), protocol=4)
+
+
+def _index(neutral: bytes, host: tuple) -> bytes:
+    """numba's cache index from its neutral form (:func:`_neutral`), keyed to the CPU
+    ``host`` (numba's magic tuple: triple, CPU name, features); entries for another target
+    triple are dropped."""
+    version, stamp, entries = _Plain(io.BytesIO(neutral)).load()
+    overloads = {(_Loads(sig), host, code): name
+                 for sig, triple, code, name in entries if triple == host[0]}
+    out = io.BytesIO()
+    pickle.dump(version, out, protocol=-1)
+    out.write(dumps((stamp, overloads)))
+    return out.getvalue()
+
+
+def install(here: Path, root: Path, digest: str, bundle: Path = BUNDLE) -> str:
+    """Unpack the shipped kernels into the new, not yet existing cache folder ``here`` for
+    the package at ``root`` whose kernel sources have ``digest``.
+
+    Unpacks into a temporary folder beside ``here`` and renames it into place, so a
+    process starting at the same time sees either nothing or the whole cache. Returns
+    what happened, for :data:`STATUS`: "shipped kernels installed" or why not.
+    """
+    why = mismatch(bundle, digest)
+    if why:
+        return why
+    host = _host_magic()
+    own = _subpath(here / "_.py")
+    dirs = {rel: name for name, rel in _package_dirs(root).items()}
+    tmp = here.with_name(f".{here.name}.{os.getpid()}.tmp")
+    shutil.rmtree(tmp, ignore_errors=True)  # left by a process of the same number
+    try:
+        tmp.mkdir()
+        with tarfile.open(bundle, "r:xz") as tar:
+            for member in tar.getmembers():
+                name = member.name
+                if not member.isfile() or name == "manifest.json":
+                    continue
+                if ".." in Path(name).parts or Path(name).is_absolute():
+                    raise ValueError(f"member {name!r} leaves the cache folder")
+                if name.startswith(_TOP):
+                    dest = tmp / name[len(_TOP):]
+                elif name.startswith(_OWN):
+                    dest = tmp / own / name[len(_OWN):]
+                elif name.startswith(_PKG) and name.rpartition("/")[0][len(_PKG):] in dirs:
+                    rel, _, file = name[len(_PKG):].rpartition("/")
+                    dest = tmp / dirs[rel] / file
+                else:
+                    raise ValueError(f"unexpected member {name!r}")
+                data = tar.extractfile(member).read()
+                if dest.suffix == ".nbi":
+                    data = _index(data, host)
+                dest.parent.mkdir(parents=True, exist_ok=True)
+                dest.write_bytes(data)
+        (tmp / ORIGIN).write_text(json.dumps(read_manifest(bundle), indent=1))
+        os.rename(tmp, here)
+    except OSError:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if here.is_dir():  # another process put its copy in place first
+            return "shipped kernels installed by another process"
+        return "shipped kernels not installed: the cache folder is not writable"
+    except (tarfile.TarError, ValueError, pickle.UnpicklingError, EOFError) as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        return f"shipped kernels not installed: {bundle.name} is damaged ({exc})"
+    return "shipped kernels installed"
+
+
+def pack(cache: Path, root: Path, out: Path, info: dict[str, str],
+         skip: frozenset[str] = frozenset()) -> None:
+    """Write the kernel cache folder ``cache`` of the package at ``root`` to ``out`` (a
+    tar.xz) with the manifest ``info``, its paths made relative to the package; sub-folders
+    named in ``skip`` are left out. Raises RuntimeError on a file it could not place again."""
+    dirs = _package_dirs(root)
+    own = _subpath(cache / "_.py")
+    tmp = out.with_name(out.name + ".tmp")
+    with tarfile.open(tmp, "w:xz", preset=9) as tar:
+        blob = json.dumps(info, indent=1).encode()
+        entry = tarfile.TarInfo("manifest.json")
+        entry.size = len(blob)
+        tar.addfile(entry, io.BytesIO(blob))
+        for path in sorted(cache.rglob("*")):
+            rel = path.relative_to(cache)
+            if path.is_dir() or path.suffix == ".lock" or rel.parts[0] in skip:
+                continue
+            if len(rel.parts) == 1:
+                arc = _TOP + rel.name
+            elif len(rel.parts) == 2 and rel.parts[0] == own:
+                arc = _OWN + rel.name
+            elif len(rel.parts) == 2 and rel.parts[0] in dirs:
+                arc = f"{_PKG}{dirs[rel.parts[0]]}/{rel.name}"
+            else:
+                raise RuntimeError(f"cannot place {rel} of the kernel cache")
+            data = path.read_bytes()
+            if path.suffix == ".nbi":
+                data = _neutral(data)
+            entry = tarfile.TarInfo(arc)
+            entry.size = len(data)
+            tar.addfile(entry, io.BytesIO(data))
+    os.replace(tmp, out)
+
+
+def build(out: Path = BUNDLE) -> dict[str, str]:
+    """Compile every kernel ``manipcad warmup`` compiles for the generic CPU, in a fresh
+    process on an empty cache folder, and pack that folder into ``out``; the manifest.
+
+    Raises RuntimeError naming the step when the warm-up fails or the folder holds
+    something this module cannot place again.
+    """
+    root = Path(__file__).parent
+    info = manifest(sources_digest(root))
+    with tempfile.TemporaryDirectory() as work:
+        cache = Path(work) / "numba"
+        # the robots' generated code (manipcad.codegen) goes to the temporary folder too:
+        # it is made per robot on the user's machine, so its kernels are not shipped
+        env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "NUMBA_CPU_NAME": CPU,
+               "XDG_CACHE_HOME": work, "PYTHONPATH": str(root.parent)}
+        env.pop("NUMBA_CPU_FEATURES", None)
+        done = subprocess.run([sys.executable, "-m", "manipcad", "warmup"], env=env,
+                              capture_output=True, text=True)
+        if done.returncode != 0:
+            raise RuntimeError(f"manipcad warmup failed:\n{done.stdout}{done.stderr}")
+        generated = frozenset(_subpath(d / "_.py")
+                              for d in Path(work).glob("manipcad/codegen/*"))
+        pack(cache, root, out, info, generated)
+    return info

@@ -1,0 +1,104 @@
+"""The kernels shipped in the package (manipcad._shipped_kernels): built from these sources,
+unpacked into a new cache folder under another copy's paths, and then nothing compiles."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+import tarfile
+from pathlib import Path
+
+import pytest
+from numba import types
+from numba.core.serialize import dumps
+from test_warmup import COVERAGE
+
+import manipcad
+from manipcad import _shipped_kernels as sk
+
+ROOT = Path(manipcad.__file__).parent
+REPO = ROOT.parent.parent
+
+def test_shipped_kernels_are_built_from_these_sources():
+    have = sk.read_manifest(sk.BUNDLE)
+    assert have, f"{sk.BUNDLE} is missing or unreadable"
+    assert have["cpu"] == "generic"
+    assert have["sources"] == sk.sources_digest(ROOT), (
+        "a kernel source changed since the shipped kernels were built: the first run of "
+        "every user would compile again. Rebuild them: python tools/ship_kernels.py")
+
+
+def test_a_new_cache_folder_starts_with_them_and_nothing_compiles(tmp_path):
+    """A copy of the package at another path (numba names its cache folders after the
+    sources' absolute path) and an empty home: the first import unpacks the kernels; the
+    warm-up steps and then a simulation with each kind of integrator (test_warmup's
+    COVERAGE script) compile nothing: no compile event, no file added to the folder."""
+    why = sk.mismatch(sk.BUNDLE, sk.sources_digest(ROOT))
+    if why and "kernel sources" not in why:
+        pytest.skip(f"not for this machine: {why}")  # another numba, Python or CPU family
+    site = tmp_path / "site"
+    shutil.copytree(ROOT, site / "manipcad", ignore=shutil.ignore_patterns("__pycache__"))
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("NUMBA_", "XDG_", "MANIPCAD_SHIPPED"))}
+    env.update(HOME=str(tmp_path / "home"), PYTHONPATH=str(site))
+    res = subprocess.run([sys.executable, "-c", COVERAGE, "rk4", "adaptive"], env=env,
+                         capture_output=True, text=True, timeout=600, cwd=REPO)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert json.loads(res.stdout.strip().splitlines()[-1]) == {"compiled": [], "new": []}
+    folder, = (tmp_path / "home/.cache/manipcad").glob("numba-*")
+    assert json.loads((folder / sk.ORIGIN).read_text())["cpu"] == "generic"
+    with tarfile.open(sk.BUNDLE, "r:xz") as tar:
+        shipped = len([m for m in tar.getmembers() if m.name != "manifest.json"])
+    made = [p for p in folder.rglob("*") if p.is_file() and p.suffix != ".lock"]
+    assert len(made) == shipped + 1                      # the kernels and ORIGIN: no more
+
+
+def _bundle(tmp_path, manifest: dict, members: dict[str, bytes]) -> Path:
+    out = tmp_path / "k.tar.xz"
+    with tarfile.open(out, "w:xz") as tar:
+        for name, data in {"manifest.json": json.dumps(manifest).encode(), **members}.items():
+            info = tarfile.TarInfo(name)
+            info.size = len(data)
+            tar.addfile(info, io.BytesIO(data))
+    return out
+
+
+def test_install_refuses_what_does_not_fit_and_leaves_no_folder(tmp_path):
+    digest = sk.sources_digest(ROOT)
+    here = tmp_path / "cache" / "numba-x"
+    here.parent.mkdir()
+    fits = sk.manifest(digest)
+    old = _bundle(tmp_path, {**fits, "sources": "0" * 16}, {"top/warm-rk4": b""})
+    assert sk.install(here, ROOT, digest, old) == (
+        f"shipped kernels are for kernel sources {'0' * 16}, here {digest}")
+    other = _bundle(tmp_path, {**fits, "numba": "0.1"}, {})
+    assert "for numba 0.1" in sk.install(here, ROOT, digest, other)
+    bad = _bundle(tmp_path, fits, {"pkg/nowhere/x.nbi": b""})
+    assert "damaged" in sk.install(here, ROOT, digest, bad)
+    escape = _bundle(tmp_path, fits, {"top/../../evil": b"x"})
+    assert "leaves the cache folder" in sk.install(here, ROOT, digest, escape)
+    assert "missing" in sk.install(here, ROOT, digest, tmp_path / "none.tar.xz")
+    assert list(here.parent.iterdir()) == []             # nothing half-written
+    assert not (tmp_path / "evil").exists()
+
+
+def test_an_index_keeps_its_entries_keyed_to_this_cpu():
+    """The neutral form of an index and back: the same signatures and data files, keyed to
+    the given CPU; an index of code for another CPU is refused at packing."""
+    sig = (types.float64[::1], types.int64)
+    code = ("a" * 64, "b" * 64)
+    generic = ("x86_64-unknown-linux-gnu", "generic", "")
+    index = pickle.dumps("0.68.1") + dumps((b"stamp", {(sig, generic, code): "f.1.nbc"}))
+    host = ("x86_64-unknown-linux-gnu", "somecpu", "+sse2")
+    back = io.BytesIO(sk._index(sk._neutral(index), host))
+    version = pickle.load(back)
+    stamp, overloads = pickle.loads(back.read())
+    assert (version, stamp, overloads) == ("0.68.1", b"stamp", {(sig, host, code): "f.1.nbc"})
+    native = pickle.dumps("0.68.1") + dumps((b"s", {(sig, host, code): "f.1.nbc"}))
+    with pytest.raises(RuntimeError, match="not the generic CPU"):
+        sk._neutral(native)

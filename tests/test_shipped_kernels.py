@@ -27,7 +27,7 @@ REPO = ROOT.parent.parent
 def test_shipped_kernels_are_built_from_these_sources():
     have = sk.read_manifest(sk.BUNDLE)
     assert have, f"{sk.BUNDLE} is missing or unreadable"
-    assert have["cpu"] == "generic"
+    assert have["cpu"] == sk.CPU
     assert have["sources"] == sk.sources_digest(ROOT), (
         "a kernel source changed since the shipped kernels were built: the first run of "
         "every user would compile again. Rebuild them: python tools/ship_kernels.py")
@@ -51,7 +51,7 @@ def test_a_new_cache_folder_starts_with_them_and_nothing_compiles(tmp_path):
     assert res.returncode == 0, res.stderr[-3000:]
     assert json.loads(res.stdout.strip().splitlines()[-1]) == {"compiled": [], "new": []}
     folder, = (tmp_path / "home/.cache/manipcad").glob("numba-*")
-    assert json.loads((folder / sk.ORIGIN).read_text())["cpu"] == "generic"
+    assert json.loads((folder / sk.ORIGIN).read_text())["cpu"] == sk.CPU
     with tarfile.open(sk.BUNDLE, "r:xz") as tar:
         shipped = len([m for m in tar.getmembers() if m.name != "manifest.json"])
     made = [p for p in folder.rglob("*") if p.is_file() and p.suffix != ".lock"]
@@ -92,13 +92,20 @@ def test_an_index_keeps_its_entries_keyed_to_this_cpu():
     the given CPU; an index of code for another CPU is refused at packing."""
     sig = (types.float64[::1], types.int64)
     code = ("a" * 64, "b" * 64)
-    generic = ("x86_64-unknown-linux-gnu", "generic", "")
-    index = pickle.dumps("0.68.1") + dumps((b"stamp", {(sig, generic, code): "f.1.nbc"}))
+    shipped = ("x86_64-unknown-linux-gnu", sk.CPU, "")
+    index = pickle.dumps("0.68.1") + dumps((b"stamp", {(sig, shipped, code): "f.1.nbc"}))
     host = ("x86_64-unknown-linux-gnu", "somecpu", "+sse2")
     back = io.BytesIO(sk._index(sk._neutral(index), host))
     version = pickle.load(back)
     stamp, overloads = pickle.loads(back.read())
     assert (version, stamp, overloads) == ("0.68.1", b"stamp", {(sig, host, code): "f.1.nbc"})
     native = pickle.dumps("0.68.1") + dumps((b"s", {(sig, host, code): "f.1.nbc"}))
-    with pytest.raises(RuntimeError, match="not the generic CPU"):
+    with pytest.raises(RuntimeError, match=f"not the {sk.CPU} CPU"):
         sk._neutral(native)
+
+
+def test_a_cpu_without_the_instruction_sets_compiles_instead(monkeypatch):
+    digest = sk.sources_digest(ROOT)
+    monkeypatch.setattr(sk, "NEEDS", sk.NEEDS | {"no-such-extension"})
+    assert sk.mismatch(sk.BUNDLE, digest) == (
+        f"shipped kernels are for {sk.CPU}; this CPU lacks no-such-extension")

@@ -1,23 +1,24 @@
-"""The numba kernels shipped with the package: built once for a generic CPU, unpacked into an
-empty kernel cache so a first run compiles nothing.
+"""The numba kernels shipped with the package: built once for a baseline CPU, unpacked into
+an empty kernel cache so a first run compiles nothing.
 
 numba compiles every kernel on first use and keeps the machine code in its on-disk cache
 (:mod:`manipcad._numba_cache`); on an empty cache the simulator's cores alone take tens of
 seconds. :func:`build` compiles what ``manipcad warmup`` compiles (every integrator's core,
-the dynamics, drives and regulators) with ``NUMBA_CPU_NAME=generic``, i.e. machine code for
-the family's baseline instruction set (SSE2 on x86-64) that runs on every CPU of the
-family, and packs the cache folder into :data:`BUNDLE` with a manifest: numba's version,
-Python's, the target triple and the digest of the kernel sources it was built from.
+the dynamics, drives and regulators) for :data:`CPU`, x86-64-v3 (AVX2, FMA, BMI2: Intel
+since Haswell, 2013, AMD since Excavator, 2015), and packs the cache folder into
+:data:`BUNDLE` with a manifest: numba's version, Python's, the target triple, the CPU and
+the digest of the kernel sources it was built from.
 
 When :func:`manipcad._numba_cache.configure` creates a new cache folder it calls
 :func:`install`: if the manifest matches this numba, this Python, this triple and these
-sources, the files are unpacked under this copy's paths (numba names a cache folder after
-the absolute path of the source folder) and each entry's key is re-labelled from the
-generic CPU to this one, since numba looks entries up by the CPU it would compile for. The
-code itself is the generic code: on this machine's Xeon (``rocketlake``) the general
-kernels run 4 % slower than kernels compiled for it, bit for bit the same results
-(``benchmarks/rk4_job.py``, see docs/performance.md). Anything else (another numba or
-Python, an ARM machine, changed sources) compiles as before; :data:`STATUS` says which.
+sources, and this CPU has the instruction sets of :data:`CPU`, the files are unpacked under
+this copy's paths (numba names a cache folder after the absolute path of the source folder)
+and each entry is keyed to this CPU, since numba looks entries up by the CPU it would
+compile for. numba does not fuse or reorder floating-point operations without fastmath, so
+the results are bit for bit those of kernels compiled here (``benchmarks/rk4_job.py``
+digests); the speed is within a few per cent (docs/performance.md). Anything else (another
+numba or Python, an older or ARM CPU, changed sources) compiles as before; :data:`STATUS`
+says which.
 
 Rebuild after changing a kernel (tests/test_shipped_kernels.py fails until then)::
 
@@ -51,8 +52,11 @@ from numba.core.serialize import dumps
 
 #: the shipped kernels: a tar.xz of a kernel cache folder, with ``manifest.json``
 BUNDLE = Path(__file__).with_name("kernels.tar.xz")
-#: the CPU the shipped kernels are compiled for (numba's ``NUMBA_CPU_NAME``)
-CPU = "generic"
+#: the CPU the shipped kernels are compiled for (numba's ``NUMBA_CPU_NAME``, LLVM's name)
+CPU = "x86-64-v3"
+#: the instruction sets :data:`CPU` implies (LLVM's feature names), which this CPU must have
+NEEDS = frozenset({"cx16", "sahf", "popcnt", "sse3", "sse4.1", "sse4.2", "ssse3",  # v2
+                   "avx", "avx2", "bmi", "bmi2", "f16c", "fma", "lzcnt", "movbe", "xsave"})
 #: what became of the shipped kernels in this process ("" until a new cache folder is made)
 STATUS = ""
 
@@ -116,10 +120,14 @@ def mismatch(bundle: Path, digest: str) -> str:
     if not have:
         return f"no shipped kernels ({bundle.name} missing or unreadable)"
     want = manifest(digest)
-    for key in ("sources", "numba", "python", "triple"):
+    for key in ("sources", "numba", "python", "triple", "cpu"):
         if have.get(key) != want[key]:
             what = "kernel sources" if key == "sources" else key
             return f"shipped kernels are for {what} {have.get(key)}, here {want[key]}"
+    host = ll.get_host_cpu_features()
+    lacks = sorted(f for f in NEEDS if not host.get(f, False))
+    if lacks:
+        return f"shipped kernels are for {CPU}; this CPU lacks {', '.join(lacks)}"
     return ""
 
 
@@ -148,7 +156,7 @@ class _Plain(pickle.Unpickler):
 
 
 def _neutral(index: bytes) -> bytes:
-    """A numba cache index (``*.nbi``) of generic-CPU code in a neutral form: built-in
+    """A numba cache index (``*.nbi``) of code for :data:`CPU` in a neutral form: built-in
     values only, each entry's signature kept as its own pickle. Raises RuntimeError on an
     entry compiled for another CPU."""
     f = io.BytesIO(index)
@@ -262,7 +270,7 @@ def pack(cache: Path, root: Path, out: Path, info: dict[str, str],
 
 
 def build(out: Path = BUNDLE) -> dict[str, str]:
-    """Compile every kernel ``manipcad warmup`` compiles for the generic CPU, in a fresh
+    """Compile every kernel ``manipcad warmup`` compiles for :data:`CPU`, in a fresh
     process on an empty cache folder, and pack that folder into ``out``; the manifest.
 
     Raises RuntimeError naming the step when the warm-up fails or the folder holds
@@ -274,9 +282,10 @@ def build(out: Path = BUNDLE) -> dict[str, str]:
         cache = Path(work) / "numba"
         # the robots' generated code (manipcad.codegen) goes to the temporary folder too:
         # it is made per robot on the user's machine, so its kernels are not shipped
+        # features "": those the CPU's name implies, not this machine's
         env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "NUMBA_CPU_NAME": CPU,
-               "XDG_CACHE_HOME": work, "PYTHONPATH": str(root.parent)}
-        env.pop("NUMBA_CPU_FEATURES", None)
+               "NUMBA_CPU_FEATURES": "", "XDG_CACHE_HOME": work,
+               "PYTHONPATH": str(root.parent)}
         done = subprocess.run([sys.executable, "-m", "manipcad", "warmup"], env=env,
                               capture_output=True, text=True)
         if done.returncode != 0:

@@ -92,7 +92,7 @@ def warmup(
     if is_warm() and not force:
         shipped = d is not None and (d / ORIGIN).is_file()
         console.print("kernels already compiled" + (
-            f" (shipped with manipcad, for a {CPU} CPU; MANIPCAD_SHIPPED_KERNELS=0 and a "
+            f" (shipped with manipcad, built for {CPU}; MANIPCAD_SHIPPED_KERNELS=0 and a "
             "new cache folder compile them for this one)" if shipped else "")
             + f"; cache {d}", highlight=False)
         return

@@ -33,6 +33,16 @@ def test_shipped_kernels_are_built_from_these_sources():
         "every user would compile again. Rebuild them: python tools/ship_kernels.py")
 
 
+def test_the_kernel_sources_include_the_constants_kernels_read():
+    """numba freezes a kernel's globals into its code: the signal layout's module holds
+    no kernel (it does not import numba) yet is a kernel source; a command's module that
+    only names numba in its text is not."""
+    sources = sk.kernel_sources(ROOT)
+    assert {"sim/loop.py", "control/signals.py", "dynamics/gear.py"} <= set(sources)
+    assert "numba" not in (ROOT / "control/signals.py").read_text()
+    assert "cli/warmup.py" not in sources and "_shipped_kernels.py" not in sources
+
+
 def test_a_new_cache_folder_starts_with_them_and_nothing_compiles(tmp_path):
     """A copy of the package at another path (numba names its cache folders after the
     sources' absolute path) and an empty home: the first import unpacks the kernels; the

@@ -1,9 +1,10 @@
 """Key numba's on-disk cache to the source of all compiled kernels.
 
 numba's ``cache=True`` checks only the file of the function it compiles, so a
-kernel whose callee (in another file) changed would run stale machine code.
-We hash every module of the package that uses numba and point
-``NUMBA_CACHE_DIR`` at a folder named after that hash; a change anywhere
+kernel whose callee or constants (in another file) changed would run stale machine
+code. We hash the kernel sources (the modules that import numba and the package's
+modules they import: :func:`manipcad._shipped_kernels.kernel_sources`) and point
+``NUMBA_CACHE_DIR`` at a folder named after that hash; a change anywhere in them
 recompiles everything once. A user-set ``NUMBA_CACHE_DIR`` is respected.
 """
 

@@ -37,6 +37,7 @@ import io
 import json
 import os
 import pickle
+import re
 import shutil
 import subprocess
 import sys
@@ -67,19 +68,50 @@ ORIGIN = "shipped.json"
 _TOP, _OWN, _PKG = "top/", "cache/", "pkg/"
 
 
-#: modules that name numba but hold no kernel: the cache's own set-up
+#: modules that import numba but hold no kernel: the cache's own set-up
 _NO_KERNELS = frozenset({"_numba_cache.py", "_shipped_kernels.py"})
+_USES_NUMBA = re.compile(rb"^[ \t]*(?:import|from)[ \t]+numba\b", re.M)
+_IMPORTS = re.compile(rb"^[ \t]*(?:from[ \t]+(manipcad[\w.]*)[ \t]+import[ \t]+(\([^)]*\)|[^\n#]*)"
+                      rb"|import[ \t]+(manipcad[\w.]*))", re.M)
+
+
+def kernel_sources(root: Path) -> list[str]:
+    """The modules (package-relative paths) of the package at ``root`` whose text goes into
+    numba's machine code: those that import numba, and the package's modules they import
+    (numba freezes the globals a kernel reads, e.g. the signal layout of
+    :mod:`manipcad.control.signals`, into the code, and its cache checks only the kernel's
+    own file)."""
+    files = set()
+    for folder, dirs, names in os.walk(root):
+        dirs[:] = [d for d in dirs if d != "__pycache__"]
+        rel = os.path.relpath(folder, root).replace(os.sep, "/")
+        files.update(n if rel == "." else f"{rel}/{n}" for n in names if n.endswith(".py"))
+    found = set()
+    for rel in files:
+        with open(os.path.join(root, rel), "rb") as f:
+            text = f.read()
+        if b"numba" not in text or not _USES_NUMBA.search(text) or rel in _NO_KERNELS:
+            continue
+        found.add(rel)
+        for frm, names, imp in _IMPORTS.findall(text):
+            mod = (frm or imp).decode().split(".")[1:]
+            subs = [n.split()[0] for n in names.decode().strip("()").replace("\n", ",")
+                    .split(",") if n.strip()]
+            for parts in [mod, *([*mod, n] for n in subs)]:
+                for cand in ("/".join([*parts, "__init__.py"]), "/".join(parts) + ".py"):
+                    if cand in files:
+                        found.add(cand)
+    return sorted(found)
 
 
 def sources_digest(root: Path) -> str:
-    """The digest (16 hex digits) of the kernel sources of the package at ``root``: the
-    package-relative paths and contents of its modules that use numba."""
+    """The digest (16 hex digits) of the kernel sources (:func:`kernel_sources`) of the
+    package at ``root``: their package-relative paths and contents."""
     digest = hashlib.sha1()
-    for path in sorted(root.rglob("*.py")):
-        text = path.read_bytes()
-        if b"numba" in text and path.relative_to(root).as_posix() not in _NO_KERNELS:
-            digest.update(path.relative_to(root).as_posix().encode())
-            digest.update(text)
+    for rel in kernel_sources(root):
+        digest.update(rel.encode())
+        with open(os.path.join(root, rel), "rb") as f:
+            digest.update(f.read())
     return digest.hexdigest()[:16]
 
 

@@ -15,10 +15,12 @@ from pathlib import Path
 
 import pytest
 from numba import types
+from numba.core import config
 from numba.core.serialize import dumps
 from test_warmup import COVERAGE
 
 import manipcad
+from manipcad import _numba_cache
 from manipcad import _shipped_kernels as sk
 
 ROOT = Path(manipcad.__file__).parent
@@ -119,3 +121,23 @@ def test_a_cpu_without_the_instruction_sets_compiles_instead(monkeypatch):
     monkeypatch.setattr(sk, "NEEDS", sk.NEEDS | {"no-such-extension"})
     assert sk.mismatch(sk.BUNDLE, digest) == (
         f"shipped kernels are for {sk.CPU}; this CPU lacks no-such-extension")
+
+
+def test_a_failing_install_never_stops_the_import(monkeypatch, tmp_path):
+    """configure() on a new folder whose install raises: the cache folder is still set up,
+    the kernels then compile there, and STATUS says why."""
+    def broken(*args, **kwargs):
+        raise RuntimeError("no luck")
+
+    monkeypatch.setattr(sk, "install", broken)
+    monkeypatch.setattr(sk, "STATUS", "")
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    try:
+        _numba_cache.configure()
+        assert sk.STATUS == "shipped kernels not installed: RuntimeError: no luck"
+        assert Path(os.environ["NUMBA_CACHE_DIR"]).parent == tmp_path / "manipcad"
+        assert Path(os.environ["NUMBA_CACHE_DIR"]).is_dir()
+    finally:
+        monkeypatch.undo()
+        config.reload_config()

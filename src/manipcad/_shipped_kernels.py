@@ -264,6 +264,9 @@ def install(here: Path, root: Path, digest: str, bundle: Path = BUNDLE) -> str:
     except (tarfile.TarError, ValueError, pickle.UnpicklingError, EOFError) as exc:
         shutil.rmtree(tmp, ignore_errors=True)
         return f"shipped kernels not installed: {bundle.name} is damaged ({exc})"
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
     return "shipped kernels installed"
 
 
@@ -310,6 +313,8 @@ def build(out: Path = BUNDLE) -> dict[str, str]:
     """
     root = Path(__file__).parent
     info = manifest(sources_digest(root))
+    if not info["triple"].startswith("x86_64"):
+        raise RuntimeError(f"{CPU} kernels are built on an x86-64 machine, not {info['triple']}")
     with tempfile.TemporaryDirectory() as work:
         cache = Path(work) / "numba"
         # the robots' generated code (manipcad.codegen) goes to the temporary folder too:

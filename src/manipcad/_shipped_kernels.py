@@ -122,7 +122,7 @@ def _subpath(py_file: Path) -> str:
 
 
 def _package_dirs(root: Path) -> dict[str, str]:
-    """numba's cache sub-folder name -> the package-relative folder ("" for the root) for
+    """numba's cache sub-folder name -> the package-relative folder ("." for the root) for
     every folder of the package at ``root``."""
     dirs = [root, *(p for p in root.rglob("*") if p.is_dir() and p.name != "__pycache__")]
     return {_subpath(d / "_.py"): d.relative_to(root).as_posix() for d in dirs}

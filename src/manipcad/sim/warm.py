@@ -64,6 +64,7 @@ from manipcad.drives.dc import rigid_drive_rate, static_current
 from manipcad.dynamics import forward_dynamics, inverse_dynamics, mass_matrix
 from manipcad.dynamics._inputs import PARALLEL_MIN_WORK
 from manipcad.dynamics.aba import _rot_gen, _rot_sym
+from manipcad.dynamics.gear import gear_factor_array
 from manipcad.errors import ManipcadWarning
 from manipcad.model import load_robot
 from manipcad.model.robot import TABLE_COLS
@@ -234,10 +235,15 @@ def _inverse_dynamics() -> None:
     limits)."""
     arm, q = _dynamics_states()
     inverse_dynamics(arm, q, q, q, drives=True)
-    # a batch large enough for numba's threads (a run's checks of its time series)
-    big = np.full((PARALLEL_MIN_WORK // arm.n + 2 * nb.get_num_threads(), arm.n), 0.1)
+    big = _threaded_batch(arm)  # a run's checks of its time series
     inverse_dynamics(arm, big, big, big, drives=False)
     column_extremes(q)  # a run's check of its reference against the joint limits
+    gear_factor_array(np.full(2, 0.9), q[0, :2], q[0, :2])  # the gear-loss checks
+
+
+def _threaded_batch(arm) -> np.ndarray:
+    """States enough for the dynamics' batch kernels to run on numba's threads."""
+    return np.full((PARALLEL_MIN_WORK // arm.n + 2 * nb.get_num_threads(), arm.n), 0.1)
 
 
 def _forward_dynamics() -> None:
@@ -250,6 +256,7 @@ def _forward_dynamics() -> None:
     inverse_dynamics(arm, q[0], q[0], q[0], drives=False)
     mass_matrix(arm, q)
     mass_matrix(arm, q[0])
+    mass_matrix(arm, _threaded_batch(arm))
     forward_dynamics(arm, q[0], q[0], np.zeros(arm.n), drives=True, method="crba")
     forward_dynamics(arm, q[0], q[0], np.zeros(arm.n), drives=True)
 

@@ -590,3 +590,19 @@ def test_max_error_designed_against_the_coupled_model(arm, hold_others):
     with pytest.raises(ManipcadError, match="unreachable accuracy"):   # not even nominally
         synthesize_to_spec(arm, laws, ["turn"], "ace_tf", spec={"max_error": 1e-9},
                            others=hold_others, t_end=0.1, dt=DT)
+
+
+def test_max_error_design_names_what_fails_on_the_other_joints(arm):
+    """The spec is judged on the joints designed; the same coupled run's failing checks on
+    the joints held by the other regulators (the default PID overloads the reach motor on
+    laws (2)) are said, not hidden behind "no run check failing"."""
+    from manipcad.expert.verify import synthesize_to_spec
+
+    laws = manipcad.load_trajectory(EXAMPLE)
+    d = synthesize_to_spec(arm, laws, ["turn"], "ace_de", spec={"max_error": 1e-3}, dt=DT)
+    assert d.reached
+    assert d.why.startswith("reached: turn within 0.001 in the coupled simulation")
+    assert "no run check of its failing" in d.why
+    held = d.why.split("The same run fails checks on joints held by the other regulators ")[1]
+    assert held.startswith("(lift (pid), reach (pid); not designed here)")
+    assert "reach: current_rms" in held

@@ -238,6 +238,12 @@ def synthesize(
                if space is not None else f"-r {shlex.quote(str(out))}")
         console.print(f"wrote {out} (run it: manipcad simulate {shlex.quote(robot)} "
                       f"-t TRAJECTORY.yaml {run})", highlight=False, soft_wrap=True)
+        if coupled is not None and coupled.others:
+            held = ", ".join(f"{', '.join(r.joint_names)} ({r.method})" for r in coupled.others)
+            console.print(f"{out.name} holds the regulator of {', '.join(coupled.simulated)} "
+                          f"only. The coupled simulation held {held}; without regulators "
+                          f"for them (-r), simulate and verify apply U = 0 to those joints",
+                          highlight=False, soft_wrap=True)
     if coupled is not None and not coupled.reached:
         raise typer.Exit(1)
 

@@ -329,9 +329,15 @@ def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
     unknown = sorted({c for j in idx for c, chk in run[names[j]].items()
                       if chk.verdict == "unknown"})
     reached = all(v <= asked for v in last.values()) and not failing
+    # the joints held by the other regulators: not designed here, yet the same coupled run
+    elsewhere: dict[str, list[str]] = {}
+    for joint, check, _ in run.failures():
+        if joint not in last:
+            elsewhere.setdefault(joint, []).append(check)
     if reached:
-        why = (f"reached: every joint within {asked:g} in the coupled simulation after "
-               f"{len(history)} round(s), no run check failing"
+        why = (f"reached: {', '.join(last)} within {asked:g} in the coupled simulation after "
+               f"{len(history)} round(s), no run check of "
+               f"{'theirs' if len(last) > 1 else 'its'} failing"
                + (f" ({', '.join(unknown)} unknown: ratings not given)" if unknown else ""))
     elif failing:
         why = ("not reached: the coupled simulation fails run checks other than the "
@@ -348,5 +354,10 @@ def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
             parts.append(f"{names[j]}: best {best[j][0]:.3g} against {asked:g} asked; "
                          f"{reason}")
         why = "not reached in the coupled simulation: " + "; ".join(parts)
+    if elsewhere:
+        held = "; ".join(f"{nm}: {', '.join(f)}" for nm, f in elsewhere.items())
+        why += (f". The same run fails checks on joints held by the other regulators "
+                f"({', '.join(f'{nm} ({r.method})' for r in others for nm in r.joint_names)}"
+                f"; not designed here): {held}")
     return SpecDesign([regs[j] for j in idx], others, asked, last, reached, history, why, res,
                       run)

@@ -136,8 +136,24 @@ def test_a_failing_install_never_stops_the_import(monkeypatch, tmp_path):
     try:
         _numba_cache.configure()
         assert sk.STATUS == "shipped kernels not installed: RuntimeError: no luck"
-        assert Path(os.environ["NUMBA_CACHE_DIR"]).parent == tmp_path / "manipcad"
-        assert Path(os.environ["NUMBA_CACHE_DIR"]).is_dir()
+        folder = Path(os.environ["NUMBA_CACHE_DIR"])
+        assert folder.parent == tmp_path / "manipcad" and folder.is_dir()
+        assert sk.why_not(folder) == sk.STATUS          # what `compiling kernels` says
     finally:
         monkeypatch.undo()
         config.reload_config()
+
+
+def test_the_first_compile_says_why_the_shipped_kernels_did_not_fit(tmp_path):
+    """With MANIPCAD_SHIPPED_KERNELS=0 on an empty home, the first command that needs
+    kernels says why it compiles (in a fresh process: the cache is set up at import)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "XDG_"))}
+    env.update(HOME=str(tmp_path), MANIPCAD_SHIPPED_KERNELS="0", MANIPCAD_COMPILE_WORKERS="1")
+    code = ("from manipcad.cli.warmup import start_warm, finish_warm\n"
+            "from manipcad.sim import warm\n"
+            "warm.STEPS = {'x': ('x', lambda: None)}; warm.PHASES = (('x',),)\n"
+            "finish_warm(start_warm('x'))\n")
+    res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert "(shipped kernels not used: MANIPCAD_SHIPPED_KERNELS=0)" in res.stderr

@@ -39,12 +39,8 @@ def configure() -> None:
     here = base / f"numba-{copy}-{digest}"
     try:
         base.mkdir(parents=True, exist_ok=True)
-        if not here.is_dir() and os.environ.get("MANIPCAD_SHIPPED_KERNELS", "1") != "0":
-            try:
-                _shipped_kernels.STATUS = _shipped_kernels.install(here, root, digest)
-            except Exception as exc:  # noqa: BLE001 - a head start must never stop the import
-                _shipped_kernels.STATUS = (f"shipped kernels not installed: "
-                                           f"{type(exc).__name__}: {exc}")
+        if not here.is_dir():
+            _shipped_kernels.start(here, root, digest)
         here.mkdir(exist_ok=True)
         # this copy's older versions, and folders named before the copy was in the name
         for old in [*base.glob(f"numba-{copy}-*"), *base.glob("numba-" + "?" * 16)]:

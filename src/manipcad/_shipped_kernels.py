@@ -64,6 +64,8 @@ STATUS = ""
 #: the file in a kernel cache folder that says it started with the shipped kernels (their
 #: manifest)
 ORIGIN = "shipped.json"
+#: the file in a kernel cache folder that says why it did not (one line)
+NOT_SHIPPED = "not-shipped.txt"
 
 _TOP, _OWN, _PKG = "top/", "cache/", "pkg/"
 
@@ -268,6 +270,34 @@ def install(here: Path, root: Path, digest: str, bundle: Path = BUNDLE) -> str:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return "shipped kernels installed"
+
+
+def start(here: Path, root: Path, digest: str) -> str:
+    """Make the new kernel cache folder ``here``: with the shipped kernels where they fit
+    (:func:`install`), else empty with :data:`NOT_SHIPPED` saying why (also when
+    ``MANIPCAD_SHIPPED_KERNELS=0``). Never raises for a failed install: the kernels then
+    compile as before. Sets and returns :data:`STATUS`."""
+    global STATUS
+    if os.environ.get("MANIPCAD_SHIPPED_KERNELS", "1") == "0":
+        STATUS = "shipped kernels not used: MANIPCAD_SHIPPED_KERNELS=0"
+    else:
+        try:
+            STATUS = install(here, root, digest)
+        except Exception as exc:  # noqa: BLE001 - a head start must never stop the import
+            STATUS = f"shipped kernels not installed: {type(exc).__name__}: {exc}"
+    if not STATUS.startswith("shipped kernels installed"):
+        here.mkdir(exist_ok=True)
+        (here / NOT_SHIPPED).write_text(STATUS + "\n")
+    return STATUS
+
+
+def why_not(folder: Path | None) -> str:
+    """Why the kernel cache ``folder`` did not start with the shipped kernels ("" when it
+    did, or when it is not known)."""
+    try:
+        return (folder / NOT_SHIPPED).read_text().strip() if folder is not None else ""
+    except OSError:
+        return ""
 
 
 def pack(cache: Path, root: Path, out: Path, info: dict[str, str],

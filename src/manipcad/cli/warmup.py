@@ -23,7 +23,7 @@ import time
 
 import typer
 
-from manipcad._shipped_kernels import CPU, ORIGIN
+from manipcad._shipped_kernels import CPU, ORIGIN, why_not
 from manipcad.cli.app import app, console, err_console, guarded
 from manipcad.sim import warm
 from manipcad.sim.warm import STEPS, cache_dir, is_warm, needs
@@ -54,8 +54,10 @@ def finish_warm(job: warm.Compile) -> None:
     in one line on stderr with the step in progress; silent when all were warm."""
     if not job.steps:
         return
+    why = why_not(cache_dir())
     err_console.print(f"compiling kernels (once; later runs start at once) on {job.workers} "
-                      f"process{'es' if job.workers > 1 else ''} ...", highlight=False)
+                      f"process{'es' if job.workers > 1 else ''}"
+                      + (f" ({why})" if why else "") + " ...", highlight=False)
     t0 = time.perf_counter()
     for line in _finish(job):
         err_console.print(f"[yellow]warmup step failed:[/] {line}", highlight=False)

@@ -15,7 +15,8 @@ time, also printed).
 A step reuses what earlier steps compiled (callees with the same signature), so the
 figures depend on the order, which is :data:`~manipcad.sim.warm.STEPS`'.
 
-This is the compile a user's first simulation needs on a fresh install, on one core
+This is the compile a user's first simulation needs on a fresh install where the shipped
+kernels do not fit (``MANIPCAD_SHIPPED_KERNELS=0`` here), on one core
 (docs/performance.md, "Compile and first run").
 It measures, it does not compare: there is no peer for numba's compile of our code.
 """
@@ -39,6 +40,7 @@ def main() -> None:
         sys.exit("run this as a script: the kernel cache must be set before manipcad loads")
     os.environ.pop("NUMBA_CACHE_DIR", None)
     os.environ["XDG_CACHE_HOME"] = tempfile.mkdtemp(prefix="manipcad-compile-")
+    os.environ["MANIPCAD_SHIPPED_KERNELS"] = "0"  # compile, not unpack the shipped kernels
     from manipcad.sim.warm import STEPS  # after the cache is set: manipcad configures it
 
     out = {}

@@ -81,7 +81,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args()
-    env = dict(os.environ, XDG_CACHE_HOME=tempfile.mkdtemp(prefix="manipcad-prewarm-"))
+    env = dict(os.environ, XDG_CACHE_HOME=tempfile.mkdtemp(prefix="manipcad-prewarm-"),
+               MANIPCAD_SHIPPED_KERNELS="0")  # compile, not unpack the shipped kernels
     env.pop("NUMBA_CACHE_DIR", None)
     load = os.getloadavg()[0]
     t0 = time.perf_counter()

@@ -217,6 +217,24 @@ def _index(neutral: bytes, host: tuple) -> bytes:
     return out.getvalue()
 
 
+def _place(name: str, folder: Path, own: str, dirs: dict[str, str]) -> Path:
+    """Where the bundle's member ``name`` goes in the cache folder ``folder``: the inverse
+    of :func:`pack`'s names (``top/`` the folder itself, ``cache/`` numba's sub-folder for
+    the folder's own modules ``own``, ``pkg/<folder of the package>/`` the sub-folder
+    ``dirs`` names for it here). Raises ValueError on any other name."""
+    if ".." in Path(name).parts or Path(name).is_absolute():
+        raise ValueError(f"member {name!r} leaves the cache folder")
+    area, rest = name[:name.find("/") + 1], name[name.find("/") + 1:]
+    if area == _TOP:
+        return folder / rest
+    if area == _OWN:
+        return folder / own / rest
+    rel, _, file = rest.rpartition("/")
+    if area == _PKG and rel in dirs:
+        return folder / dirs[rel] / file
+    raise ValueError(f"unexpected member {name!r}")
+
+
 def install(here: Path, root: Path, digest: str, bundle: Path = BUNDLE) -> str:
     """Unpack the shipped kernels into the new, not yet existing cache folder ``here`` for
     the package at ``root`` whose kernel sources have ``digest``.
@@ -237,20 +255,9 @@ def install(here: Path, root: Path, digest: str, bundle: Path = BUNDLE) -> str:
         tmp.mkdir()
         with tarfile.open(bundle, "r:xz") as tar:
             for member in tar.getmembers():
-                name = member.name
-                if not member.isfile() or name == "manifest.json":
+                if not member.isfile() or member.name == "manifest.json":
                     continue
-                if ".." in Path(name).parts or Path(name).is_absolute():
-                    raise ValueError(f"member {name!r} leaves the cache folder")
-                if name.startswith(_TOP):
-                    dest = tmp / name[len(_TOP):]
-                elif name.startswith(_OWN):
-                    dest = tmp / own / name[len(_OWN):]
-                elif name.startswith(_PKG) and name.rpartition("/")[0][len(_PKG):] in dirs:
-                    rel, _, file = name[len(_PKG):].rpartition("/")
-                    dest = tmp / dirs[rel] / file
-                else:
-                    raise ValueError(f"unexpected member {name!r}")
+                dest = _place(member.name, tmp, own, dirs)
                 data = tar.extractfile(member).read()
                 if dest.suffix == ".nbi":
                     data = _index(data, host)

@@ -39,6 +39,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _puma_job import Q_END, Q_START, load_puma, pd_regulators
 
 import manipcad
 from manipcad.control import pid
@@ -103,7 +104,6 @@ def _compare(title, run, cases, rounds, t_end):
 
 
 def puma_part(rounds: int, t_end: float) -> dict:
-    from bench_simulator import KD, KFF, KP, Q_END, Q_START, U_LIMIT, load_puma
 
     out = {}
     base = load_puma()
@@ -113,8 +113,7 @@ def puma_part(rounds: int, t_end: float) -> dict:
     traj = quintic(Q_START, Q_END, t_end)
 
     def regs():
-        return [pid(j, kp=KP[j], kd=KD[j], kff=KFF[j], u_limit=U_LIMIT, period=1e-3)
-                for j in range(6)]
+        return pd_regulators(period=1e-3)
 
     general = dict(dt=1e-4, every=10, use_generated=False)
     cases = {"RK4 dt 1e-4": general,

@@ -270,19 +270,16 @@ def bench_simulator(rounds: int, rng) -> dict:
     sampled every step, RK4 with dt = 1e-4 s, a 1 s quintic move; as variants, the PD
     sampled every 1 ms, and the drives without their dry friction (no events).
     """
-    from bench_simulator import DT, KD, KFF, KP, Q_END, Q_START, U_LIMIT
+    from _puma_job import DT, Q_END, Q_START, pd_regulators
 
-    from manipcad.control import pid
     from manipcad.sim import simulate
     from manipcad.trajectories import quintic
 
     robot = load("puma560")
     generate(robot)
     traj = quintic(Q_START, Q_END, 1.0)
-    regs = [pid(j, kp=KP[j], kd=KD[j], kff=KFF[j], u_limit=U_LIMIT, period=DT)
-            for j in range(robot.n)]
-    regs_1ms = [pid(j, kp=KP[j], kd=KD[j], kff=KFF[j], u_limit=U_LIMIT, period=10 * DT)
-                for j in range(robot.n)]
+    regs = pd_regulators(period=DT)
+    regs_1ms = pd_regulators(period=10 * DT)
     # without the drives' dry friction the plant has no events (sim/events.py): the
     # steps skip the hybrid plant's event code
     smooth = robot.replace(drives=tuple(d.replace(M_f=0.0) for d in robot.drives))

@@ -37,6 +37,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _puma_job import Q_END, Q_START
 
 import manipcad
 from manipcad.codegen import generate
@@ -45,8 +46,6 @@ from manipcad.sim import simulate
 from manipcad.trajectories import quintic
 
 ROOT = Path(__file__).resolve().parents[1]
-Q_START = np.array([0.0, 0.5, -0.5, 0.0, 0.3, 0.0])
-Q_END = np.array([0.8, 0.2, -0.1, 0.5, -0.3, 1.0])
 T_MOVE, T_END, KEEP = 1.5, 2.0, 1e-3
 
 

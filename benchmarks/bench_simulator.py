@@ -55,7 +55,6 @@ import platform
 import statistics
 import sys
 import time
-import warnings
 from pathlib import Path
 
 import control as ct
@@ -63,41 +62,25 @@ import numba
 import numpy as np
 import pinocchio as pin
 from _core_calls import core_calls
+from _puma_job import DT, KD, KFF, KP, Q_END, Q_START, U_LIMIT, load_puma, pd_regulators
 
 import manipcad
 from manipcad.codegen import simulation_kernels
-from manipcad.control import pid
-from manipcad.errors import ManipcadWarning
 from manipcad.model.to_pinocchio import to_pinocchio
 from manipcad.sim import simulate
 from manipcad.trajectories import quintic
 
-DT = 1e-4
 OURS = "manipcad simulate (RK4, compiled)"
 PEER = "python-control input_output_response (RK45)"
 PYRK4 = "Python RK4 loop + pin.aba"
 SMOOTH = ", no dry friction"
-# PD gains of examples/pid_puma.yaml (V/rad, V·s/rad), the integral left out
-KP = np.array([-930.0, 950.0, -580.0, 320.0, 340.0, 320.0])
-KD = np.array([-27.0, 9.0, -4.5, 8.3, 9.5, 8.3])
-KFF = np.array([-14.28, 24.58, -12.25, 5.70, 5.39, 5.75])
-U_LIMIT = 40.0
-Q_START = np.array([0.0, 0.5, -0.5, 0.0, 0.3, 0.0])
-Q_END = np.array([0.8, 0.2, -0.1, 0.5, -0.3, 1.0])
-
-
-def load_puma() -> manipcad.Robot:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ManipcadWarning)
-        return manipcad.load_robot("puma560")
 
 
 # ------------------------------------------------------------------ manipcad
 
 
 def run_manipcad(robot, traj, t_end: float):
-    regs = [pid(j, kp=KP[j], kd=KD[j], kff=KFF[j], u_limit=U_LIMIT, period=DT)
-            for j in range(robot.n)]
+    regs = pd_regulators()
     return simulate(robot, t_end=t_end, dt=DT, trajectory=traj, regulators=regs)
 
 

@@ -31,19 +31,14 @@ import time
 import warnings
 
 import numpy as np
+from _puma_job import DT, Q_END, Q_START, pd_regulators
 
 import manipcad
 from manipcad.codegen import generate
-from manipcad.control import pid
 from manipcad.sim import simulate
 from manipcad.trajectories import quintic
 
-KP = np.array([-930.0, 950.0, -580.0, 320.0, 340.0, 320.0])
-KD = np.array([-27.0, 9.0, -4.5, 8.3, 9.5, 8.3])
-KFF = np.array([-14.28, 24.58, -12.25, 5.70, 5.39, 5.75])
-Q_START = np.array([0.0, 0.5, -0.5, 0.0, 0.3, 0.0])
-Q_END = np.array([0.8, 0.2, -0.1, 0.5, -0.3, 1.0])
-DT, T_END = 1e-4, 1.0
+T_END = 1.0
 
 
 def digest(res) -> str:
@@ -67,8 +62,7 @@ def main() -> None:
     traj = quintic(Q_START, Q_END, 1.0)
 
     def regs():
-        return [pid(j, kp=KP[j], kd=KD[j], kff=KFF[j], u_limit=40.0, period=DT)
-                for j in range(6)]
+        return pd_regulators()
 
     cases = {"dry friction, generated": (robot, True),
              "dry friction, general": (robot, False),

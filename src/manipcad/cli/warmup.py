@@ -88,8 +88,10 @@ def warmup(
     """Compile the numba kernels once (dynamics, drives, regulators, the simulator's cores
     for every integrator), on two processes where there are two cores.
 
-    The first command that needs them does its part by itself; run this ahead to have
-    every later command start at once. Exit 1 if a step fails."""
+    A new install usually has them already (shipped with the package for
+    x86-64-v3 CPUs), and this only says so. Elsewhere the first command that
+    needs them does its part by itself; run this ahead to have every later
+    command start at once. Exit 1 if a step fails."""
     d = cache_dir()
     if is_warm() and not force:
         shipped = d is not None and (d / ORIGIN).is_file()

@@ -184,3 +184,13 @@ def test_two_processes_starting_at_once_share_one_complete_folder(tmp_path):
     files = [p for p in folder.rglob("*") if p.is_file()]
     assert len(files) == shipped + 1                     # and ORIGIN
     assert not list((tmp_path / ".cache/manipcad").glob(".*tmp*"))
+
+
+def test_a_cpu_whose_features_cannot_be_read_compiles_instead(monkeypatch):
+    def unknown():
+        raise RuntimeError("failed to get host cpu features")
+
+    monkeypatch.setattr(sk.ll, "get_host_cpu_features", unknown)
+    assert sk.mismatch(sk.BUNDLE, sk.sources_digest(ROOT)) == (
+        "shipped kernels not used: this CPU's features are unknown "
+        "(failed to get host cpu features)")

@@ -158,7 +158,10 @@ def mismatch(bundle: Path, digest: str) -> str:
         if have.get(key) != want[key]:
             what = "kernel sources" if key == "sources" else key
             return f"shipped kernels are for {what} {have.get(key)}, here {want[key]}"
-    host = ll.get_host_cpu_features()
+    try:
+        host = ll.get_host_cpu_features()
+    except RuntimeError as exc:  # llvmlite cannot read them on some hosts
+        return f"shipped kernels not used: this CPU's features are unknown ({exc})"
     lacks = sorted(f for f in NEEDS if not host.get(f, False))
     if lacks:
         return f"shipped kernels are for {CPU}; this CPU lacks {', '.join(lacks)}"

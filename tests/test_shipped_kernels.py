@@ -80,7 +80,8 @@ def _bundle(tmp_path, manifest: dict, members: dict[str, bytes]) -> Path:
     return out
 
 
-def test_install_refuses_what_does_not_fit_and_leaves_no_folder(tmp_path):
+def test_install_refuses_what_does_not_fit_and_leaves_no_folder(tmp_path, monkeypatch):
+    monkeypatch.setattr(sk, "NEEDS", frozenset())        # any CPU: the test is the bundle's
     digest = sk.sources_digest(ROOT)
     here = tmp_path / "cache" / "numba-x"
     here.parent.mkdir()
@@ -116,10 +117,11 @@ def test_an_index_keeps_its_entries_keyed_to_this_cpu():
         sk._neutral(native)
 
 
-def test_a_cpu_without_the_instruction_sets_compiles_instead(monkeypatch):
+def test_a_cpu_without_the_instruction_sets_compiles_instead(monkeypatch, tmp_path):
     digest = sk.sources_digest(ROOT)
-    monkeypatch.setattr(sk, "NEEDS", sk.NEEDS | {"no-such-extension"})
-    assert sk.mismatch(sk.BUNDLE, digest) == (
+    here = _bundle(tmp_path, sk.manifest(digest), {})    # fits this numba, Python, triple
+    monkeypatch.setattr(sk, "NEEDS", frozenset({"no-such-extension"}))
+    assert sk.mismatch(here, digest) == (
         f"shipped kernels are for {sk.CPU}; this CPU lacks no-such-extension")
 
 
@@ -186,11 +188,13 @@ def test_two_processes_starting_at_once_share_one_complete_folder(tmp_path):
     assert not list((tmp_path / ".cache/manipcad").glob(".*tmp*"))
 
 
-def test_a_cpu_whose_features_cannot_be_read_compiles_instead(monkeypatch):
+def test_a_cpu_whose_features_cannot_be_read_compiles_instead(monkeypatch, tmp_path):
     def unknown():
         raise RuntimeError("failed to get host cpu features")
 
+    digest = sk.sources_digest(ROOT)
+    here = _bundle(tmp_path, sk.manifest(digest), {})
     monkeypatch.setattr(sk.ll, "get_host_cpu_features", unknown)
-    assert sk.mismatch(sk.BUNDLE, sk.sources_digest(ROOT)) == (
+    assert sk.mismatch(here, digest) == (
         "shipped kernels not used: this CPU's features are unknown "
         "(failed to get host cpu features)")

@@ -134,6 +134,7 @@ def test_a_failing_install_never_stops_the_import(monkeypatch, tmp_path):
     monkeypatch.setattr(sk, "install", broken)
     monkeypatch.setattr(sk, "STATUS", "")
     monkeypatch.delenv("NUMBA_CACHE_DIR")
+    monkeypatch.delenv("MANIPCAD_SHIPPED_KERNELS", raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     try:
         _numba_cache.configure()

@@ -4,6 +4,7 @@ killed at random moments by real signals."""
 
 from __future__ import annotations
 
+import faulthandler
 import json
 import os
 import random
@@ -210,14 +211,19 @@ def _writer_loop(out: Path, first_id: int, fd: int) -> None:
 _STOP = {signal.SIGINT, signal.SIGTERM}
 
 
-def _reap(pid: int, timeout: float = 20.0) -> None:
+def _reap(pid: int, stacks: Path, timeout: float = 20.0) -> None:
     """Wait for the killed child; one that outlives ``timeout`` s (not counting disk
-    waits, where no signal is taken: see tests/killing.py) fails, it does not hang."""
+    waits, where no signal is taken: see tests/killing.py) fails, it does not hang, and
+    the failure shows where the child was (its threads' Python stacks, written by
+    faulthandler on SIGUSR1 into ``stacks``, at C level even if Python code cannot run)."""
     reason = wait_dead(pid, lambda: os.waitpid(pid, os.WNOHANG) != (0, 0), timeout)
     if reason is not None:
+        os.kill(pid, signal.SIGUSR1)
+        time.sleep(1.0)
         os.kill(pid, signal.SIGKILL)
         os.waitpid(pid, 0)
-        pytest.fail(f"the writer {pid} {reason}")
+        where = stacks.read_text() if stacks.exists() else "(no stack written)"
+        pytest.fail(f"the writer {pid} {reason}; its stacks:\n{where}")
 
 
 def test_reap_fails_a_writer_that_ignores_its_signal():
@@ -235,6 +241,28 @@ def test_reap_fails_a_writer_that_ignores_its_signal():
     finally:
         child.kill()
         child.wait()
+
+
+def test_a_writer_that_outlives_its_signal_fails_with_its_stack(tmp_path):
+    """_reap says fail, with where the child was, for a child that ignores SIGINT and
+    spins (the case it exists for)."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, _STOP)
+    pid = os.fork()
+    if pid == 0:
+        try:
+            faulthandler.register(signal.SIGUSR1, all_threads=True,
+                                  file=open(tmp_path / f"stacks-{os.getpid()}", "w"))
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP)
+            while True:
+                pass
+        finally:
+            os._exit(0)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP)
+    os.kill(pid, signal.SIGINT)
+    with pytest.raises(pytest.fail.Exception, match=r"(?s)survived its signal.*its stacks:.*"
+                       r"test_a_writer_that_outlives_its_signal_fails_with_its_stack"):
+        _reap(pid, tmp_path / f"stacks-{pid}", timeout=0.5)
 
 
 @pytest.mark.parametrize("mode", ["exchange", "versioned"])
@@ -262,6 +290,8 @@ def test_killed_writers_leave_old_or_new_never_neither(tmp_path, mode, monkeypat
         if pid == 0:  # the writer
             try:
                 os.close(r)
+                faulthandler.register(signal.SIGUSR1, all_threads=True,
+                                      file=open(tmp_path / f"stacks-{os.getpid()}", "w"))
                 signal.signal(signal.SIGTERM, signal.SIG_DFL)
                 signal.signal(signal.SIGINT, signal.default_int_handler)
                 signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP)
@@ -272,7 +302,7 @@ def test_killed_writers_leave_old_or_new_never_neither(tmp_path, mode, monkeypat
         os.close(w)
         time.sleep(rng.uniform(0.0, 0.15))
         os.kill(pid, sig)
-        _reap(pid)
+        _reap(pid, tmp_path / f"stacks-{pid}")
         with os.fdopen(r) as fh:
             reported = [int(x) for x in fh.read().split()]
         kills += 1

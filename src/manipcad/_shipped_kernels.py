@@ -139,18 +139,26 @@ def manifest(digest: str) -> dict[str, str]:
 
 
 def read_manifest(bundle: Path) -> dict[str, str]:
-    """The manifest of a bundle ({} when there is no bundle or it is unreadable)."""
+    """The manifest of a bundle, its first member (:func:`pack` writes it first, so it
+    is read without decompressing the rest); {} when there is no bundle or it is
+    unreadable."""
     try:
         with tarfile.open(bundle, "r:xz") as tar:
-            f = tar.extractfile("manifest.json")
-            return json.loads(f.read()) if f is not None else {}
-    except (OSError, KeyError, tarfile.TarError, ValueError):
+            first = tar.next()
+            if first is None or first.name != "manifest.json":
+                return {}
+            return json.loads(tar.extractfile(first).read())
+    except (OSError, tarfile.TarError, ValueError):
         return {}
 
 
 def mismatch(bundle: Path, digest: str) -> str:
     """Why the bundle cannot be used here ("" when it can)."""
-    have = read_manifest(bundle)
+    return _unfit(bundle, read_manifest(bundle), digest)
+
+
+def _unfit(bundle: Path, have: dict[str, str], digest: str) -> str:
+    """Why a bundle with the manifest ``have`` cannot be used here ("" when it can)."""
     if not have:
         return f"no shipped kernels ({bundle.name} missing or unreadable)"
     want = manifest(digest)
@@ -246,7 +254,8 @@ def install(here: Path, root: Path, digest: str, bundle: Path = BUNDLE) -> str:
     process starting at the same time sees either nothing or the whole cache. Returns
     what happened, for :data:`STATUS`: "shipped kernels installed" or why not.
     """
-    why = mismatch(bundle, digest)
+    have = read_manifest(bundle)
+    why = _unfit(bundle, have, digest)
     if why:
         return why
     host = _host_magic()
@@ -266,7 +275,7 @@ def install(here: Path, root: Path, digest: str, bundle: Path = BUNDLE) -> str:
                     data = _index(data, host)
                 dest.parent.mkdir(parents=True, exist_ok=True)
                 dest.write_bytes(data)
-        (tmp / ORIGIN).write_text(json.dumps(read_manifest(bundle), indent=1))
+        (tmp / ORIGIN).write_text(json.dumps(have, indent=1))
         os.rename(tmp, here)
     except OSError:
         shutil.rmtree(tmp, ignore_errors=True)

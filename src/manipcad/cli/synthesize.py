@@ -213,9 +213,8 @@ def synthesize(
                   str(c["gains_stored"]), ", ".join(c["signals"]))
     console.print(t)
     if coupled is not None:
-        held = ", ".join(f"{', '.join(r.joint_names)} ({r.method})" for r in coupled.others)
         rt = Table(box=box.SIMPLE_HEAD, title=f"the coupled simulation (asked "
-                   f"{coupled.asked:g}; other joints held by {held or 'nothing'})",
+                   f"{coupled.asked:g}; other joints held by {coupled.held or 'nothing'})",
                    caption="per round: the nominal target the design was asked for, the "
                    "simulated max |e| (rad or m), the run checks other than the tracking "
                    "that fail")
@@ -239,9 +238,8 @@ def synthesize(
         console.print(f"wrote {out} (run it: manipcad simulate {shlex.quote(robot)} "
                       f"-t TRAJECTORY.yaml {run})", highlight=False, soft_wrap=True)
         if coupled is not None and coupled.others:
-            held = ", ".join(f"{', '.join(r.joint_names)} ({r.method})" for r in coupled.others)
             console.print(f"{out.name} holds the regulator of {', '.join(coupled.simulated)} "
-                          f"only. The coupled simulation held {held}; without regulators "
+                          f"only. The coupled simulation held {coupled.held}; without regulators "
                           f"for them (-r), simulate and verify apply U = 0 to those joints",
                           highlight=False, soft_wrap=True)
     if coupled is not None and not coupled.reached:

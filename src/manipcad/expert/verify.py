@@ -203,6 +203,17 @@ class SpecDesign:
     result: object
     checks: object = None
 
+    @property
+    def held(self) -> str:
+        """The other regulators in words (:func:`held_by`)."""
+        return held_by(self.others)
+
+
+def held_by(regulators) -> str:
+    """Regulators in words: their joints and method, e.g. "lift (pid), reach (pid)" (""
+    for none)."""
+    return ", ".join(f"{', '.join(r.joint_names)} ({r.method})" for r in regulators)
+
 
 def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
                        others=None, rounds: int = 6, margin: float = 0.8, dt: float = 1e-4,
@@ -355,9 +366,8 @@ def synthesize_to_spec(robot, trajectory, joints, method: str, *, spec: dict,
                          f"{reason}")
         why = "not reached in the coupled simulation: " + "; ".join(parts)
     if elsewhere:
-        held = "; ".join(f"{nm}: {', '.join(f)}" for nm, f in elsewhere.items())
+        fails = "; ".join(f"{nm}: {', '.join(f)}" for nm, f in elsewhere.items())
         why += (f". The same run fails checks on joints held by the other regulators "
-                f"({', '.join(f'{nm} ({r.method})' for r in others for nm in r.joint_names)}"
-                f"; not designed here): {held}")
+                f"({held_by(others)}; not designed here): {fails}")
     return SpecDesign([regs[j] for j in idx], others, asked, last, reached, history, why, res,
                       run)

@@ -26,6 +26,21 @@ from manipcad import _shipped_kernels as sk
 ROOT = Path(manipcad.__file__).parent
 REPO = ROOT.parent.parent
 
+
+def _fresh_env(home: Path, **extra: str) -> dict[str, str]:
+    """This environment for a child on an empty ``home``: no kernel cache set and no
+    opt-out inherited (numba's, the XDG cache and MANIPCAD_SHIPPED_KERNELS variables
+    dropped), then ``extra``."""
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("NUMBA_", "XDG_", "MANIPCAD_SHIPPED"))}
+    return {**env, "HOME": str(home), **extra}
+
+
+def _shipped_files() -> int:
+    """The number of files the bundle unpacks (its members but the manifest)."""
+    with tarfile.open(sk.BUNDLE, "r:xz") as tar:
+        return len([m for m in tar.getmembers() if m.name != "manifest.json"])
+
 def test_shipped_kernels_are_built_from_these_sources():
     have = sk.read_manifest(sk.BUNDLE)
     assert have, f"{sk.BUNDLE} is missing or unreadable"
@@ -55,17 +70,14 @@ def test_a_new_cache_folder_starts_with_them_and_nothing_compiles(tmp_path):
         pytest.skip(f"not for this machine: {why}")  # another numba, Python or CPU family
     site = tmp_path / "site"
     shutil.copytree(ROOT, site / "manipcad", ignore=shutil.ignore_patterns("__pycache__"))
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith(("NUMBA_", "XDG_", "MANIPCAD_SHIPPED"))}
-    env.update(HOME=str(tmp_path / "home"), PYTHONPATH=str(site))
+    env = _fresh_env(tmp_path / "home", PYTHONPATH=str(site))
     res = subprocess.run([sys.executable, "-c", COVERAGE, "rk4", "adaptive"], env=env,
                          capture_output=True, text=True, timeout=600, cwd=REPO)
     assert res.returncode == 0, res.stderr[-3000:]
     assert json.loads(res.stdout.strip().splitlines()[-1]) == {"compiled": [], "new": []}
     folder, = (tmp_path / "home/.cache/manipcad").glob("numba-*")
     assert json.loads((folder / sk.ORIGIN).read_text())["cpu"] == sk.CPU
-    with tarfile.open(sk.BUNDLE, "r:xz") as tar:
-        shipped = len([m for m in tar.getmembers() if m.name != "manifest.json"])
+    shipped = _shipped_files()
     made = [p for p in folder.rglob("*") if p.is_file() and p.suffix != ".lock"]
     assert len(made) == shipped + 1                      # the kernels and ORIGIN: no more
 
@@ -150,8 +162,7 @@ def test_a_failing_install_never_stops_the_import(monkeypatch, tmp_path):
 def test_the_first_compile_says_why_the_shipped_kernels_did_not_fit(tmp_path):
     """With MANIPCAD_SHIPPED_KERNELS=0 on an empty home, the first command that needs
     kernels says why it compiles (in a fresh process: the cache is set up at import)."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "XDG_"))}
-    env.update(HOME=str(tmp_path), MANIPCAD_SHIPPED_KERNELS="0", MANIPCAD_COMPILE_WORKERS="1")
+    env = _fresh_env(tmp_path, MANIPCAD_SHIPPED_KERNELS="0", MANIPCAD_COMPILE_WORKERS="1")
     code = ("from manipcad.cli.warmup import start_warm, finish_warm\n"
             "from manipcad.sim import warm\n"
             "warm.STEPS = {'x': ('x', lambda: None)}; warm.PHASES = (('x',),)\n"
@@ -169,9 +180,7 @@ def test_two_processes_starting_at_once_share_one_complete_folder(tmp_path):
     why = sk.mismatch(sk.BUNDLE, sk.sources_digest(ROOT))
     if why:
         pytest.skip(f"not for this machine: {why}")  # another numba, Python or CPU family
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith(("NUMBA_", "XDG_", "MANIPCAD_SHIPPED"))}
-    env["HOME"] = str(tmp_path)
+    env = _fresh_env(tmp_path)
     code = (f"import os, time\nwhile not os.path.exists({str(tmp_path / 'go')!r}): "
             f"time.sleep(0.001)\nimport manipcad._shipped_kernels as s\nprint(s.STATUS)")
     procs = [subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE,
@@ -183,8 +192,7 @@ def test_two_processes_starting_at_once_share_one_complete_folder(tmp_path):
     assert set(said) <= {"", "shipped kernels installed",  # the other found it, or lost
                          "shipped kernels installed by another process"}, said
     folder, = (tmp_path / ".cache/manipcad").glob("numba-*")
-    with tarfile.open(sk.BUNDLE, "r:xz") as tar:
-        shipped = len([m for m in tar.getmembers() if m.name != "manifest.json"])
+    shipped = _shipped_files()
     files = [p for p in folder.rglob("*") if p.is_file()]
     assert len(files) == shipped + 1                     # and ORIGIN
     assert not list((tmp_path / ".cache/manipcad").glob(".*tmp*"))
